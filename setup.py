@@ -1,0 +1,67 @@
+"""ament_python build of srs_ros; also installable with pip (extras ``wheels`` and ``test``)."""
+
+from glob import glob
+
+from setuptools import find_packages, setup
+
+PACKAGE = "srs_ros"
+
+# ROS 2 Jazzy from PyPI wheels, for machines without a ROS install. A stock ROS install provides
+# these from the distro: do not install this extra there.
+ROS_WHEELS = [
+    "ros-jazzy-rclpy[fastrtps]==7.1.6",
+    "ros-jazzy-common-interfaces==5.3.6",
+    "ros-jazzy-std-srvs==5.3.6",
+    "ros-jazzy-lifecycle-msgs==2.0.3",
+]
+# Hardware and vision libraries that a stock install takes from pip as well (see package.xml).
+HARDWARE = ["python-can>=4.3", "cantools>=39", "nidaqmx>=1.0"]
+VISION = ["opencv-contrib-python-headless>=4.8"]
+TEST = [
+    "pytest>=8",
+    "pytest-timeout>=2.3",
+    "hypothesis>=6.100",
+    "ruff>=0.6",
+    "colcon-common-extensions>=0.3",
+    "ros-jazzy-ament-package==0.16.4",
+]
+
+setup(
+    name=PACKAGE,
+    version="0.1.0",
+    packages=find_packages(exclude=["test", "test.*"]),
+    data_files=[
+        ("share/ament_index/resource_index/packages", [f"resource/{PACKAGE}"]),
+        (f"share/{PACKAGE}", ["package.xml"]),
+        (f"share/{PACKAGE}/config", sorted(glob("config/*.yaml") + glob("config/*.dbc"))),
+        (f"share/{PACKAGE}/config/rigs", sorted(glob("config/rigs/*.yaml"))),
+        (f"share/{PACKAGE}/launch", sorted(glob("launch/*.launch.py"))),
+    ],
+    python_requires=">=3.10",
+    install_requires=["setuptools", "numpy>=1.24", "scipy>=1.10", "PyYAML>=6", "matplotlib>=3.6"],
+    extras_require={
+        "wheels": ROS_WHEELS + HARDWARE + VISION,
+        "hardware": HARDWARE,
+        "vision": VISION,
+        "test": TEST,
+    },
+    zip_safe=True,
+    maintainer="srs_ros developers",
+    maintainer_email="srs-ros@example.org",
+    description="ROS 2 driver, kinematics and gait library for a pneumatic soft robotic snake.",
+    license="Apache-2.0",
+    entry_points={
+        "console_scripts": [
+            "srs_trajectory = srs_ros.tools.trajectory_cli:main",
+            "srs_kinematics = srs_ros.tools.kinematics_cli:main",
+            "trajectory_server = srs_ros.nodes.trajectory_server:main",
+            "gait_player = srs_ros.nodes.gait_player:main",
+            "hardware_node = srs_ros.nodes.hardware_node:main",
+            "srs_bringup = srs_ros.nodes.bringup:main",
+            "camera_tracker = srs_ros.nodes.camera_tracker:main",
+            "srs_track = srs_ros.tools.track_cli:main",
+            "srs_calibrate_camera = srs_ros.tools.calibrate_camera:main",
+            "srs_wiring_check = srs_ros.tools.wiring_check:main",
+        ],
+    },
+)

@@ -1,0 +1,30 @@
+"""Actuator backends, chosen by name like python-can's interfaces: ``create_backend('mock')``."""
+
+from __future__ import annotations
+
+import importlib
+from typing import Any, Mapping
+
+from srs_ros.backends.base import ActuatorBackend, ActuatorState
+from srs_ros.core.errors import ConfigurationError
+from srs_ros.core.robot import RobotDescription
+
+#: backend name -> "module:Class"; imported only when chosen, so a missing driver hurts only its user.
+BACKENDS: dict[str, str] = {
+    "mock": "srs_ros.backends.mock:MockBackend",
+    "can": "srs_ros.backends.can_backend:CanBackend",
+    "daq": "srs_ros.backends.daq_backend:DaqBackend",
+}
+
+
+def create_backend(name: str, robot: RobotDescription | None = None,
+                   options: Mapping[str, Any] | None = None) -> ActuatorBackend:
+    """Instantiate the backend called ``name`` (not yet opened)."""
+    if name not in BACKENDS:
+        raise ConfigurationError(f"backend: unknown backend {name!r}; expected one of {sorted(BACKENDS)}.")
+    module_name, class_name = BACKENDS[name].split(":")
+    backend_class = getattr(importlib.import_module(module_name), class_name)
+    return backend_class(robot=robot, options=options)
+
+
+__all__ = ["ActuatorBackend", "ActuatorState", "BACKENDS", "create_backend"]

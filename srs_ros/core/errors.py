@@ -1,0 +1,25 @@
+"""The srs_ros error tree: callers catch the branch they can handle (python-can style)."""
+
+
+class SrsError(Exception):
+    """Base of every error srs_ros raises on purpose."""
+
+
+class ConfigurationError(SrsError, ValueError):
+    """A configuration file, parameter or option is missing, mistyped or out of range."""
+
+
+class InvalidInputError(SrsError, ValueError):
+    """An argument (array shape, NaN, unknown name, out-of-range value) cannot be used."""
+
+
+class FitError(SrsError, RuntimeError):
+    """A shape fit did not converge to an acceptable joint-space solution."""
+
+
+class HardwareError(SrsError, RuntimeError):
+    """The actuator hardware (bus, DAQ card, regulator) failed or cannot be reached."""
+
+
+class BackendUnavailableError(HardwareError):
+    """A backend's driver or library is not installed on this machine."""
