@@ -16,8 +16,9 @@ import subprocess
 import sys
 import tempfile
 import time
+from collections.abc import Callable, Iterable
 from pathlib import Path
-from typing import Any, Callable, Iterable
+from typing import Any
 
 DOMAIN_LOCK_DIR = Path(tempfile.gettempdir()) / "srs_ros_test_domains"
 DOMAIN_RANGE = range(1, 102)
@@ -164,7 +165,7 @@ class RosClient:
         self.node.destroy_node()
         self.rclpy.shutdown(context=self.context)
 
-    def __enter__(self) -> "RosClient":
+    def __enter__(self) -> RosClient:
         return self
 
     def __exit__(self, *exc) -> None:

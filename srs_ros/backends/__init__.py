@@ -3,7 +3,8 @@
 from __future__ import annotations
 
 import importlib
-from typing import Any, Mapping
+from collections.abc import Mapping
+from typing import Any
 
 from srs_ros.backends.base import ActuatorBackend, ActuatorState
 from srs_ros.core.errors import ConfigurationError

@@ -10,8 +10,9 @@ from __future__ import annotations
 
 import abc
 import time
+from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Any, Mapping
+from typing import Any
 
 import numpy as np
 
@@ -120,7 +121,7 @@ class ActuatorBackend(abc.ABC):
             self.is_open = False
             self._close()
 
-    def __enter__(self) -> "ActuatorBackend":
+    def __enter__(self) -> ActuatorBackend:
         self.open()
         return self
 

@@ -229,7 +229,8 @@ def _check_xi(xi, robot: RobotDescription) -> tuple[np.ndarray, np.ndarray, np.n
         raise InvalidInputError(f"xi: expected a 1-D array of body coordinates, got shape {xi.shape}.")
     top = robot.body_length_xi
     if np.any((xi < 0.0) | (xi > top)):
-        raise InvalidInputError(f"xi: body coordinates must lie in [0, {top:g}], got min {xi.min():g}, max {xi.max():g}.")
+        raise InvalidInputError(
+            f"xi: body coordinates must lie in [0, {top:g}], got min {xi.min():g}, max {xi.max():g}.")
     module = np.minimum(np.floor(xi).astype(np.intp), robot.module_count - 1)
     return xi, module, xi - module
 

@@ -1,0 +1,140 @@
+"""ROS wiring shared by every srs_ros node: topic names, QoS profiles, parameter declaration, main loop.
+
+Topic graph (relative names, remappable with ``--ros-args -r``)::
+
+    trajectory_server --gait_trajectory (JointTrajectory, reliable+transient_local)--> gait_player
+    gait_player       --joint_setpoints (JointState, best effort)--> hardware_node
+    hardware_node     --commanded_pressure_bar / command_voltage_v (Float64MultiArray, labelled)
+                      --actuator_state (JointState), /diagnostics (DiagnosticArray)
+    camera_tracker    --robot_pose (PoseStamped), robot_twist (TwistStamped), robot_path (Path)
+"""
+
+from __future__ import annotations
+
+import sys
+from collections.abc import Callable, Iterable, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import rclpy
+from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor, SetParametersResult
+from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+from rclpy.node import Node
+from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+from std_msgs.msg import Float64MultiArray, MultiArrayDimension
+
+TRAJECTORY_TOPIC = "gait_trajectory"
+SETPOINT_TOPIC = "joint_setpoints"
+COMMANDED_PRESSURE_TOPIC = "commanded_pressure_bar"
+COMMAND_VOLTAGE_TOPIC = "command_voltage_v"
+ACTUATOR_STATE_TOPIC = "actuator_state"
+DIAGNOSTICS_TOPIC = "/diagnostics"
+POSE_TOPIC = "robot_pose"
+TWIST_TOPIC = "robot_twist"
+PATH_TOPIC = "robot_path"
+
+
+def latched_qos(depth: int = 1) -> QoSProfile:
+    """Reliable + transient_local: late subscribers get the last message.
+
+    ``ros2 topic echo`` needs ``--qos-durability transient_local`` to see it.
+    """
+    return QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=depth, reliability=ReliabilityPolicy.RELIABLE,
+                      durability=DurabilityPolicy.TRANSIENT_LOCAL)
+
+
+def setpoint_qos(depth: int = 10) -> QoSProfile:
+    """Best effort, volatile: a stream where only the newest sample matters."""
+    return QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=depth, reliability=ReliabilityPolicy.BEST_EFFORT,
+                      durability=DurabilityPolicy.VOLATILE)
+
+
+@dataclass(frozen=True)
+class ParameterSpec:
+    """One declared parameter: default value, allowed range (inclusive) and description with unit."""
+
+    name: str
+    default: Any
+    description: str
+    minimum: float | int | None = None
+    maximum: float | int | None = None
+    read_only: bool = False
+    additional_constraints: str = ""
+
+    def descriptor(self) -> ParameterDescriptor:
+        """A ParameterDescriptor that rclpy enforces on every set (range, read-only)."""
+        desc = ParameterDescriptor(name=self.name, description=self.description, read_only=self.read_only,
+                                   additional_constraints=self.additional_constraints)
+        if self.minimum is not None and self.maximum is not None and not isinstance(self.default, bool):
+            if isinstance(self.default, int):
+                desc.integer_range = [IntegerRange(from_value=int(self.minimum), to_value=int(self.maximum), step=1)]
+            elif isinstance(self.default, float):
+                desc.floating_point_range = [FloatingPointRange(from_value=float(self.minimum),
+                                                                to_value=float(self.maximum), step=0.0)]
+        return desc
+
+    def check(self, value: Any) -> str:
+        """Empty string if ``value`` is acceptable, else the reason (what was wrong, what is allowed)."""
+        expected = type(self.default)
+        if expected is float and isinstance(value, int) and not isinstance(value, bool):
+            value = float(value)
+        if not isinstance(value, expected) or (expected is not bool and isinstance(value, bool)):
+            return f"{self.name}: expected a {expected.__name__}, got {value!r}."
+        if self.minimum is not None and self.maximum is not None and not isinstance(value, (bool, str)):
+            if not (self.minimum <= value <= self.maximum):
+                return f"{self.name}: {value} is outside [{self.minimum}, {self.maximum}] ({self.description})."
+        return ""
+
+
+def declare_parameters(node: Node, specs: Iterable[ParameterSpec]) -> dict[str, ParameterSpec]:
+    """Declare every spec on ``node`` with its descriptor; return them by name."""
+    by_name = {spec.name: spec for spec in specs}
+    for spec in by_name.values():
+        node.declare_parameter(spec.name, spec.default, spec.descriptor())
+    return by_name
+
+
+def check_parameters(specs: dict[str, ParameterSpec], params: Sequence,
+                     extra_check: Callable[[str, Any], str] | None = None) -> SetParametersResult:
+    """A set-parameters callback body: reject the whole set with a reason if any value is bad."""
+    for param in params:
+        spec = specs.get(param.name)
+        reason = spec.check(param.value) if spec else ""
+        if not reason and extra_check is not None:
+            reason = extra_check(param.name, param.value)
+        if reason:
+            return SetParametersResult(successful=False, reason=reason)
+    return SetParametersResult(successful=True)
+
+
+def labelled_array(labels: Sequence[str], values) -> Float64MultiArray:
+    """A Float64MultiArray whose one dimension is labelled with the comma-joined joint names."""
+    msg = Float64MultiArray()
+    msg.layout.dim = [MultiArrayDimension(label=",".join(labels), size=len(labels), stride=len(labels))]
+    msg.data = [float(v) for v in values]
+    return msg
+
+
+def run_node(node_factory: Callable[[], Node], args: list[str] | None = None, executor_factory=SingleThreadedExecutor,
+             on_shutdown: Callable[[Node], None] | None = None) -> int:
+    """``main()`` of every node: init, spin until Ctrl-C or shutdown, then clean up in order.
+
+    ``on_shutdown(node)`` runs before the node is destroyed (e.g. to vent the hardware).
+    """
+    rclpy.init(args=args if args is not None else sys.argv)
+    node = None
+    executor = executor_factory()
+    try:
+        node = node_factory()
+        executor.add_node(node)
+        executor.spin()
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    finally:
+        if node is not None and on_shutdown is not None:
+            on_shutdown(node)
+        executor.shutdown()
+        if node is not None:
+            node.destroy_node()
+        rclpy.try_shutdown()
+    return 0

@@ -1,0 +1,1 @@
+"""Command-line tools of srs_ros (trajectory export, tracking, calibration, wiring check)."""
