@@ -39,7 +39,8 @@ def shape_functions(s: np.ndarray, derivatives: bool = False):
     """
     s = np.asarray(s, dtype=np.float64)
     small = s < _SERIES_LIMIT_RAD2
-    s_big = np.where(small, 1.0, s)
+    any_small = bool(small.any())
+    s_big = np.where(small, 1.0, s) if any_small else s
     t = np.sqrt(s_big)
     cos_t, sin_t = np.cos(t), np.sin(t)
     f_big = (1.0 - cos_t) / s_big
@@ -47,8 +48,8 @@ def shape_functions(s: np.ndarray, derivatives: bool = False):
     # Series: f = 1/2 - s/24 + s^2/720 - s^3/40320 + s^4/3628800, g = 1 - s/6 + s^2/120 - s^3/5040 + s^4/362880
     f_small = 0.5 + s * (-1.0 / 24 + s * (1.0 / 720 + s * (-1.0 / 40320 + s / 3628800)))
     g_small = 1.0 + s * (-1.0 / 6 + s * (1.0 / 120 + s * (-1.0 / 5040 + s / 362880)))
-    f = np.where(small, f_small, f_big)
-    g = np.where(small, g_small, g_big)
+    f = np.where(small, f_small, f_big) if any_small else f_big
+    g = np.where(small, g_small, g_big) if any_small else g_big
     if not derivatives:
         return f, g
     # df/ds = (g/2 - f)/s ... written for large s; series for small s.
@@ -275,15 +276,24 @@ class _BodyModel:
         local = _homogeneous(self.point_parts[0], self.point_parts[1])
         return self.prefix[..., self.module, :, :] @ local
 
-    def points(self) -> np.ndarray:
-        local, u_pt = self.local, self.u[..., self.module, :]
-        pos = _module_position(local * u_pt[..., 0], local * u_pt[..., 1], self.arc[..., self.module], local)
-        out = np.empty(np.broadcast_shapes(pos.shape, self.prefix.shape[:-3] + pos.shape[-2:]))
-        # One batched matmul per module (K_m points share a prefix) instead of a 4x4 per point.
+    def _module_selections(self):
+        """(module, selection of body points on it): a slice when contiguous (the usual sorted xi)."""
         for m in range(self.robot.module_count):
-            on_m = self.module == m
+            idx = np.flatnonzero(self.module == m)
+            if idx.size:
+                contiguous = idx[-1] - idx[0] + 1 == idx.size
+                yield m, slice(idx[0], idx[-1] + 1) if contiguous else idx
+
+    def points(self) -> np.ndarray:
+        lead = np.broadcast_shapes(self.u.shape[:-2], self.prefix.shape[:-3])
+        out = np.empty(lead + (self.xi.size, 3))
+        # Per module: local positions of its points, then one batched matmul with its prefix.
+        for m, sel in self._module_selections():
+            local = self.local[sel]
+            a = local[:, None] * self.u[..., m, None, :]                       # (..., K_m, 2)
+            pos = _module_position(a[..., 0], a[..., 1], self.arc[..., m, None], local)
             rot, trans = self.prefix[..., m, :3, :3], self.prefix[..., m, :3, 3]
-            out[..., on_m, :] = pos[..., on_m, :] @ np.swapaxes(rot, -1, -2) + trans[..., None, :]
+            out[..., sel, :] = pos @ np.swapaxes(rot, -1, -2) + trans[..., None, :]
         return out
 
     def jacobian(self) -> np.ndarray:

@@ -1,0 +1,52 @@
+"""``srs_kinematics``: print the SRS backbone (and tip pose) for given actuator length changes.
+
+Example: ``srs_kinematics --lengths-m 0.03 0 0 0 0 0 0 0 0`` prints the 31 backbone points (m) and
+the tip's bending summary per module. ``--pressures-bar`` takes pressures instead (P = 100 l).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+import numpy as np
+
+from srs_ros.core.actuation import pressures_to_lengths_m
+from srs_ros.core.errors import SrsError
+from srs_ros.core.kinematics import backbone_points, lengths_to_bend
+from srs_ros.core.robot import load_robot
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="srs_kinematics", description=__doc__.split("\n")[0])
+    group = parser.add_mutually_exclusive_group()
+    group.add_argument("--lengths-m", type=float, nargs="+", metavar="L", help="9 length changes l_ij (m)")
+    group.add_argument("--pressures-bar", type=float, nargs="+", metavar="P", help="9 pressures (bar)")
+    parser.add_argument("--robot", default=None, help="robot description YAML (default: the package's)")
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    try:
+        robot = load_robot(args.robot)
+        if args.pressures_bar is not None:
+            q = pressures_to_lengths_m(args.pressures_bar, robot)
+        else:
+            q = np.asarray(args.lengths_m if args.lengths_m is not None else np.zeros(robot.joint_count))
+        points = backbone_points(q, robot=robot)
+        bend, plane, arc = lengths_to_bend(np.reshape(q, (robot.module_count, robot.actuators_per_module)), robot)
+    except SrsError as exc:
+        print(f"srs_kinematics: {exc}", file=sys.stderr)
+        return 2
+    print("q (m): " + " ".join(f"{v:.4f}" for v in q))
+    for m in range(robot.module_count):
+        print(f"module {m + 1}: bend {bend[m]:.4f} rad toward {np.degrees(plane[m]):7.2f} deg, arc {arc[m]:.4f} m")
+    print("xi, x_m, y_m, z_m")
+    for xi, (x, y, z) in zip(robot.backbone_xi, points):
+        print(f"{xi:.1f}, {x:.6f}, {y:.6f}, {z:.6f}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,83 @@
+"""The robot description: the shipped file matches CONVENTIONS.md; bad files name the key."""
+
+import math
+
+import pytest
+import yaml
+
+from srs_ros.core.errors import ConfigurationError
+from srs_ros.core.robot import config_dir, default_robot, load_robot, robot_from_dict
+
+
+def _data():
+    return yaml.safe_load((config_dir() / "robot.yaml").read_text())
+
+
+def test_shipped_description_matches_conventions():
+    robot = default_robot()
+    assert robot.module_count == 3 and robot.actuators_per_module == 3 and robot.joint_count == 9
+    assert robot.unactuated_length_m == 0.15
+    assert robot.actuator_radius_m == 0.0125
+    assert robot.max_extension_m == 0.065
+    assert robot.module_twist_rad == pytest.approx(math.pi / 3)
+    assert robot.mounting_offset_m == 0.0
+    assert robot.max_pressure_bar == 4.0
+    assert robot.pressure_per_length_bar_per_m == 100.0
+    assert robot.deadzone_offset_bar == 0.0
+    assert robot.regulator.name == "ITV3050" and robot.regulator.full_scale_pressure_bar == 9.0
+    assert robot.joint_names == tuple(f"m{i}_pma{j}" for i in (1, 2, 3) for j in (1, 2, 3))
+    assert robot.backbone_xi.shape == (31,) and robot.backbone_xi[1] == pytest.approx(0.1)
+    assert robot.actuator_angles_rad.tolist() == pytest.approx([0, 2 * math.pi / 3, 4 * math.pi / 3])
+
+
+def test_load_from_explicit_path(tmp_path):
+    data = _data()
+    data["robot"]["mounting_offset_m"] = 0.01
+    path = tmp_path / "robot.yaml"
+    path.write_text(yaml.safe_dump(data))
+    assert load_robot(path).mounting_offset_m == 0.01
+
+
+@pytest.mark.parametrize(
+    ("section", "key", "value", "message"),
+    [
+        ("robot", "unactuated_length_m", None, "missing key 'unactuated_length_m'"),
+        ("robot", "unactuated_length_m", -0.15, "'unactuated_length_m' is -0.15"),
+        ("robot", "max_extension_m", "long", "expected a length > 0 in metres"),
+        ("robot", "module_count", 2.5, "'module_count' is 2.5"),
+        ("robot", "joint_names", ["a", "a", "b", "c", "d", "e", "f", "g", "h"], "9 unique names"),
+        ("actuation", "max_pressure_bar", 6.0, "expected a pressure in (0, 4.0] bar"),
+        ("actuation", "max_pressure_bar", float("nan"), "'max_pressure_bar' is nan"),
+        ("actuation", "regulator_model", "ITV9999", "expected one of ['ITV3010', 'ITV3030', 'ITV3050']"),
+        ("actuation", "supply_pressure_bar", 4.5, "at least max_pressure_bar + supply_margin_bar = 5.0 bar"),
+        ("actuation", "deadzone_offset_bar", True, "'deadzone_offset_bar' is True"),
+    ],
+)
+def test_invalid_files_name_the_key(section, key, value, message):
+    data = _data()
+    if value is None:
+        del data[section][key]
+    else:
+        data[section][key] = value
+    with pytest.raises(ConfigurationError) as info:
+        robot_from_dict(data, source="bad.yaml")
+    assert message in str(info.value) and "bad.yaml" in str(info.value)
+
+
+def test_missing_section_and_missing_file(tmp_path):
+    data = _data()
+    del data["actuation"]
+    with pytest.raises(ConfigurationError, match="missing section 'actuation:'"):
+        robot_from_dict(data)
+    with pytest.raises(ConfigurationError, match="no such file"):
+        load_robot(tmp_path / "nope.yaml")
+    (tmp_path / "broken.yaml").write_text("robot: [unclosed")
+    with pytest.raises(ConfigurationError, match="cannot be read as YAML"):
+        load_robot(tmp_path / "broken.yaml")
+
+
+def test_regulator_that_cannot_reach_the_limit_is_rejected():
+    data = _data()
+    data["actuation"]["regulator_model"] = "ITV3010"
+    with pytest.raises(ConfigurationError, match="full_scale_pressure_bar"):
+        robot_from_dict(data)
