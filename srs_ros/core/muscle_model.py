@@ -1,0 +1,98 @@
+"""Simulated McKibben muscles behind pressure regulators, for the mock backend (no ROS, no hardware).
+
+The model of one muscle (vectorised over all muscles with NumPy):
+
+1. transport delay: a command issued at ``t`` reaches the regulator at ``t + transport_delay_s``
+   (the supply line);
+2. first-order pressure lag: ``dP/dt = (P_cmd - P) / pressure_time_constant_s``, integrated exactly
+   for the piecewise-constant delayed command;
+3. extension: nothing below the deadzone, then linear up to ``max_extension_m`` at
+   ``full_extension_pressure_bar`` and saturated beyond:
+   ``l = l_max * clip((P - P_dz) / (P_full - P_dz), 0, 1)``.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import deque
+from dataclasses import dataclass
+
+import numpy as np
+
+from srs_ros.core.validation import finite_array
+
+
+@dataclass(frozen=True)
+class MuscleParameters:
+    """Constants of the simulated muscles (all >= 0; ``full_extension_pressure_bar > deadzone_bar``)."""
+
+    deadzone_bar: float = 1.0
+    pressure_time_constant_s: float = 0.08
+    transport_delay_s: float = 0.03
+    max_extension_m: float = 0.065
+    full_extension_pressure_bar: float = 4.0
+
+
+def extension_m(pressure_bar, params: MuscleParameters) -> np.ndarray:
+    """Static extension (m) of muscles at ``pressure_bar``: 0 in the deadzone, saturating at ``max_extension_m``.
+
+    Example: deadzone 1 bar, full extension 0.065 m at 4 bar -> 2.5 bar gives 0.0325 m, 6 bar gives 0.065 m.
+    """
+    pressure = np.asarray(pressure_bar, dtype=np.float64)
+    span_bar = params.full_extension_pressure_bar - params.deadzone_bar
+    return params.max_extension_m * np.clip((pressure - params.deadzone_bar) / span_bar, 0.0, 1.0)
+
+
+def lag_step(pressure_bar: np.ndarray, target_bar: np.ndarray, dt_s: float, time_constant_s: float) -> np.ndarray:
+    """Exact step of ``dP/dt = (target - P) / tau`` over ``dt_s`` for a constant target (tau 0 = no lag)."""
+    if dt_s <= 0.0:
+        return pressure_bar
+    if time_constant_s <= 0.0:
+        return np.array(target_bar, dtype=np.float64)
+    alpha = 1.0 - math.exp(-dt_s / time_constant_s)
+    return pressure_bar + alpha * (target_bar - pressure_bar)
+
+
+class MuscleModel:
+    """``count`` simulated muscles that start vented at ``start_s`` and advance with the caller's clock.
+
+    ``command(p, t)`` issues regulator set-points (bar) at time ``t`` (s); ``state(t)`` returns the
+    pressures (bar) and extensions (m) at ``t``. Times must not go backwards.
+    """
+
+    def __init__(self, params: MuscleParameters, count: int, start_s: float = 0.0):
+        """Create ``count`` vented muscles at time ``start_s``."""
+        self.params = params
+        self.count = count
+        self._time_s = float(start_s)
+        self._pressure_bar = np.zeros(count)
+        self._input_bar = np.zeros(count)  # the command the regulators currently see
+        self._in_flight: deque[tuple[float, np.ndarray]] = deque()  # (arrival time s, command bar)
+
+    def command(self, pressure_bar, now_s: float) -> None:
+        """Issue set-points (bar, shape ``(count,)``) at ``now_s``; they arrive after the transport delay."""
+        pressure = finite_array("pressure_bar", pressure_bar, (self.count,), "bar").copy()
+        self.advance(now_s)
+        self._in_flight.append((float(now_s) + self.params.transport_delay_s, pressure))
+        self.advance(now_s)  # a zero delay takes effect at once
+
+    def advance(self, now_s: float) -> None:
+        """Integrate up to ``now_s``, switching the regulator input at each command's arrival time."""
+        while self._in_flight and self._in_flight[0][0] <= now_s:
+            arrival_s, pressure = self._in_flight.popleft()
+            self._step_to(arrival_s)
+            self._input_bar = pressure
+        self._step_to(now_s)
+
+    def state(self, now_s: float) -> tuple[np.ndarray, np.ndarray]:
+        """Pressures (bar) and extensions (m) of every muscle at ``now_s``."""
+        self.advance(now_s)
+        pressure = self._pressure_bar.copy()
+        return pressure, extension_m(pressure, self.params)
+
+    def _step_to(self, time_s: float) -> None:
+        dt_s = time_s - self._time_s
+        if dt_s > 0.0:
+            self._pressure_bar = lag_step(self._pressure_bar, self._input_bar, dt_s,
+                                          self.params.pressure_time_constant_s)
+            self._time_s = time_s

@@ -1,0 +1,412 @@
+"""The hardware node (managed/lifecycle): setpoints in, the one clamp, regulator commands out at a fixed rate.
+
+Lifecycle: configure loads the robot and rig and opens the backend (a failure logs the reason and
+leaves the node unconfigured, nothing sent) and starts the command timer, which sends 0 bar until
+activated; activate enables output; deactivate, cleanup and shutdown vent every valve to 0 bar.
+A backend failure while commanding (any exception, e.g. ``HardwareError``) vents (best effort) and
+takes the node through ErrorProcessing to unconfigured; configure + activate recover it.
+
+Interfaces (relative names, remappable):
+
+- subscribes ``joint_setpoints`` (sensor_msgs/JointState, best effort): ``name`` = every actuator
+  (``m1_pma1`` ... ``m3_pma3``) once, in any order; ``position`` = actuator length change (m); age
+  counts from reception. Rejected, never sent, throttled error log: wrong count, names/positions
+  mismatch, unknown or duplicate names, NaN/inf (the previous command continues until it is stale).
+  Finite lengths outside ``[0, max_extension_m]`` are accepted and limited by the one pressure clamp
+  (``P = 100 l`` in ``[0, max_pressure_bar]``), with a throttled warning.
+- a fresh accepted setpoint is written through to the backend at once (latency from its stamp is
+  reported in /diagnostics as ``command_latency_p50_ms`` / ``_p99_ms``); the command timer re-sends the
+  latest decision (or 0 bar) at the command rate so the boards never time out.
+- publishes ``commanded_pressure_bar`` and ``command_voltage_v`` (std_msgs/Float64MultiArray, dim 0
+  labelled with the comma-joined joint names): exactly what the backend was sent on each command
+  while configured (zeros when inactive, stale or e-stopped); ``actuator_state`` (sensor_msgs/JointState)
+  at ``state_publish_rate_hz``: ``position`` = measured length (m), ``effort`` = measured pressure (bar),
+  empty where the backend cannot measure; ``/diagnostics`` (diagnostic_msgs/DiagnosticArray, 1 Hz, in
+  every state).
+- services ``~/emergency_stop`` (std_srvs/Trigger: vents at once and latches, in any state; the latch
+  survives deactivate/cleanup/configure) and
+  ``~/reset`` (releases the latch; output resumes with the next fresh setpoint); the lifecycle services.
+- parameters: :data:`PARAMETERS`; all but ``max_pressure_bar`` take effect at the next configure;
+  ``max_pressure_bar`` is read-only (start-up only) and can only lower the robot's limit.
+"""
+
+from __future__ import annotations
+
+import collections
+import dataclasses
+import math
+import time
+
+import numpy as np
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from rclpy.lifecycle import LifecycleNode, LifecycleState, TransitionCallbackReturn
+from sensor_msgs.msg import JointState
+from std_msgs.msg import Float64MultiArray
+from std_srvs.srv import Trigger
+
+from srs_ros.backends import BACKENDS, ActuatorBackend, create_backend
+from srs_ros.core.actuation import lengths_to_pressures_bar, pressures_to_command_v
+from srs_ros.core.errors import InvalidInputError
+from srs_ros.core.rig import RigConfig, load_rig
+from srs_ros.core.robot import ABSOLUTE_MAX_PRESSURE_BAR, load_robot
+from srs_ros.core.safety import CommandGate, OutputReason, out_of_range_joints, setpoint_lengths_m
+from srs_ros.nodes.common import (
+    ACTUATOR_STATE_TOPIC,
+    COMMAND_VOLTAGE_TOPIC,
+    COMMANDED_PRESSURE_TOPIC,
+    DIAGNOSTICS_TOPIC,
+    SETPOINT_TOPIC,
+    ParameterSpec,
+    check_parameters,
+    declare_parameters,
+    labelled_array,
+    run_node,
+    setpoint_qos,
+)
+
+NODE_NAME = "hardware_node"
+DIAGNOSTICS_PERIOD_S = 1.0
+LOG_THROTTLE_S = 1.0
+
+PARAMETERS = (
+    ParameterSpec("rig_file", "", "rig YAML (config/rigs/*.yaml); '' = the mock rig"),
+    ParameterSpec("backend", "", "backend overriding the rig's ('mock', 'can', 'daq'); '' = the rig's"),
+    ParameterSpec("robot_description_file", "", "robot YAML; '' = the package's config/robot.yaml"),
+    ParameterSpec("setpoint_timeout_s", 0.0, "setpoints older than this vent to 0 bar (s); 0 = the rig's value",
+                  0.0, 5.0),
+    ParameterSpec("command_rate_hz", 0.0, "commands sent to the backend per second; 0 = the rig's value",
+                  0.0, 1000.0),
+    ParameterSpec("state_publish_rate_hz", 50.0, "actuator_state messages per second (at most the command rate)",
+                  1.0, 1000.0),
+    ParameterSpec("max_pressure_bar", ABSOLUTE_MAX_PRESSURE_BAR,
+                  "pressure limit (bar); only lowers the robot's; read-only: set it at start-up",
+                  0.1, ABSOLUTE_MAX_PRESSURE_BAR, read_only=True),
+    ParameterSpec("autostart", False, "configure and activate at start-up"),
+)
+
+
+@dataclasses.dataclass
+class HardwareStatus:
+    """Counters and messages for /diagnostics."""
+
+    ticks: int = 0
+    rejected_setpoints: int = 0
+    last_error: str = ""
+    fault: str = ""  # set by a backend failure, cleared by the next successful configure
+    reason: OutputReason = OutputReason.INACTIVE
+    rate_window: tuple[float, int] = (math.nan, 0)  # (time s, ticks) at the previous diagnostics
+    last_command_s: float = -math.inf  # monotonic time of the last write to the backend
+    latency_ms: collections.deque = dataclasses.field(default_factory=lambda: collections.deque(maxlen=2000))
+
+
+class HardwareNode(LifecycleNode):
+    """Lifecycle wiring around a backend and a :class:`~srs_ros.core.safety.CommandGate`."""
+
+    def __init__(self, **kwargs):
+        """Declare parameters, diagnostics and the e-stop services; configure+activate if ``autostart``."""
+        super().__init__(NODE_NAME, **kwargs)
+        self.specs = declare_parameters(self, PARAMETERS)
+        self.add_on_set_parameters_callback(lambda params: check_parameters(self.specs, params, _check_backend))
+        self.rig: RigConfig | None = None
+        self.backend: ActuatorBackend | None = None
+        self.gate = CommandGate(joint_count=0, setpoint_timeout_s=0.0)
+        self.status = HardwareStatus()
+        self._runtime: dict = {}
+        self._state_every_ticks = 1
+        self.diagnostics_publisher = self.create_publisher(DiagnosticArray, DIAGNOSTICS_TOPIC, 10)
+        self.create_service(Trigger, "~/emergency_stop", self._on_emergency_stop)
+        self.create_service(Trigger, "~/reset", self._on_reset)
+        self.create_timer(DIAGNOSTICS_PERIOD_S, self._publish_diagnostics)
+        if self.get_parameter("autostart").value and self.trigger_configure() == TransitionCallbackReturn.SUCCESS:
+            self.trigger_activate()
+
+    # -- the state machine -------------------------------------------------------------------
+    def on_configure(self, state: LifecycleState) -> TransitionCallbackReturn:
+        """Load robot and rig, open the backend (vented) and start commanding 0 bar."""
+        try:
+            self.rig, self.backend = self._open_backend()
+        except Exception as exc:  # any failure must leave the node unconfigured
+            self._report_error(f"configure failed, node stays unconfigured, nothing sent: {_describe(exc)}")
+            return TransitionCallbackReturn.FAILURE
+        self.status.fault = ""
+        self._create_runtime()
+        self.get_logger().info(f"configured: rig {self.rig.name!r}, backend {self.backend.name!r}, "
+                               f"{self._command_rate_hz():g} Hz, setpoint timeout {self.gate.setpoint_timeout_s:g} s, "
+                               f"limit {self.rig.robot.max_pressure_bar:g} bar")
+        return TransitionCallbackReturn.SUCCESS
+
+    def on_activate(self, state: LifecycleState) -> TransitionCallbackReturn:
+        """Enable output: fresh setpoints from now on reach the backend."""
+        self.gate.set_active(True)
+        self.get_logger().info("active: commanding fresh setpoints")
+        return TransitionCallbackReturn.SUCCESS
+
+    def on_deactivate(self, state: LifecycleState) -> TransitionCallbackReturn:
+        """Disable output and vent every valve to 0 bar (ERROR after a backend fault)."""
+        self.gate.set_active(False)
+        if self.status.fault:
+            return TransitionCallbackReturn.ERROR
+        failure = self._vent()
+        if failure is not None:
+            self.status.fault = _describe(failure)
+            return TransitionCallbackReturn.ERROR
+        self.get_logger().info("inactive: vented, sending 0 bar")
+        return TransitionCallbackReturn.SUCCESS
+
+    def on_cleanup(self, state: LifecycleState) -> TransitionCallbackReturn:
+        """Vent, close the backend and drop the runtime interfaces (ERROR after a backend fault)."""
+        if self.status.fault:
+            return TransitionCallbackReturn.ERROR
+        self._release()
+        return TransitionCallbackReturn.SUCCESS
+
+    def on_shutdown(self, state: LifecycleState) -> TransitionCallbackReturn:
+        """Vent and close whatever is open."""
+        self._release()
+        return TransitionCallbackReturn.SUCCESS
+
+    def on_error(self, state: LifecycleState) -> TransitionCallbackReturn:
+        """Vent (best effort), close and fall back to unconfigured; configure + activate recover."""
+        self._release()
+        self.get_logger().error(f"error processing done: backend closed, node unconfigured; configure and "
+                                f"activate to recover (fault: {self.status.fault or self.status.last_error})")
+        return TransitionCallbackReturn.SUCCESS
+
+    # -- configure helpers --------------------------------------------------------------------
+    def _open_backend(self) -> tuple[RigConfig, ActuatorBackend]:
+        robot = load_robot(self.get_parameter("robot_description_file").value or None)
+        limit_bar = min(robot.max_pressure_bar, self.get_parameter("max_pressure_bar").value)
+        rig = load_rig(self.get_parameter("rig_file").value or None,
+                       dataclasses.replace(robot, max_pressure_bar=limit_bar))
+        backend = create_backend(self.get_parameter("backend").value or rig.backend, rig.robot, rig.backend_options)
+        backend.open()
+        self.gate.joint_count = rig.robot.joint_count
+        self.gate.setpoint_timeout_s = self.get_parameter("setpoint_timeout_s").value or rig.setpoint_timeout_s
+        return rig, backend
+
+    def _command_rate_hz(self) -> float:
+        return self.get_parameter("command_rate_hz").value or self.rig.command_rate_hz
+
+    def _create_runtime(self) -> None:
+        rate_hz = self._command_rate_hz()
+        state_rate_hz = min(self.get_parameter("state_publish_rate_hz").value, rate_hz)
+        self._state_every_ticks = max(1, round(rate_hz / state_rate_hz))
+        self.status.rate_window = (time.monotonic(), self.status.ticks)
+        self._runtime = {
+            "pressure": self.create_publisher(Float64MultiArray, COMMANDED_PRESSURE_TOPIC, 10),
+            "voltage": self.create_publisher(Float64MultiArray, COMMAND_VOLTAGE_TOPIC, 10),
+            "state": self.create_publisher(JointState, ACTUATOR_STATE_TOPIC, 10),
+            "setpoints": self.create_subscription(JointState, SETPOINT_TOPIC, self._on_setpoint, setpoint_qos()),
+            "timer": self.create_timer(1.0 / rate_hz, self._on_command_tick),
+        }
+
+    def _release(self) -> None:
+        """Vent and close the backend (best effort) and destroy the runtime interfaces; safe to repeat."""
+        self.gate.set_active(False)
+        self.status.reason = OutputReason.INACTIVE
+        self.release_hardware()
+        for entity in self._runtime.values():
+            self._destroy(entity)
+        self._runtime = {}
+
+    def release_hardware(self) -> None:
+        """Vent and close the backend, logging instead of raising (also used at process exit)."""
+        backend, self.backend = self.backend, None
+        if backend is not None:
+            try:
+                backend.close()  # vents first
+            except Exception as exc:  # closing must go on; the failure is reported
+                self._report_error(f"closing the {backend.name} backend: {_describe(exc)}")
+
+    def _destroy(self, entity) -> None:
+        destroy = {"Publisher": self.destroy_publisher, "Subscription": self.destroy_subscription,
+                   "Timer": self.destroy_timer}[type(entity).__name__]
+        destroy(entity)
+
+    # -- runtime -----------------------------------------------------------------------------
+    def _on_setpoint(self, msg: JointState) -> None:
+        robot = self.rig.robot
+        try:
+            lengths_m = setpoint_lengths_m(msg.name, msg.position, robot)
+        except InvalidInputError as exc:
+            self.status.rejected_setpoints += 1
+            self.get_logger().error(f"rejected setpoint, not sent (the previous command continues until stale): "
+                                    f"{exc}", throttle_duration_sec=LOG_THROTTLE_S)
+            return
+        outside = out_of_range_joints(lengths_m, robot)
+        if outside:
+            self.get_logger().warning(f"setpoint lengths of {outside} outside [0, {robot.max_extension_m}] m; "
+                                      f"pressures limited to [0, {robot.max_pressure_bar}] bar",
+                                      throttle_duration_sec=LOG_THROTTLE_S)
+        now_s = time.monotonic()
+        self.gate.accept(lengths_to_pressures_bar(lengths_m, robot), now_s)
+        if self.gate.active and not self.gate.estop_latched:
+            # Write through: a fresh setpoint reaches the valves now, not at the next tick.
+            self._send_command(now_s)
+            stamp_ns = msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
+            if stamp_ns:
+                self.status.latency_ms.append((self.get_clock().now().nanoseconds - stamp_ns) * 1e-6)
+
+    def _on_command_tick(self) -> None:
+        """Keep-alive at the command rate: re-send (or vent) unless a setpoint was just written through."""
+        now_s = time.monotonic()
+        if now_s - self.status.last_command_s < 0.5 / self._command_rate_hz():
+            return
+        self._send_command(now_s)
+
+    def _send_command(self, now_s: float) -> None:
+        pressure_bar, reason = self.gate.decide(now_s)
+        self.status.last_command_s = now_s
+        try:
+            sent_bar = self.backend.write_pressures(pressure_bar)
+            state = self.backend.read_state() if self.status.ticks % self._state_every_ticks == 0 else None
+        except Exception as exc:  # any backend failure takes the generic fault path
+            self._on_backend_fault(exc)
+            return
+        self.status.ticks += 1
+        self._note_reason(reason)
+        names = self.rig.robot.joint_names
+        self._runtime["pressure"].publish(labelled_array(names, sent_bar))
+        self._runtime["voltage"].publish(labelled_array(names, pressures_to_command_v(sent_bar, self.rig.robot)))
+        if state is not None:
+            self._runtime["state"].publish(self._actuator_state_msg(state))
+
+    def _on_backend_fault(self, exc: Exception) -> None:
+        """Vent (best effort), then fail the next transition so the node goes through ErrorProcessing."""
+        self.status.fault = _describe(exc)
+        self._report_error(f"backend fault while commanding (venting, going to the error state): {self.status.fault}")
+        self._vent()
+        if self.gate.active:
+            self.trigger_deactivate()
+        else:
+            self.trigger_cleanup()
+
+    def _vent(self) -> Exception | None:
+        """Command 0 bar now; on failure report it and return the exception."""
+        if self.backend is None or not self.backend.is_open:
+            return None
+        try:
+            self.backend.vent()
+        except Exception as exc:  # venting is best effort; the failure is reported
+            self._report_error(f"venting failed: {_describe(exc)}")
+            return exc
+        return None
+
+    def _note_reason(self, reason: OutputReason) -> None:
+        if reason is self.status.reason:
+            return
+        self.status.reason = reason
+        if reason is OutputReason.STALE:  # rclpy fixes a call site's severity, hence two calls
+            self.get_logger().warning(f"output: {reason.value} (older than {self.gate.setpoint_timeout_s:g} s) "
+                                      "-> 0 bar")
+        else:
+            self.get_logger().info(f"output: {reason.value}" + ("" if reason is OutputReason.COMMANDING
+                                                                else " -> 0 bar"))
+
+    def _actuator_state_msg(self, state) -> JointState:
+        msg = JointState(name=list(self.rig.robot.joint_names))
+        msg.header.stamp = self.get_clock().now().to_msg()
+        if state.measured_length_m is not None:
+            msg.position = [float(v) for v in state.measured_length_m]
+        if state.measured_pressure_bar is not None:
+            msg.effort = [float(v) for v in state.measured_pressure_bar]
+        return msg
+
+    # -- services ----------------------------------------------------------------------------
+    def _on_emergency_stop(self, request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
+        self.gate.latch_estop()
+        self._note_reason(OutputReason.ESTOP)
+        self.get_logger().warning("EMERGENCY STOP latched: venting every valve until ~/reset")
+        had_backend = self.backend is not None
+        failure = self._vent()
+        if failure is not None:
+            self._on_backend_fault(failure)
+        response.success = True
+        response.message = ("e-stop latched: every valve vented to 0 bar" if had_backend and failure is None
+                            else "e-stop latched (no backend open, nothing to vent)" if failure is None
+                            else f"e-stop latched; venting failed, node went to the error state: {self.status.fault}")
+        response.message += "; call ~/reset to release."
+        return response
+
+    def _on_reset(self, request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
+        was_latched = self.gate.reset_estop()
+        if was_latched:
+            self.get_logger().warning("e-stop released: output resumes with the next fresh setpoint")
+        response.success = True
+        response.message = ("e-stop released; output resumes with the next fresh setpoint." if was_latched
+                            else "e-stop was not latched; nothing to reset.")
+        return response
+
+    # -- diagnostics -------------------------------------------------------------------------
+    def _publish_diagnostics(self) -> None:
+        now_s = time.monotonic()
+        then_s, then_ticks = self.status.rate_window
+        rate_hz = (self.status.ticks - then_ticks) / (now_s - then_s) if now_s > then_s and self._runtime else 0.0
+        self.status.rate_window = (now_s, self.status.ticks)
+        level, message = self._diagnostic_summary()
+        values = {
+            "backend": self.backend.name if self.backend else "none",
+            "backend_open": str(bool(self.backend and self.backend.is_open)),
+            "rig": self.rig.name if self.rig else "none",
+            "lifecycle_state": self._lifecycle_label(),
+            "output": self.status.reason.value if self._runtime else "not configured",
+            "command_rate_hz": f"{rate_hz:.1f}",
+            "setpoint_age_s": f"{self.gate.setpoint_age_s(now_s):.3f}",
+            "setpoint_timeout_s": f"{self.gate.setpoint_timeout_s:g}",
+            "estop_latched": str(self.gate.estop_latched),
+            "rejected_setpoints": str(self.status.rejected_setpoints),
+            **self._latency_summary(),
+            "last_error": self.status.last_error or "none",
+        }
+        status = DiagnosticStatus(level=level, name=f"{NODE_NAME}: actuators", message=message,
+                                  hardware_id=self.rig.name if self.rig else "none",
+                                  values=[KeyValue(key=k, value=v) for k, v in values.items()])
+        msg = DiagnosticArray(status=[status])
+        msg.header.stamp = self.get_clock().now().to_msg()
+        self.diagnostics_publisher.publish(msg)
+
+    def _latency_summary(self) -> dict[str, str]:
+        """Setpoint stamp -> backend write latency over the last 2000 setpoints (ms)."""
+        if not self.status.latency_ms:
+            return {"command_latency_p50_ms": "n/a", "command_latency_p99_ms": "n/a", "command_latency_count": "0"}
+        p50, p99 = np.percentile(np.fromiter(self.status.latency_ms, float), [50, 99])
+        return {"command_latency_p50_ms": f"{p50:.3f}", "command_latency_p99_ms": f"{p99:.3f}",
+                "command_latency_count": str(len(self.status.latency_ms))}
+
+    def _diagnostic_summary(self) -> tuple[bytes, str]:
+        if self.status.fault:
+            return DiagnosticStatus.ERROR, f"backend fault: {self.status.fault}; configure and activate to recover"
+        if self.gate.estop_latched:
+            return DiagnosticStatus.WARN, "e-stop latched: venting until ~/reset"
+        if not self._runtime:
+            return DiagnosticStatus.OK, "unconfigured: backend closed, nothing sent"
+        if self.status.reason is OutputReason.STALE:
+            return DiagnosticStatus.WARN, "setpoints stale: venting to 0 bar"
+        return DiagnosticStatus.OK, self.status.reason.value
+
+    def _lifecycle_label(self) -> str:
+        # rclpy's LifecycleNode keeps the state only in its state machine; no public getter in Jazzy.
+        return self._state_machine.current_state[1]
+
+    def _report_error(self, text: str) -> None:
+        self.status.last_error = text
+        self.get_logger().error(text)
+
+
+def _check_backend(name: str, value) -> str:
+    if name == "backend" and value and value not in BACKENDS:
+        return f"backend: unknown backend {value!r}; expected '' (the rig's) or one of {sorted(BACKENDS)}."
+    return ""
+
+
+def _describe(exc: BaseException) -> str:
+    return f"{type(exc).__name__}: {exc}"
+
+
+def main(args: list[str] | None = None) -> int:
+    """``hardware_node``: spin until Ctrl-C, then vent and close the backend."""
+    return run_node(HardwareNode, args, on_shutdown=lambda node: node.release_hardware())
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,52 @@
+"""The simulated muscles: deadzone, saturating extension, first-order lag and transport delay."""
+
+import math
+
+import numpy as np
+import pytest
+
+from srs_ros.core.muscle_model import MuscleModel, MuscleParameters, extension_m, lag_step
+
+PARAMS = MuscleParameters(deadzone_bar=1.0, pressure_time_constant_s=0.1, transport_delay_s=0.05,
+                          max_extension_m=0.065, full_extension_pressure_bar=4.0)
+
+
+def test_extension_has_a_deadzone_and_saturates_at_max_extension():
+    pressure = np.array([0.0, 0.9, 1.0, 2.5, 4.0, 6.0])
+    assert extension_m(pressure, PARAMS) == pytest.approx([0.0, 0.0, 0.0, 0.0325, 0.065, 0.065])
+
+
+def test_lag_step_is_the_exact_first_order_response():
+    after = lag_step(np.zeros(2), np.array([4.0, 2.0]), dt_s=0.1, time_constant_s=0.1)
+    assert after == pytest.approx(np.array([4.0, 2.0]) * (1 - math.exp(-1)))
+    assert lag_step(np.zeros(2), np.full(2, 3.0), 0.01, 0.0) == pytest.approx([3.0, 3.0])  # no lag
+
+
+def test_a_command_arrives_after_the_transport_delay_then_lags():
+    model = MuscleModel(PARAMS, count=9, start_s=10.0)
+    model.command(np.full(9, 4.0), now_s=10.0)
+    pressure, length = model.state(10.049)
+    assert pressure == pytest.approx(np.zeros(9))  # still in the supply line
+    pressure, _ = model.state(10.15)  # one time constant after arrival
+    assert pressure == pytest.approx(np.full(9, 4.0 * (1 - math.exp(-1))))
+    pressure, length = model.state(12.0)
+    assert pressure == pytest.approx(np.full(9, 4.0)) and length == pytest.approx(np.full(9, 0.065))
+
+
+def test_integration_does_not_depend_on_how_often_it_is_read():
+    coarse, fine = MuscleModel(PARAMS, 9), MuscleModel(PARAMS, 9)
+    for step in range(50):
+        t = step * 0.01
+        command = np.full(9, 2.0 + math.sin(step / 5.0))
+        coarse.command(command, t)
+        fine.command(command, t)
+        fine.state(t + 0.005)
+    assert coarse.state(0.6)[0] == pytest.approx(fine.state(0.6)[0])
+
+
+def test_vent_brings_muscles_back_to_rest():
+    model = MuscleModel(PARAMS, 9)
+    model.command(np.full(9, 3.0), 0.0)
+    model.command(np.zeros(9), 1.0)
+    pressure, length = model.state(3.0)
+    assert np.all(pressure < 1e-3) and np.all(length == 0.0)

@@ -1,0 +1,244 @@
+"""The hardware node as a separate process, driven as `ros2 lifecycle set` / `ros2 topic pub` / `echo` would."""
+
+import os
+import signal
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
+from sensor_msgs.msg import JointState
+from srs_testing import ros_args
+from std_msgs.msg import Float64MultiArray
+
+from srs_ros.core.robot import config_dir, default_robot
+from srs_ros.nodes.common import (
+    ACTUATOR_STATE_TOPIC,
+    COMMAND_VOLTAGE_TOPIC,
+    COMMANDED_PRESSURE_TOPIC,
+    DIAGNOSTICS_TOPIC,
+    SETPOINT_TOPIC,
+    setpoint_qos,
+)
+
+NODE = "/hardware_node"
+NAMES = list(default_robot().joint_names)
+LENGTHS_M = np.array([0.0, 0.01, 0.02, 0.025, 0.03, 0.04, 0.05, 0.065, -0.01])
+PRESSURES_BAR = np.array([0.0, 1.0, 2.0, 2.5, 3.0, 4.0, 4.0, 4.0, 0.0])  # P = 100 l in [0, 4] bar
+ZEROS = np.zeros(9)
+
+
+def setpoint(lengths_m, names=NAMES) -> JointState:
+    return JointState(name=list(names), position=[float(v) for v in lengths_m])
+
+
+class Rig:
+    """The test client's view of a running hardware node: its setpoint publisher and output topics."""
+
+    def __init__(self, client):
+        self.client = client
+        self.publisher = client.node.create_publisher(JointState, SETPOINT_TOPIC, setpoint_qos())
+        self.pressure = client.subscribe(Float64MultiArray, COMMANDED_PRESSURE_TOPIC)
+        self.voltage = client.subscribe(Float64MultiArray, COMMAND_VOLTAGE_TOPIC)
+        self.state = client.subscribe(JointState, ACTUATOR_STATE_TOPIC)
+        self.diagnostics = client.subscribe(DiagnosticArray, DIAGNOSTICS_TOPIC)
+
+    def start(self, transitions=("configure", "activate")) -> None:
+        self.client.spin_until(lambda: self.client.lifecycle_state(NODE) == "unconfigured", what="hardware_node up")
+        for transition in transitions:
+            assert self.client.change_state(NODE, transition), transition
+
+    def stream(self, messages, until=None, timeout_s: float = 10.0, what: str = "condition", period_s=0.01):
+        """Publish ``messages`` in turn every ``period_s`` while spinning, for ``timeout_s`` or until ``until()``."""
+        messages = messages if isinstance(messages, list) else [messages]
+        end, sent, next_s = time.monotonic() + timeout_s, 0, 0.0
+        while time.monotonic() < end:
+            if until is not None and until():
+                return
+            if time.monotonic() >= next_s:
+                self.publisher.publish(messages[sent % len(messages)])
+                sent, next_s = sent + 1, time.monotonic() + period_s
+            self.client.executor.spin_once(timeout_sec=0.005)
+        if until is not None:
+            raise AssertionError(f"timed out after {timeout_s} s waiting for {what}")
+
+    def commanded(self, expected_bar) -> bool:
+        return bool(self.pressure) and np.allclose(self.pressure[-1].data, expected_bar, atol=1e-9)
+
+    def diagnostic(self, key=None):
+        if not self.diagnostics:
+            return None
+        status = self.diagnostics[-1].status[0]
+        return status if key is None else {kv.key: kv.value for kv in status.values}.get(key)
+
+    def wait_vented(self, what: str) -> None:
+        self.client.spin_until(lambda: self.commanded(ZEROS), what=what)
+
+
+@pytest.fixture
+def hardware(launch_node, ros_client):
+    def _start(params=None, extra_args=()):
+        proc = launch_node("hardware_node", [*ros_args(params or {}), *extra_args])
+        return proc, Rig(ros_client)
+
+    return _start
+
+
+def test_setpoints_become_clamped_pressures_and_volts_and_deactivate_vents(hardware):
+    proc, rig = hardware(extra_args=["--params-file", str(config_dir() / "hardware_node.yaml")])
+    rig.start()
+    good = setpoint(LENGTHS_M[::-1], NAMES[::-1])  # any order of names
+    rig.stream(good, until=lambda: rig.commanded(PRESSURES_BAR), what="commanded pressures P = 100 l")
+    assert rig.pressure[-1].layout.dim[0].label == ",".join(NAMES)
+    rig.stream(good, until=lambda: rig.voltage and np.allclose(rig.voltage[-1].data, 10 * PRESSURES_BAR / 9),
+               what="command volts V = 10 P / 9")
+    assert rig.voltage[-1].data[5] == pytest.approx(4.444, abs=1e-3)  # ITV3050: 4 bar -> 4.444 V
+
+    # the simulated muscles follow (lag, delay): measured pressure in effort, length in position
+    rig.stream(good, until=lambda: rig.state and np.allclose(rig.state[-1].effort, PRESSURES_BAR, atol=0.05),
+               what="measured pressures in actuator_state")
+    assert rig.state[-1].name == NAMES
+    assert all(0.0 <= length <= 0.065 for length in rig.state[-1].position)
+
+    rig.stream(good, until=lambda: rig.diagnostic("output") == "commanding", what="diagnostics while commanding")
+    assert rig.diagnostic().level == DiagnosticStatus.OK
+    assert rig.diagnostic("lifecycle_state") == "active" and rig.diagnostic("backend") == "mock"
+    assert float(rig.diagnostic("command_rate_hz")) > 20.0  # 200 Hz on an idle machine; loose on a busy one
+    assert float(rig.diagnostic("setpoint_age_s")) < 1.0
+
+    assert rig.client.change_state(NODE, "deactivate")
+    rig.stream(good, until=lambda: rig.commanded(ZEROS), what="vent on deactivate")
+    assert rig.client.lifecycle_state(NODE) == "inactive"
+    count = len(rig.pressure)
+    rig.stream(good, timeout_s=0.5)
+    assert all(np.allclose(msg.data, ZEROS) for msg in rig.pressure[count:])  # inactive sends 0 bar
+    assert proc.stop() == 0  # Ctrl-C: vent, close, exit cleanly
+    assert "Traceback" not in proc.log_path.read_text()
+
+
+def test_bad_setpoints_never_reach_the_backend(hardware):
+    proc, rig = hardware()
+    rig.start()
+    good = setpoint(LENGTHS_M)
+    rig.stream(good, until=lambda: rig.commanded(PRESSURES_BAR), what="good command")
+    bad = [
+        setpoint([float("nan")] + [0.03] * 8),
+        setpoint([float("inf")] + [0.03] * 8),
+        setpoint([0.03] * 8, NAMES[:8]),  # wrong size
+        setpoint([0.03] * 9, NAMES[:8] + ["m4_pma1"]),  # unknown name
+        setpoint([0.03] * 9, NAMES[:8] + [NAMES[0]]),  # duplicate name
+        JointState(name=NAMES, position=[0.03] * 8),  # names/positions mismatch
+    ]
+    count = len(rig.pressure)
+    rig.stream([m for b in bad for m in (b, good)], timeout_s=1.5)  # the good one keeps the command fresh
+    after = rig.pressure[count:]
+    assert after and all(np.allclose(msg.data, PRESSURES_BAR) for msg in after)
+    rig.stream(good, until=lambda: int(rig.diagnostic("rejected_setpoints") or 0) >= len(bad),
+               what="rejections counted in diagnostics")
+    assert "rejected setpoint" in proc.output()
+
+    rig.stream(bad, timeout_s=1.0)  # only bad ones: the last good command goes stale -> vent, never a bad value
+    assert rig.commanded(ZEROS)
+    assert all(np.allclose(m.data, PRESSURES_BAR) or np.allclose(m.data, ZEROS) for m in rig.pressure[count:])
+
+
+SETPOINT_SOURCE = """
+import sys, time, rclpy
+from sensor_msgs.msg import JointState
+from srs_ros.nodes.common import SETPOINT_TOPIC, setpoint_qos
+rclpy.init()
+node = rclpy.create_node('setpoint_source')
+publisher = node.create_publisher(JointState, SETPOINT_TOPIC, setpoint_qos())
+msg = JointState(name=sys.argv[1].split(','), position=[float(v) for v in sys.argv[2].split(',')])
+while True:
+    publisher.publish(msg)
+    time.sleep(0.01)
+"""
+
+
+def test_killed_setpoint_source_vents_within_the_timeout_and_fresh_setpoints_recover(hardware, ros_env):
+    proc, rig = hardware()
+    rig.start()
+    source = subprocess.Popen([sys.executable, "-c", SETPOINT_SOURCE, ",".join(NAMES),
+                               ",".join(str(v) for v in LENGTHS_M)], env=ros_env, start_new_session=True,
+                              stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    try:
+        rig.client.spin_until(lambda: rig.commanded(PRESSURES_BAR), what="commands from the setpoint source")
+        os.killpg(source.pid, signal.SIGKILL)
+        source.wait(5.0)
+        killed_s = time.monotonic()
+        rig.wait_vented("vent after the source died")
+        assert time.monotonic() - killed_s < 0.2 + 1.5  # timeout 0.2 s; loose margin for a busy machine
+    finally:
+        if source.poll() is None:
+            os.killpg(source.pid, signal.SIGKILL)
+            source.wait(5.0)
+    rig.client.spin_until(lambda: rig.diagnostic("output") == "setpoints stale", what="stale in diagnostics")
+    assert rig.diagnostic().level == DiagnosticStatus.WARN
+    rig.stream(setpoint(LENGTHS_M), until=lambda: rig.commanded(PRESSURES_BAR), what="recovery on fresh setpoints")
+
+
+def test_emergency_stop_latches_until_reset(hardware):
+    proc, rig = hardware()
+    rig.start()
+    good = setpoint(LENGTHS_M)
+    rig.stream(good, until=lambda: rig.commanded(PRESSURES_BAR), what="good command")
+    response = rig.client.trigger(f"{NODE}/emergency_stop")
+    assert response.success and "latched" in response.message
+    rig.stream(good, until=lambda: rig.commanded(ZEROS), what="vent on e-stop")
+    count = len(rig.pressure)
+    rig.stream(good, timeout_s=0.7)  # fresh setpoints keep coming: still vented
+    assert len(rig.pressure) > count and all(np.allclose(m.data, ZEROS) for m in rig.pressure[count:])
+    rig.stream(good, until=lambda: rig.diagnostic("estop_latched") == "True", what="e-stop in diagnostics")
+    assert rig.diagnostic().level == DiagnosticStatus.WARN
+
+    response = rig.client.trigger(f"{NODE}/reset")
+    assert response.success and "released" in response.message
+    rig.stream(good, until=lambda: rig.commanded(PRESSURES_BAR), what="commands after reset")
+    assert "not latched" in rig.client.trigger(f"{NODE}/reset").message
+
+
+def test_pressure_limit_is_read_only_and_can_be_lowered_at_start_up(hardware):
+    proc, rig = hardware({"autostart": True, "max_pressure_bar": 2.0})
+    rig.client.spin_until(lambda: rig.client.lifecycle_state(NODE) == "active", what="autostart to active")
+    result, = rig.client.set_parameters(NODE, {"max_pressure_bar": 4.0})
+    assert not result.successful and "read-only" in result.reason
+    result, = rig.client.set_parameters(NODE, {"setpoint_timeout_s": 9.0})
+    assert not result.successful and result.reason
+    result, = rig.client.set_parameters(NODE, {"backend": "pcan"})
+    assert not result.successful and "unknown backend 'pcan'" in result.reason
+    assert rig.client.get_parameters(NODE, ["max_pressure_bar"]) == {"max_pressure_bar": 2.0}
+    rig.stream(setpoint(np.full(9, 0.065)), until=lambda: rig.commanded(np.full(9, 2.0)), what="limited to 2 bar")
+    rig.client.spin_until(lambda: rig.voltage and np.allclose(rig.voltage[-1].data, 20 / 9), what="2 bar in volts")
+
+
+def test_backend_fault_goes_to_the_error_state_and_reconfigure_recovers(hardware, tmp_path):
+    broken = tmp_path / "broken.yaml"
+    broken.write_text("rig: {name: broken, backend: mock, command_rate_hz: 200.0, setpoint_timeout_s: 0.2,\n"
+                      "      backend_options: {pressure_time_constant: 0.1}}\n")
+    faulty = tmp_path / "faulty.yaml"
+    faulty.write_text("rig: {name: faulty, backend: mock, command_rate_hz: 200.0, setpoint_timeout_s: 0.2,\n"
+                      "      backend_options: {fail_after_writes: 100}}\n")
+    proc, rig = hardware({"rig_file": str(broken)})
+    rig.start(transitions=())
+    assert not rig.client.change_state(NODE, "configure")  # unknown option: stays unconfigured, nothing sent
+    assert rig.client.lifecycle_state(NODE) == "unconfigured"
+    assert "'pressure_time_constant'" in proc.output()
+
+    assert rig.client.set_parameters(NODE, {"rig_file": str(faulty)})[0].successful
+    rig.start(transitions=("configure", "activate"))
+    rig.stream(setpoint(LENGTHS_M), until=lambda: rig.client.lifecycle_state(NODE) == "unconfigured",
+               what="the injected HardwareError to take the node through ErrorProcessing to unconfigured")
+    rig.client.spin_until(lambda: rig.diagnostic() and rig.diagnostic().level == DiagnosticStatus.ERROR,
+                          what="the fault on /diagnostics")
+    assert "HardwareError" in rig.diagnostic().message
+    assert rig.diagnostic("backend_open") == "False"
+
+    assert rig.client.set_parameters(NODE, {"rig_file": ""})[0].successful
+    rig.start(transitions=("configure", "activate"))
+    rig.stream(setpoint(LENGTHS_M), until=lambda: rig.commanded(PRESSURES_BAR), what="commands after recovery")
+    rig.stream(setpoint(LENGTHS_M), until=lambda: rig.diagnostic().level == DiagnosticStatus.OK,
+               what="diagnostics OK after recovery")
+    assert proc.alive()
