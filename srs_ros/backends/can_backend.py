@@ -1,0 +1,356 @@
+"""CAN backend: the nine regulator voltages as DBC-encoded frames on any python-can bus.
+
+The bus is opened with ``can.Bus`` from the rig's options (``interface``, ``channel``, ``bitrate``,
+or python-can's own config file), so socketcan, PCAN, Kvaser, slcan, virtual ... work unchanged.
+The frame layout lives in a DBC file (default ``config/srs_dac.dbc``) and is encoded and decoded
+with cantools: a board with another layout needs another DBC, not other code.
+
+Conventions (the README's "CAN frame layout"): joint ``i`` drives DAC channel ``channels[i]``;
+its command is the DBC signal ``command_signal.format(channel=...)`` (default ``CMD_CH1..9``) in
+volts; every message holding a command signal is sent on every write. Signals of those messages
+that are not commands are sent at their DBC initial value (or 0). Optional read-back of the
+regulators' monitor outputs: signals ``monitor_signal`` (default ``MON_CH1..9``) in ``V`` (mapped
+through ``monitor_range_v`` to 0..full scale) or in ``bar``.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from srs_ros.backends.base import ActuatorBackend
+from srs_ros.core.errors import BackendUnavailableError, ConfigurationError, HardwareError
+from srs_ros.core.robot import RobotDescription, config_dir
+
+DEFAULT_DBC_FILE = "srs_dac.dbc"
+DEFAULT_COMMAND_SIGNAL = "CMD_CH{channel}"
+DEFAULT_MONITOR_SIGNAL = "MON_CH{channel}"
+#: SMC ITV3000 analog monitor output (voltage type): 1-5 V spans 0..full-scale pressure.
+DEFAULT_MONITOR_RANGE_V = (1.0, 5.0)
+DEFAULT_SEND_TIMEOUT_S = 0.02
+#: Most read-back frames handled per call, so a flooded bus cannot stall the command loop.
+MAX_FRAMES_PER_DRAIN = 256
+
+_KNOWN_OPTIONS = {
+    "interface", "channel", "bitrate", "can_config_file", "can_config_context", "bus_options",
+    "dbc_file", "channels", "command_signal", "monitor_signal", "readback", "monitor_range_v",
+    "send_timeout_s",
+}
+
+
+def _fail(key: str, value: Any, expected: str) -> ConfigurationError:
+    return ConfigurationError(f"can backend_options: '{key}' is {value!r}; expected {expected}.")
+
+
+def resolve_config_path(path: str | Path) -> Path:
+    """An absolute path, or a relative one found in the working directory, else in the package's config/."""
+    path = Path(path).expanduser()
+    if path.is_absolute() or path.exists():
+        return path
+    return config_dir() / path
+
+
+class CanBackend(ActuatorBackend):
+    """Nine regulator commands as DBC-encoded CAN frames; optional monitor read-back.
+
+    Options (``backend_options`` of the rig), all optional:
+
+    - ``interface`` (python-can interface name, e.g. ``socketcan``, ``pcan``, ``virtual``),
+      ``channel``, ``bitrate`` (bit/s): passed to ``can.Bus``. Without ``interface`` python-can's own
+      configuration is used: ``can_config_file`` (an INI file) with section ``can_config_context``,
+      or its default files and ``CAN_*`` environment variables.
+    - ``bus_options``: further keyword arguments of ``can.Bus`` (e.g. ``{fd: true}``).
+    - ``dbc_file``: the frame layout (default ``srs_dac.dbc`` of the package's config folder).
+    - ``channels``: DAC channel of each joint in joint order (default ``[1, ..., 9]``).
+    - ``command_signal`` / ``monitor_signal``: signal-name patterns with ``{channel}``.
+    - ``readback``: decode monitor frames into measured pressures (default true).
+    - ``monitor_range_v``: ``[V at 0 bar, V at full scale]`` of a monitor signal in volts (default [1, 5]).
+    - ``send_timeout_s``: how long one frame may wait for the bus (default 0.02 s).
+    """
+
+    name = "can"
+
+    def __init__(self, robot: RobotDescription | None = None, options: Mapping[str, Any] | None = None):
+        """Validate the options and load the DBC (ConfigurationError naming the key on any problem)."""
+        super().__init__(robot, options)
+        unknown = sorted(set(self.options) - _KNOWN_OPTIONS)
+        if unknown:
+            raise ConfigurationError(f"can backend_options: unknown key(s) {unknown}; expected some of "
+                                     f"{sorted(_KNOWN_OPTIONS)}.")
+        self._bus_kwargs = self._bus_config()
+        self.send_timeout_s = self._positive("send_timeout_s", DEFAULT_SEND_TIMEOUT_S)
+        self.channels = self._channel_list()
+        self.dbc_path = resolve_config_path(self.options.get("dbc_file", DEFAULT_DBC_FILE))
+        self.database = self._load_dbc(self.dbc_path)
+        self._command_layout = self._command_signals()
+        self.monitor_range_v = self._monitor_range()
+        readback = self.options.get("readback", True)
+        if not isinstance(readback, bool):
+            raise _fail("readback", readback, "true or false")
+        self._monitor_layout = self._monitor_signals() if readback else {}
+        self._bus = None
+        self._measured_bar = np.full(self.robot.joint_count, np.nan)
+        self._measured_stamp_s = np.full(self.robot.joint_count, np.nan)
+        self._decode_errors = 0
+
+    # -- option validation ----------------------------------------------------------------
+    def _bus_config(self) -> dict[str, Any]:
+        opts = self.options
+        kwargs: dict[str, Any] = {}
+        extra = opts.get("bus_options", {}) or {}
+        if not isinstance(extra, Mapping) or not all(isinstance(k, str) for k in extra):
+            raise _fail("bus_options", extra, "a mapping of can.Bus keyword arguments")
+        if "can_config_file" in opts:
+            import can
+
+            path = Path(str(opts["can_config_file"])).expanduser()
+            if not path.is_file():
+                raise _fail("can_config_file", opts["can_config_file"], "an existing python-can INI config file")
+            section = opts.get("can_config_context", "default")
+            kwargs.update(can.util.load_file_config(path, section=str(section)))
+            if not kwargs:
+                raise _fail("can_config_context", section, f"a section of {path} with interface and channel")
+        elif "can_config_context" in opts:
+            kwargs["config_context"] = str(opts["can_config_context"])
+        kwargs.update(extra)
+        if "interface" in opts:
+            interface = opts["interface"]
+            if not isinstance(interface, str) or not interface:
+                raise _fail("interface", interface, "a python-can interface name such as 'socketcan' or 'pcan'")
+            kwargs["interface"] = interface
+        if "channel" in opts:
+            if not isinstance(opts["channel"], (str, int)) or isinstance(opts["channel"], bool):
+                raise _fail("channel", opts["channel"], "a channel name or number, e.g. 'can0' or 0")
+            kwargs["channel"] = opts["channel"]
+        if "bitrate" in opts:
+            bitrate = opts["bitrate"]
+            if isinstance(bitrate, bool) or not isinstance(bitrate, int) or not 10_000 <= bitrate <= 1_000_000:
+                raise _fail("bitrate", bitrate, "an integer bit rate in [10000, 1000000] bit/s, e.g. 500000")
+            kwargs["bitrate"] = bitrate
+        if "can_config_file" in opts:
+            kwargs["ignore_config"] = True
+        return kwargs
+
+    def _positive(self, key: str, default: float) -> float:
+        value = self.options.get(key, default)
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not (0 < value < math.inf):
+            raise _fail(key, value, "a number > 0")
+        return float(value)
+
+    def _channel_list(self) -> tuple[int, ...]:
+        count = self.robot.joint_count
+        channels = self.options.get("channels", list(range(1, count + 1)))
+        ok = (isinstance(channels, Sequence) and not isinstance(channels, str) and len(channels) == count
+              and all(isinstance(c, int) and not isinstance(c, bool) and c >= 0 for c in channels)
+              and len(set(channels)) == count)
+        if not ok:
+            raise _fail("channels", channels, f"{count} distinct DAC channel numbers in joint order "
+                        f"{list(self.robot.joint_names)}")
+        return tuple(channels)
+
+    def _monitor_range(self) -> tuple[float, float]:
+        value = self.options.get("monitor_range_v", list(DEFAULT_MONITOR_RANGE_V))
+        ok = (isinstance(value, Sequence) and len(value) == 2
+              and all(isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) for v in value)
+              and value[1] > value[0])
+        if not ok:
+            raise _fail("monitor_range_v", value, "[volts at 0 bar, volts at full scale], e.g. [1.0, 5.0]")
+        return float(value[0]), float(value[1])
+
+    @staticmethod
+    def _load_dbc(path: Path):
+        import cantools
+
+        if not path.is_file():
+            raise _fail("dbc_file", str(path), "an existing DBC file (default: srs_dac.dbc in the package config/)")
+        try:
+            return cantools.database.load_file(str(path), database_format="dbc")
+        except Exception as exc:  # cantools raises parser-specific errors
+            raise _fail("dbc_file", str(path), f"a valid DBC file (cantools: {exc})") from exc
+
+    def _signal_names(self, key: str, default: str) -> list[str]:
+        pattern = self.options.get(key, default)
+        if not isinstance(pattern, str) or "{channel}" not in pattern:
+            raise _fail(key, pattern, "a signal-name pattern containing '{channel}', e.g. " + repr(default))
+        return [pattern.format(channel=channel) for channel in self.channels]
+
+    def _find_signals(self, names: list[str], key: str) -> dict[str, Any]:
+        """Signal name -> (message, signal) from the DBC; ConfigurationError for a missing one."""
+        found = {}
+        for message in self.database.messages:
+            for signal in message.signals:
+                if signal.name in names:
+                    found[signal.name] = (message, signal)
+        missing = [n for n in names if n not in found]
+        if missing:
+            raise _fail(key, self.options.get(key), f"signals present in {self.dbc_path}; missing {missing}")
+        return found
+
+    def _command_signals(self) -> list[tuple[Any, Any]]:
+        """Per joint: (message, signal) of its command; checks units and ranges."""
+        names = self._signal_names("command_signal", DEFAULT_COMMAND_SIGNAL)
+        found = self._find_signals(names, "command_signal")
+        full_v = self.robot.regulator.command_full_scale_v
+        for name in names:
+            _, signal = found[name]
+            if (signal.unit or "").strip() != "V":
+                raise _fail("dbc_file", str(self.dbc_path), f"command signal {name} in unit \"V\" (found "
+                            f"{signal.unit!r}); scale counts or millivolts with the signal's factor")
+            low = 0.0 if signal.minimum is None else signal.minimum
+            high = math.inf if signal.maximum is None else signal.maximum
+            if low > 0.0 or high < full_v * self.robot.max_pressure_bar / self.robot.command_full_scale_pressure_bar:
+                raise _fail("dbc_file", str(self.dbc_path), f"command signal {name} with a range covering 0 V "
+                            f"up to the command at the pressure limit (found [{low}, {high}] V)")
+        return [found[name] for name in names]
+
+    def _monitor_signals(self) -> dict[tuple[int, bool], tuple[Any, list[tuple[int, str, str]]]]:
+        """(frame id, extended) -> (message, [(joint index, signal name, unit)]) of the read-back signals."""
+        names = self._signal_names("monitor_signal", DEFAULT_MONITOR_SIGNAL)
+        found = self._find_signals(names, "monitor_signal")
+        layout: dict[tuple[int, bool], tuple[Any, list[tuple[int, str, str]]]] = {}
+        for joint, name in enumerate(names):
+            message, signal = found[name]
+            unit = (signal.unit or "").strip()
+            if unit not in ("V", "bar"):
+                raise _fail("dbc_file", str(self.dbc_path), f"monitor signal {name} in \"V\" or \"bar\" "
+                            f"(found {signal.unit!r}); or set readback: false")
+            key = (message.frame_id, message.is_extended_frame)
+            layout.setdefault(key, (message, []))[1].append((joint, name, unit))
+        return layout
+
+    # -- the contract -----------------------------------------------------------------------
+    def channel_labels(self) -> list[str]:
+        """Per joint: the signal and frame that drive it, e.g. ``CMD_CH1 in SRS_CMD_A (0x100)``."""
+        return [f"{s.name} in {m.name} (0x{m.frame_id:03X})" for m, s in self._command_layout]
+
+    def _open(self) -> None:
+        import can
+
+        description = self._bus_description()
+        try:
+            bus = can.Bus(**self._bus_kwargs)
+        except can.CanInterfaceNotImplementedError as exc:
+            interface = self._bus_kwargs.get("interface")
+            from can.interfaces import BACKENDS
+
+            if interface is None or interface not in BACKENDS:
+                raise _fail("interface", interface, f"one of {sorted(BACKENDS)}, here or in python-can's config "
+                            f"(can_config_file / CAN_INTERFACE); python-can: {exc}") from exc
+            raise BackendUnavailableError(
+                f"CAN interface {description} is not available on this machine ({exc}); install its driver "
+                "(see python-can's interface docs) or choose another 'interface'.") from exc
+        except TypeError as exc:  # a keyword the interface does not take
+            raise _fail("bus_options", self.options.get("bus_options", {}),
+                        f"keyword arguments that the {description} interface accepts ({exc})") from exc
+        except (can.CanError, OSError, ValueError) as exc:
+            raise HardwareError(f"cannot open CAN bus {description}: {exc}. Check the adapter is connected, "
+                                "the channel name and bitrate, and that the interface is up.") from exc
+        self._bus = bus
+        self._measured_bar[:] = np.nan
+        self._measured_stamp_s[:] = np.nan
+        try:
+            if self._monitor_layout:
+                bus.set_filters([{"can_id": frame_id, "can_mask": 0x1FFFFFFF, "extended": extended}
+                                 for frame_id, extended in self._monitor_layout])
+            self._send_frames(np.zeros(self.robot.joint_count))
+        except BaseException:
+            self._close()
+            raise
+
+    def _write(self, pressure_bar: np.ndarray, command_v: np.ndarray) -> None:
+        self._send_frames(command_v)
+        self._drain()
+
+    def _close(self) -> None:
+        bus, self._bus = self._bus, None
+        if bus is not None:
+            try:
+                bus.shutdown()
+            except Exception:  # noqa: BLE001 - releasing a broken adapter must not mask the first error
+                pass
+
+    def _measure(self) -> dict[str, Any]:
+        if not self._monitor_layout:
+            return {}
+        self._drain()
+        details = {"readback_decode_errors": self._decode_errors}
+        if np.all(np.isnan(self._measured_stamp_s)):
+            return {"details": details}
+        details["readback_age_s"] = (time.monotonic() - self._measured_stamp_s).tolist()
+        return {"measured_pressure_bar": self._measured_bar.copy(), "details": details}
+
+    # -- frames -------------------------------------------------------------------------------
+    def encode_frames(self, command_v: np.ndarray) -> list[tuple[int, bool, bytes]]:
+        """(arbitration id, extended, data) of every command message for the voltages (V) of one write."""
+        values: dict[str, dict[str, float]] = {}
+        for (message, signal), volts in zip(self._command_layout, command_v):
+            values.setdefault(message.name, {})[signal.name] = float(volts)
+        frames = []
+        for message in self.database.messages:  # in the DBC's order, whatever the channel mapping
+            if message.name not in values:
+                continue
+            data = values[message.name]
+            for signal in message.signals:
+                if signal.name not in data:
+                    data[signal.name] = signal.initial if signal.initial is not None else 0.0
+            frames.append((message.frame_id, message.is_extended_frame, message.encode(data)))
+        return frames
+
+    def _send_frames(self, command_v: np.ndarray) -> None:
+        import can
+
+        if self._bus is None:
+            raise HardwareError("can backend: the bus is not open; configure the hardware node again.")
+        for frame_id, extended, data in self.encode_frames(command_v):
+            message = can.Message(arbitration_id=frame_id, is_extended_id=extended, data=data)
+            try:
+                self._bus.send(message, timeout=self.send_timeout_s)
+            except (can.CanError, OSError) as exc:
+                raise HardwareError(
+                    f"CAN send of frame 0x{frame_id:03X} on {self._bus_description()} failed: {exc}. "
+                    "Regulator commands are no longer reaching the board (cable, termination, bitrate, "
+                    "bus-off?); vent and re-open the backend (configure/activate the hardware node).") from exc
+
+    def _drain(self) -> None:
+        """Decode the monitor frames received since the last call (non-blocking)."""
+        import can
+
+        if not self._monitor_layout or self._bus is None:
+            return
+        for _ in range(MAX_FRAMES_PER_DRAIN):
+            try:
+                message = self._bus.recv(timeout=0.0)
+            except (can.CanError, OSError):
+                return  # a broken bus shows up on the next send, which raises HardwareError
+            if message is None:
+                return
+            self._decode_monitor(message)
+
+    def _decode_monitor(self, message) -> None:
+        entry = self._monitor_layout.get((message.arbitration_id, bool(message.is_extended_id)))
+        if entry is None:
+            return
+        dbc_message, layout = entry
+        try:
+            decoded = dbc_message.decode(bytes(message.data))
+        except Exception:  # noqa: BLE001 - a malformed frame is counted, never fatal
+            self._decode_errors += 1
+            return
+        low_v, high_v = self.monitor_range_v
+        full_bar = self.robot.command_full_scale_pressure_bar
+        now = time.monotonic()
+        for joint, name, unit in layout:
+            value = float(decoded[name])
+            if unit == "V":
+                value = (value - low_v) / (high_v - low_v) * full_bar
+            self._measured_bar[joint] = value
+            self._measured_stamp_s[joint] = now
+
+    def _bus_description(self) -> str:
+        kwargs = self._bus_kwargs
+        return f"{kwargs.get('interface', '<python-can config>')}:{kwargs.get('channel', '<default>')}"

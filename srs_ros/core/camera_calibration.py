@@ -1,0 +1,282 @@
+"""Floor-plane calibration of a fixed overhead camera: the homography from image pixels to floor metres.
+
+The paper tracked the robot "with image perspective projection" onto the floor (Sec. IV). A plane seen
+by a pinhole camera maps to the image by a homography ``H`` (3 x 3, defined up to scale), so four or more
+known floor points and their pixels fix it. This module fits ``H`` (normalised DLT, then Levenberg-Marquardt
+on the floor-side error), applies it to batches of points, reports the reprojection error in millimetres,
+and reads and writes the calibration YAML (``config/camera_calibration.yaml``). No ROS imports.
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import yaml
+
+from srs_ros.core.errors import ConfigurationError, InvalidInputError
+from srs_ros.core.robot import config_dir, read_yaml
+
+#: Top-level key of the calibration YAML.
+CALIBRATION_KEY = "camera_calibration"
+#: Name of the default calibration file in ``config/``.
+DEFAULT_CALIBRATION_FILE = "camera_calibration.yaml"
+#: Fewest point pairs that fix a plane homography (8 degrees of freedom, 2 equations per pair).
+MIN_POINT_PAIRS = 4
+
+
+def _points(name: str, value: Any) -> np.ndarray:
+    points = np.asarray(value, dtype=np.float64)
+    if points.ndim < 1 or points.shape[-1] != 2:
+        raise InvalidInputError(f"{name} has shape {points.shape}; expected (..., 2) points.")
+    if not np.all(np.isfinite(points)):
+        raise InvalidInputError(f"{name} holds NaN or inf; expected finite coordinates.")
+    return points
+
+
+def apply_homography(homography: np.ndarray, points: Any) -> np.ndarray:
+    """Map points (..., 2) through a 3 x 3 homography: ``p' ~ H [p, 1]``, batched over leading axes.
+
+    Example: with ``H = diag(0.001, 0.001, 1)`` (1 mm per pixel), pixel (640, 480) maps to (0.64, 0.48) m.
+    Points on the homography's line at infinity come out as inf (never silently as finite numbers).
+    """
+    points = _points("points", points)
+    h = np.asarray(homography, dtype=np.float64)
+    if h.shape != (3, 3):
+        raise InvalidInputError(f"homography has shape {h.shape}; expected (3, 3).")
+    mapped = points @ h[:, :2].T + h[:, 2]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return mapped[..., :2] / mapped[..., 2:3]
+
+
+def _normalising_transform(points: np.ndarray) -> np.ndarray:
+    """Similarity taking points to zero mean and mean distance sqrt(2) (Hartley normalisation)."""
+    centre = points.mean(axis=0)
+    spread = np.mean(np.linalg.norm(points - centre, axis=1))
+    scale = math.sqrt(2.0) / spread if spread > 0 else 1.0
+    return np.array([[scale, 0.0, -scale * centre[0]], [0.0, scale, -scale * centre[1]], [0.0, 0.0, 1.0]])
+
+
+def fit_homography(source_points: Any, target_points: Any) -> np.ndarray:
+    """Least-squares homography ``H`` with ``target ~ H source`` from n >= 4 point pairs (n, 2) each.
+
+    Normalised direct linear transform (Hartley and Zisserman, Alg. 4.2) refined by a few Gauss-Newton
+    steps on the target-side geometric error, so the result minimises the error in target units (metres
+    on the floor). Returns ``H`` scaled so that ``H[2, 2] = 1``. Raises :class:`InvalidInputError` when
+    fewer than four pairs are given or the points are degenerate (three or more on one line).
+    """
+    src = _points("source_points", source_points).reshape(-1, 2)
+    dst = _points("target_points", target_points).reshape(-1, 2)
+    if src.shape != dst.shape:
+        raise InvalidInputError(f"{len(src)} source points but {len(dst)} target points; expected one per pair.")
+    if len(src) < MIN_POINT_PAIRS:
+        raise InvalidInputError(
+            f"{len(src)} point pairs; a floor homography needs at least {MIN_POINT_PAIRS} (add known floor points)."
+        )
+    t_src, t_dst = _normalising_transform(src), _normalising_transform(dst)
+    s = apply_homography(t_src, src)
+    d = apply_homography(t_dst, dst)
+    zeros, ones = np.zeros(len(s)), np.ones(len(s))
+    su, sv, du, dv = s[:, 0], s[:, 1], d[:, 0], d[:, 1]
+    rows_u = np.stack([su, sv, ones, zeros, zeros, zeros, -du * su, -du * sv, -du], 1)
+    rows_v = np.stack([zeros, zeros, zeros, su, sv, ones, -dv * su, -dv * sv, -dv], 1)
+    _, singular, vt = np.linalg.svd(np.concatenate([rows_u, rows_v]))
+    if singular[-2] < 1e-9 * singular[0]:
+        raise InvalidInputError("the point pairs are degenerate (collinear or repeated); spread them over the floor.")
+    h = np.linalg.inv(t_dst) @ vt[-1].reshape(3, 3) @ t_src
+    h = _refine(h / h[2, 2], src, dst)
+    if abs(np.linalg.det(h)) < 1e-15:
+        raise InvalidInputError("the fitted homography is singular; the point pairs do not span the floor plane.")
+    return h
+
+
+def _refine(h: np.ndarray, src: np.ndarray, dst: np.ndarray, iterations: int = 10) -> np.ndarray:
+    """Gauss-Newton on the 8 free entries of H, minimising the sum of squared target-side errors."""
+    params = h.ravel()[:8].copy()
+    for _ in range(iterations):
+        hh = np.append(params, 1.0).reshape(3, 3)
+        num = src @ hh[:2, :2].T + hh[:2, 2]
+        den = src @ hh[2, :2] + hh[2, 2]
+        pred = num / den[:, None]
+        residual = (pred - dst).ravel()
+        jac = np.zeros((len(src), 2, 8))
+        ext = np.column_stack([src, np.ones(len(src))])
+        jac[:, 0, 0:3] = ext / den[:, None]
+        jac[:, 1, 3:6] = ext / den[:, None]
+        jac[:, :, 6:8] = -pred[:, :, None] * src[:, None, :] / den[:, None, None]
+        step, *_ = np.linalg.lstsq(jac.reshape(-1, 8), -residual, rcond=None)
+        params += step
+        if np.max(np.abs(step)) < 1e-14 * (1.0 + np.max(np.abs(params))):
+            break
+    return np.append(params, 1.0).reshape(3, 3)
+
+
+def reprojection_errors_mm(homography: np.ndarray, image_px: Any, floor_m: Any) -> np.ndarray:
+    """Distance (mm) between each known floor point and its pixel mapped through ``homography``."""
+    mapped = apply_homography(homography, image_px)
+    return 1000.0 * np.linalg.norm(mapped - _points("floor_m", floor_m), axis=-1)
+
+
+@dataclass(frozen=True)
+class CameraCalibration:
+    """Image -> floor homography of one camera, with the point pairs it came from and their error."""
+
+    homography_image_to_floor: np.ndarray
+    image_px: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
+    floor_m: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
+    image_size_px: tuple[int, int] | None = None
+    frame_id: str = "floor"
+    source: str = field(default="<memory>", compare=False)
+
+    @property
+    def homography_floor_to_image(self) -> np.ndarray:
+        """Inverse homography (floor metres -> image pixels), scaled so that ``[2, 2] = 1``."""
+        inv = np.linalg.inv(self.homography_image_to_floor)
+        return inv / inv[2, 2]
+
+    @property
+    def reprojection_errors_mm(self) -> np.ndarray:
+        """Per-pair floor-side error (mm) of the stored point pairs."""
+        if len(self.image_px) == 0:
+            return np.zeros(0)
+        return reprojection_errors_mm(self.homography_image_to_floor, self.image_px, self.floor_m)
+
+    @property
+    def rms_error_mm(self) -> float:
+        """Root-mean-square reprojection error (mm) over the point pairs (0 with no pairs)."""
+        errors = self.reprojection_errors_mm
+        return float(np.sqrt(np.mean(errors**2))) if len(errors) else 0.0
+
+    @property
+    def max_error_mm(self) -> float:
+        """Largest reprojection error (mm) over the point pairs (0 with no pairs)."""
+        errors = self.reprojection_errors_mm
+        return float(errors.max()) if len(errors) else 0.0
+
+    def image_to_floor(self, points_px: Any) -> np.ndarray:
+        """Pixels (..., 2) -> floor metres (..., 2)."""
+        return apply_homography(self.homography_image_to_floor, points_px)
+
+    def floor_to_image(self, points_m: Any) -> np.ndarray:
+        """Floor metres (..., 2) -> pixels (..., 2)."""
+        return apply_homography(self.homography_floor_to_image, points_m)
+
+
+def calibration_from_pairs(image_px: Any, floor_m: Any, image_size_px: tuple[int, int] | None = None,
+                           frame_id: str = "floor") -> CameraCalibration:
+    """Fit a :class:`CameraCalibration` from n >= 4 (pixel, floor metre) pairs."""
+    image_px = _points("image_px", image_px).reshape(-1, 2)
+    floor_m = _points("floor_m", floor_m).reshape(-1, 2)
+    h = fit_homography(image_px, floor_m)
+    return CameraCalibration(h, image_px, floor_m, image_size_px, frame_id)
+
+
+def calibration_from_dict(data: Mapping[str, Any], source: str = "<dict>") -> CameraCalibration:
+    """Build a calibration from the parsed YAML; the stored homography wins, else it is fitted from the pairs.
+
+    Raises :class:`ConfigurationError` naming the file, the key and what was expected.
+    """
+    section = data.get(CALIBRATION_KEY) if isinstance(data, Mapping) else None
+    if not isinstance(section, Mapping):
+        raise ConfigurationError(
+            f"{source}: missing section '{CALIBRATION_KEY}:' (see config/{DEFAULT_CALIBRATION_FILE})."
+        )
+    pairs = section.get("point_pairs") or []
+    try:
+        image_px = np.array([[p["u_px"], p["v_px"]] for p in pairs], dtype=np.float64).reshape(-1, 2)
+        floor_m = np.array([[p["x_m"], p["y_m"]] for p in pairs], dtype=np.float64).reshape(-1, 2)
+    except (KeyError, TypeError, ValueError) as exc:
+        raise ConfigurationError(
+            f"{source}: 'point_pairs' entries must be mappings with u_px, v_px, x_m, y_m numbers ({exc!r})."
+        ) from exc
+    size = section.get("image_size_px")
+    if size is not None and not (isinstance(size, list) and len(size) == 2 and all(isinstance(v, int) for v in size)):
+        raise ConfigurationError(f"{source}: 'image_size_px' is {size!r}; expected [width, height] integers.")
+    frame_id = str(section.get("frame_id", "floor"))
+    stored = section.get("homography_image_to_floor")
+    try:
+        if stored is not None:
+            h = np.asarray(stored, dtype=np.float64)
+            if h.shape != (3, 3) or not np.all(np.isfinite(h)) or abs(np.linalg.det(h)) < 1e-15:
+                raise ConfigurationError(
+                    f"{source}: 'homography_image_to_floor' must be a finite, invertible 3 x 3 list of rows."
+                )
+            h = h / h[2, 2]
+        elif len(image_px) >= MIN_POINT_PAIRS:
+            h = fit_homography(image_px, floor_m)
+        else:
+            raise ConfigurationError(
+                f"{source}: neither 'homography_image_to_floor' nor >= {MIN_POINT_PAIRS} 'point_pairs'; "
+                "run srs_calibrate_camera to create them."
+            )
+    except InvalidInputError as exc:
+        raise ConfigurationError(f"{source}: {exc}") from exc
+    return CameraCalibration(h, image_px, floor_m, tuple(size) if size else None, frame_id, source)
+
+
+def load_calibration(path: str | Path | None = None) -> CameraCalibration:
+    """Read a calibration YAML (default: the package's ``config/camera_calibration.yaml``)."""
+    path = Path(path) if path else config_dir() / DEFAULT_CALIBRATION_FILE
+    return calibration_from_dict(read_yaml(path), source=str(path))
+
+
+def calibration_to_dict(calibration: CameraCalibration) -> dict[str, Any]:
+    """The YAML mapping of a calibration (plain floats and lists)."""
+    section: dict[str, Any] = {
+        "frame_id": calibration.frame_id,
+        "homography_image_to_floor": [[float(v) for v in row] for row in calibration.homography_image_to_floor],
+        "reprojection_rms_mm": round(calibration.rms_error_mm, 4),
+        "reprojection_max_mm": round(calibration.max_error_mm, 4),
+        "point_pairs": [
+            {"u_px": float(u), "v_px": float(v), "x_m": float(x), "y_m": float(y)}
+            for (u, v), (x, y) in zip(calibration.image_px, calibration.floor_m)
+        ],
+    }
+    if calibration.image_size_px:
+        section["image_size_px"] = [int(v) for v in calibration.image_size_px]
+    return {CALIBRATION_KEY: section}
+
+
+def save_calibration(calibration: CameraCalibration, path: str | Path, comment: str = "") -> Path:
+    """Write the calibration YAML to ``path`` (folders created); returns the path."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    header = "".join(f"# {line}\n" for line in comment.splitlines()) if comment else ""
+    text = yaml.safe_dump(calibration_to_dict(calibration), sort_keys=False, default_flow_style=None)
+    path.write_text(header + text, encoding="utf-8")
+    return path
+
+
+def read_point_pairs(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
+    """Read (image_px (n, 2), floor_m (n, 2)) from a CSV (header u_px,v_px,x_m,y_m) or a YAML file.
+
+    The YAML form is the ``point_pairs`` list of the calibration file, at top level or under
+    ``camera_calibration:``.
+    """
+    path = Path(path)
+    if path.suffix.lower() == ".csv":
+        try:
+            with path.open(newline="", encoding="utf-8") as stream:
+                rows = list(csv.DictReader(stream))
+            image_px = np.array([[float(r["u_px"]), float(r["v_px"])] for r in rows]).reshape(-1, 2)
+            floor_m = np.array([[float(r["x_m"]), float(r["y_m"])] for r in rows]).reshape(-1, 2)
+        except FileNotFoundError:
+            raise ConfigurationError(f"{path}: no such file.") from None
+        except (KeyError, TypeError, ValueError) as exc:
+            raise ConfigurationError(
+                f"{path}: expected a CSV with header u_px,v_px,x_m,y_m and numbers in every row ({exc!r})."
+            ) from exc
+        return image_px, floor_m
+    data = read_yaml(path)
+    if isinstance(data, Mapping) and CALIBRATION_KEY in data:
+        data = data[CALIBRATION_KEY]
+    if not isinstance(data, Mapping) or "point_pairs" not in data:
+        raise ConfigurationError(f"{path}: expected a 'point_pairs:' list of {{u_px, v_px, x_m, y_m}} mappings.")
+    calib = calibration_from_dict({CALIBRATION_KEY: {"point_pairs": data["point_pairs"],
+                                                     "homography_image_to_floor": np.eye(3).tolist()}}, str(path))
+    return calib.image_px, calib.floor_m

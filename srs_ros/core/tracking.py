@@ -1,0 +1,428 @@
+"""Pose and velocity of the robot from an overhead camera: marker detection, floor projection, smoothing.
+
+The paper tracked the SRS with a fixed camera and perspective projection onto the floor (Sec. IV) and
+reports a traveling velocity = X and Y displacement / experiment time, in cm/s (Table I). Here a head
+and a tail marker (ArUco by default, or coloured blobs) are found in each frame, mapped to the floor
+through the calibration homography (:mod:`srs_ros.core.camera_calibration`), and give the pose
+``(x_m, y_m, yaw_rad)``: position at a configurable point between tail and head, heading from tail to
+head. A frame where either marker is missing gives no pose, never a guess. OpenCV and NumPy only.
+
+Markers are assumed to lie in the calibrated plane; a marker raised ``h`` above it by a camera at height
+``H`` appears displaced by ``h/H`` of its distance from the camera's nadir, so calibrate at marker height.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import deque
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import cv2
+import numpy as np
+
+from srs_ros.core.camera_calibration import CameraCalibration
+from srs_ros.core.errors import ConfigurationError, InvalidInputError
+
+#: Default ArUco dictionary: 4 x 4 bits survive the small image size of a 4 cm marker seen from 1 m.
+DEFAULT_ARUCO_DICTIONARY = "DICT_4X4_50"
+
+
+# ------------------------------------------------------------------------------------------
+# Geometry: pose from head and tail, batched
+# ------------------------------------------------------------------------------------------
+def pose_from_markers(tail_xy_m: Any, head_xy_m: Any, position_ratio: float = 0.5) -> np.ndarray:
+    """Pose ``(x_m, y_m, yaw_rad)`` (..., 3) from tail and head marker centres (..., 2) on the floor.
+
+    Position is ``tail + position_ratio * (head - tail)`` (0 = tail, 0.5 = midpoint, 1 = head); yaw is
+    the heading of the tail -> head vector, ``atan2`` in (-pi, pi]. Example: tail (0, 0), head (0, 0.4)
+    gives (0, 0.2, pi/2).
+    """
+    tail = np.asarray(tail_xy_m, dtype=np.float64)
+    head = np.asarray(head_xy_m, dtype=np.float64)
+    if tail.shape != head.shape or tail.shape[-1:] != (2,):
+        raise InvalidInputError(f"tail {tail.shape} and head {head.shape} must both be (..., 2) floor points.")
+    delta = head - tail
+    position = tail + position_ratio * delta
+    yaw = np.arctan2(delta[..., 1], delta[..., 0])
+    return np.concatenate([position, yaw[..., None]], axis=-1)
+
+
+def yaw_to_quaternion(yaw_rad: Any) -> np.ndarray:
+    """Quaternion (x, y, z, w) (..., 4) of a rotation by ``yaw_rad`` about +Z."""
+    half = 0.5 * np.asarray(yaw_rad, dtype=np.float64)
+    zeros = np.zeros_like(half)
+    return np.stack([zeros, zeros, np.sin(half), np.cos(half)], axis=-1)
+
+
+def wrap_angle(angle_rad: Any) -> np.ndarray:
+    """Angles wrapped to [-pi, pi)."""
+    return (np.asarray(angle_rad, dtype=np.float64) + math.pi) % (2.0 * math.pi) - math.pi
+
+
+# ------------------------------------------------------------------------------------------
+# Marker detection
+# ------------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class MarkerDetection:
+    """One marker found in an image: its centre and outline in pixels."""
+
+    key: str
+    centre_px: np.ndarray
+    corners_px: np.ndarray
+
+
+def aruco_dictionary(name: str):
+    """The predefined ``cv2.aruco`` dictionary called ``name`` (e.g. ``DICT_4X4_50``)."""
+    value = getattr(cv2.aruco, name, None) if name.startswith("DICT_") else None
+    if not isinstance(value, int):
+        known = sorted(n for n in dir(cv2.aruco) if n.startswith("DICT_"))
+        raise ConfigurationError(f"unknown ArUco dictionary {name!r}; expected one of {', '.join(known)}.")
+    return cv2.aruco.getPredefinedDictionary(value)
+
+
+def quad_centre(corners_px: np.ndarray) -> np.ndarray:
+    """Intersection of a quadrilateral's diagonals (..., 4, 2) -> (..., 2).
+
+    A homography maps the centre of a square to the intersection of the diagonals of its image, so this
+    is the projectively exact centre of a square marker (the corner mean is not).
+    """
+    p0, p1, p2, p3 = (corners_px[..., i, :] for i in range(4))
+    d1, d2 = p2 - p0, p3 - p1
+    cross = d1[..., 0] * d2[..., 1] - d1[..., 1] * d2[..., 0]
+    w = p1 - p0
+    t = (w[..., 0] * d2[..., 1] - w[..., 1] * d2[..., 0]) / np.where(cross == 0, np.nan, cross)
+    centre = p0 + t[..., None] * d1
+    return np.where(np.isfinite(centre), centre, corners_px.mean(axis=-2))
+
+
+class ArucoMarkerDetector:
+    """Find ArUco markers by id with sub-pixel corners; optionally search near the last detections first."""
+
+    def __init__(self, dictionary: str = DEFAULT_ARUCO_DICTIONARY, marker_ids: Mapping[str, int] | None = None,
+                 roi_margin_px: int = 40):
+        """``marker_ids`` names the ids to find, e.g. ``{"tail": 0, "head": 1}``."""
+        self.marker_ids = dict(marker_ids or {"tail": 0, "head": 1})
+        if len(set(self.marker_ids.values())) != len(self.marker_ids):
+            raise ConfigurationError(f"marker ids {self.marker_ids} repeat; every marker needs its own id.")
+        params = cv2.aruco.DetectorParameters()
+        params.cornerRefinementMethod = cv2.aruco.CORNER_REFINE_SUBPIX
+        params.cornerRefinementWinSize = 3
+        # One threshold window pair (not the default three) keeps 640x480 above 100 fps on one core.
+        params.adaptiveThreshWinSizeMin = 7
+        params.adaptiveThreshWinSizeMax = 17
+        params.adaptiveThreshWinSizeStep = 10
+        params.minMarkerPerimeterRate = 0.02
+        self._detector = cv2.aruco.ArucoDetector(aruco_dictionary(dictionary), params)
+        self._id_to_key = {v: k for k, v in self.marker_ids.items()}
+        self.roi_margin_px = int(roi_margin_px)
+        self._last_box: tuple[int, int, int, int] | None = None
+
+    def _detect(self, gray: np.ndarray, offset: tuple[int, int]) -> dict[str, MarkerDetection]:
+        corners, ids, _ = self._detector.detectMarkers(gray)
+        found: dict[str, MarkerDetection] = {}
+        if ids is None:
+            return found
+        for quad, marker_id in zip(corners, ids.ravel()):
+            key = self._id_to_key.get(int(marker_id))
+            if key is None or key in found:
+                continue
+            quad = quad.reshape(4, 2).astype(np.float64) + offset
+            found[key] = MarkerDetection(key, quad_centre(quad), quad)
+        return found
+
+    def detect(self, gray: np.ndarray) -> dict[str, MarkerDetection]:
+        """Markers found in a single-channel 8-bit image, by name; absent names were not seen."""
+        if self._last_box is not None and self.roi_margin_px > 0:
+            x0, y0, x1, y1 = self._last_box
+            found = self._detect(gray[y0:y1, x0:x1], (x0, y0))
+            if len(found) == len(self.marker_ids):
+                self._remember(found, gray.shape)
+                return found
+        found = self._detect(gray, (0, 0))
+        self._remember(found, gray.shape)
+        return found
+
+    def _remember(self, found: Mapping[str, MarkerDetection], shape: Sequence[int]) -> None:
+        if len(found) != len(self.marker_ids):
+            self._last_box = None
+            return
+        corners = np.concatenate([d.corners_px for d in found.values()])
+        lo = np.floor(corners.min(axis=0)).astype(int) - self.roi_margin_px
+        hi = np.ceil(corners.max(axis=0)).astype(int) + self.roi_margin_px
+        self._last_box = (max(lo[0], 0), max(lo[1], 0), min(hi[0], shape[1]), min(hi[1], shape[0]))
+
+
+@dataclass(frozen=True)
+class ColorRange:
+    """An HSV box (OpenCV scale: H 0-179, S and V 0-255); ``low[0] > high[0]`` wraps through red."""
+
+    low_hsv: tuple[int, int, int]
+    high_hsv: tuple[int, int, int]
+
+    def __post_init__(self):
+        for name in ("low_hsv", "high_hsv"):
+            value = getattr(self, name)
+            if len(value) != 3 or not all(0 <= int(v) <= 255 for v in value):
+                raise ConfigurationError(f"colour range {name} is {value!r}; expected three integers in 0..255 (HSV).")
+
+
+class ColorBlobDetector:
+    """Find one blob per named colour range (largest connected blob above ``min_area_px``)."""
+
+    def __init__(self, colors: Mapping[str, ColorRange], min_area_px: float = 20.0):
+        """``colors`` maps marker names to HSV ranges, e.g. ``{"tail": ColorRange(...), "head": ...}``."""
+        self.colors = dict(colors)
+        self.min_area_px = float(min_area_px)
+        self._kernel = np.ones((3, 3), np.uint8)
+
+    def _mask(self, hsv: np.ndarray, rng: ColorRange) -> np.ndarray:
+        low, high = np.array(rng.low_hsv, np.uint8), np.array(rng.high_hsv, np.uint8)
+        if rng.low_hsv[0] <= rng.high_hsv[0]:
+            return cv2.inRange(hsv, low, high)
+        upper = cv2.inRange(hsv, low, np.array([179, high[1], high[2]], np.uint8))
+        lower = cv2.inRange(hsv, np.array([0, low[1], low[2]], np.uint8), high)
+        return cv2.bitwise_or(upper, lower)
+
+    def detect(self, bgr: np.ndarray) -> dict[str, MarkerDetection]:
+        """Blobs found in a BGR image, by name; the centre is the blob's intensity-weighted centroid."""
+        if bgr.ndim != 3:
+            raise InvalidInputError(f"colour-blob detection needs a 3-channel BGR image; got shape {bgr.shape}.")
+        hsv = cv2.cvtColor(bgr, cv2.COLOR_BGR2HSV)
+        found: dict[str, MarkerDetection] = {}
+        for key, rng in self.colors.items():
+            mask = cv2.morphologyEx(self._mask(hsv, rng), cv2.MORPH_OPEN, self._kernel)
+            count, labels, stats, _ = cv2.connectedComponentsWithStats(mask, connectivity=8)
+            if count < 2:
+                continue
+            best = 1 + int(np.argmax(stats[1:, cv2.CC_STAT_AREA]))
+            if stats[best, cv2.CC_STAT_AREA] < self.min_area_px:
+                continue
+            x, y, w, h = (int(stats[best, i]) for i in range(4))
+            moments = cv2.moments((labels[y:y + h, x:x + w] == best).astype(np.uint8), binaryImage=True)
+            centre = np.array([x + moments["m10"] / moments["m00"], y + moments["m01"] / moments["m00"]])
+            box = np.array([[x, y], [x + w, y], [x + w, y + h], [x, y + h]], dtype=np.float64)
+            found[key] = MarkerDetection(key, centre, box)
+        return found
+
+
+# ------------------------------------------------------------------------------------------
+# Velocity: least-squares slope over a sliding time window
+# ------------------------------------------------------------------------------------------
+def window_slope(time_s: Any, values: Any) -> np.ndarray:
+    """Least-squares slope d(values)/dt (k,) of samples ``values`` (n, k) at ``time_s`` (n,).
+
+    A straight-line fit over the window is the smoothed derivative: it averages out per-frame detection
+    noise, and for a constant velocity it is exact. Needs two or more distinct times.
+    """
+    t = np.asarray(time_s, dtype=np.float64)
+    v = np.asarray(values, dtype=np.float64).reshape(len(t), -1)
+    dt = t - t.mean()
+    denom = float(dt @ dt)
+    if len(t) < 2 or denom <= 0:
+        raise InvalidInputError("a slope needs at least two samples at different times.")
+    return dt @ (v - v.mean(axis=0)) / denom
+
+
+class VelocityFilter:
+    """Smoothed planar velocity ``(vx_m_s, vy_m_s, yaw_rate_rad_s)`` of the poses of the last ``window_s``.
+
+    Yaw is unwrapped so a heading crossing +-pi does not give a spike. A gap longer than ``max_gap_s``
+    (markers lost) restarts the window: no velocity is reported across a gap.
+    """
+
+    def __init__(self, window_s: float = 0.5, max_gap_s: float = 0.5, min_samples: int = 3):
+        """``window_s`` sets the smoothing (longer = smoother, more lag)."""
+        if not (window_s > 0 and max_gap_s > 0 and min_samples >= 2):
+            raise ConfigurationError(
+                f"velocity window {window_s} s, gap {max_gap_s} s, min samples {min_samples}; "
+                "expected window > 0, gap > 0, min samples >= 2."
+            )
+        self.window_s, self.max_gap_s, self.min_samples = float(window_s), float(max_gap_s), int(min_samples)
+        self._samples: deque[tuple[float, float, float, float]] = deque()
+
+    def reset(self) -> None:
+        """Forget every sample (e.g. when the markers are lost)."""
+        self._samples.clear()
+
+    def update(self, time_s: float, pose: Sequence[float]) -> np.ndarray | None:
+        """Add a pose sample; return the smoothed velocity (3,) or None while the window is too short."""
+        if self._samples and (time_s - self._samples[-1][0] > self.max_gap_s or time_s <= self._samples[-1][0]):
+            self.reset()
+        yaw = float(pose[2])
+        if self._samples:
+            yaw = self._samples[-1][3] + float(wrap_angle(yaw - self._samples[-1][3]))
+        self._samples.append((float(time_s), float(pose[0]), float(pose[1]), yaw))
+        while self._samples[0][0] < time_s - self.window_s:
+            self._samples.popleft()
+        if len(self._samples) < self.min_samples:
+            return None
+        data = np.array(self._samples)
+        return window_slope(data[:, 0], data[:, 1:])
+
+
+# ------------------------------------------------------------------------------------------
+# Traveling velocity (paper Table I)
+# ------------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class TravelingVelocity:
+    """The paper's traveling velocity of one run: X and Y displacement over the run time, in cm/s."""
+
+    vx_cm_s: float
+    vy_cm_s: float
+    displacement_x_m: float
+    displacement_y_m: float
+    duration_s: float
+    samples: int
+
+    @property
+    def speed_cm_s(self) -> float:
+        """Net speed: straight-line displacement / time (cm/s)."""
+        return math.hypot(self.vx_cm_s, self.vy_cm_s)
+
+    def table_text(self) -> str:
+        """``v_x / v_y`` as Table I prints it (magnitudes, cm/s)."""
+        return f"{abs(self.vx_cm_s):.2f} / {abs(self.vy_cm_s):.2f} cm/s"
+
+
+def traveling_velocity(time_s: Any, x_m: Any, y_m: Any, end_window_s: float = 0.0) -> TravelingVelocity:
+    """Traveling velocity of a track (paper Table I): X and Y displacement divided by the run time.
+
+    Table I's caption: "velocity is computed by dividing the mean of the X and Y displacements by the
+    experiment time". Here the displacement runs from the mean position over the first ``end_window_s``
+    of the track to the mean over the last ``end_window_s`` (0 = the first and last samples), and the
+    time between the mean times of the two windows, so averaging the ends removes detection noise
+    without biasing a constant speed. NaN samples (no pose) are skipped. Components are signed (floor
+    frame); :meth:`TravelingVelocity.table_text` gives Table I's magnitudes.
+    """
+    t = np.asarray(time_s, dtype=np.float64).ravel()
+    xy = np.column_stack([np.asarray(x_m, dtype=np.float64).ravel(), np.asarray(y_m, dtype=np.float64).ravel()])
+    if len(t) != len(xy):
+        raise InvalidInputError(f"{len(t)} times but {len(xy)} positions; expected one position per time.")
+    valid = np.isfinite(t) & np.all(np.isfinite(xy), axis=1)
+    t, xy = t[valid], xy[valid]
+    if len(t) < 2 or t[-1] <= t[0]:
+        raise InvalidInputError(
+            f"{len(t)} valid samples spanning {t[-1] - t[0] if len(t) else 0:.3f} s; a traveling velocity needs "
+            "two or more tracked frames at different times (were the markers ever seen?)."
+        )
+    first = t <= t[0] + end_window_s
+    last = t >= t[-1] - end_window_s
+    duration = float(t[last].mean() - t[first].mean())
+    if duration <= 0:
+        raise InvalidInputError(f"end windows of {end_window_s} s overlap the whole track; use a shorter window.")
+    disp = xy[last].mean(axis=0) - xy[first].mean(axis=0)
+    return TravelingVelocity(100.0 * disp[0] / duration, 100.0 * disp[1] / duration, float(disp[0]), float(disp[1]),
+                             duration, int(len(t)))
+
+
+# ------------------------------------------------------------------------------------------
+# The per-frame tracker
+# ------------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class TrackerConfig:
+    """What to look for and how to smooth it (the ``camera_tracker`` node's parameters)."""
+
+    detector: str = "aruco"
+    aruco_dictionary: str = DEFAULT_ARUCO_DICTIONARY
+    tail_marker_id: int = 0
+    head_marker_id: int = 1
+    tail_color: ColorRange = ColorRange((100, 120, 70), (130, 255, 255))
+    head_color: ColorRange = ColorRange((170, 120, 70), (10, 255, 255))
+    min_blob_area_px: float = 20.0
+    position_ratio: float = 0.5
+    velocity_window_s: float = 0.5
+    max_gap_s: float = 0.5
+    roi_margin_px: int = 40
+    max_marker_spacing_m: float = 2.0
+
+    def __post_init__(self):
+        if self.detector not in ("aruco", "color"):
+            raise ConfigurationError(f"detector is {self.detector!r}; expected 'aruco' or 'color'.")
+        if self.tail_marker_id == self.head_marker_id:
+            raise ConfigurationError(f"head and tail marker ids are both {self.head_marker_id}; they must differ.")
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any]) -> TrackerConfig:
+        """Build from a flat mapping (node parameters or YAML); colours as ``[h, s, v]`` lists."""
+        known = {f: data[f] for f in cls.__dataclass_fields__ if f in data and not f.endswith("_color")}
+        for end in ("tail", "head"):
+            low, high = data.get(f"{end}_color_hsv_low"), data.get(f"{end}_color_hsv_high")
+            if low is not None and high is not None:
+                known[f"{end}_color"] = ColorRange(tuple(int(v) for v in low), tuple(int(v) for v in high))
+        return cls(**known)
+
+
+@dataclass(frozen=True)
+class TrackResult:
+    """The outcome of one frame: the pose (None unless both markers were seen) and what was seen."""
+
+    time_s: float
+    pose: np.ndarray | None
+    velocity: np.ndarray | None
+    markers_px: dict[str, np.ndarray] = field(default_factory=dict)
+    markers_m: dict[str, np.ndarray] = field(default_factory=dict)
+    message: str = ""
+
+    @property
+    def tracked(self) -> bool:
+        """True when the frame gave a pose."""
+        return self.pose is not None
+
+
+def to_gray(image: np.ndarray) -> np.ndarray:
+    """A single-channel 8-bit view of a BGR or mono image."""
+    if image.ndim == 2:
+        return image
+    if image.ndim == 3 and image.shape[2] == 3:
+        return cv2.cvtColor(image, cv2.COLOR_BGR2GRAY)
+    if image.ndim == 3 and image.shape[2] == 1:
+        return image[:, :, 0]
+    raise InvalidInputError(f"image has shape {image.shape}; expected (h, w) mono or (h, w, 3) BGR.")
+
+
+class Tracker:
+    """Frame in, pose out: detect head and tail, project to the floor, smooth the velocity."""
+
+    def __init__(self, calibration: CameraCalibration, config: TrackerConfig | None = None):
+        """Combine a floor calibration with a marker configuration."""
+        self.calibration = calibration
+        self.config = config or TrackerConfig()
+        cfg = self.config
+        if cfg.detector == "aruco":
+            self.detector: ArucoMarkerDetector | ColorBlobDetector = ArucoMarkerDetector(
+                cfg.aruco_dictionary, {"tail": cfg.tail_marker_id, "head": cfg.head_marker_id}, cfg.roi_margin_px)
+        else:
+            self.detector = ColorBlobDetector({"tail": cfg.tail_color, "head": cfg.head_color}, cfg.min_blob_area_px)
+        self.velocity_filter = VelocityFilter(cfg.velocity_window_s, cfg.max_gap_s)
+
+    def describe_markers(self) -> str:
+        """Human-readable names of the markers looked for."""
+        cfg = self.config
+        if cfg.detector == "aruco":
+            return f"ArUco {cfg.aruco_dictionary} tail id {cfg.tail_marker_id}, head id {cfg.head_marker_id}"
+        return f"colour blobs tail {cfg.tail_color}, head {cfg.head_color}"
+
+    def process(self, image: np.ndarray, time_s: float) -> TrackResult:
+        """Track one frame (BGR or mono uint8) taken at ``time_s``; no pose unless both markers are seen."""
+        if image.dtype != np.uint8:
+            raise InvalidInputError(f"image dtype is {image.dtype}; expected uint8.")
+        if isinstance(self.detector, ArucoMarkerDetector):
+            found = self.detector.detect(to_gray(image))
+        else:
+            found = self.detector.detect(image)
+        markers_px = {k: d.centre_px for k, d in found.items()}
+        markers_m = {k: self.calibration.image_to_floor(d.centre_px) for k, d in found.items()}
+        missing = [k for k in ("tail", "head") if k not in found]
+        if missing:
+            self.velocity_filter.reset()
+            return TrackResult(time_s, None, None, markers_px, markers_m, f"not seen: {', '.join(missing)}")
+        spacing = float(np.linalg.norm(markers_m["head"] - markers_m["tail"]))
+        if not (np.isfinite(spacing) and 0 < spacing <= self.config.max_marker_spacing_m):
+            self.velocity_filter.reset()
+            return TrackResult(time_s, None, None, markers_px, markers_m,
+                               f"head-tail spacing {spacing:.3f} m outside (0, {self.config.max_marker_spacing_m}] m")
+        pose = pose_from_markers(markers_m["tail"], markers_m["head"], self.config.position_ratio)
+        velocity = self.velocity_filter.update(time_s, pose)
+        return TrackResult(time_s, pose, velocity, markers_px, markers_m, "tracked")

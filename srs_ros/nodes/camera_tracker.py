@@ -1,0 +1,311 @@
+"""ROS 2 node ``camera_tracker``: the robot's floor pose, velocity and trail from a fixed overhead camera.
+
+Input: ``image_raw`` (sensor_msgs/Image: bgr8, rgb8, mono8, bgra8, rgba8) from any camera driver, or, when
+the ``source`` parameter is set, a video file or camera index read directly with OpenCV. Output, stamped
+with the image's stamp, in the calibration's floor frame: ``robot_pose`` (geometry_msgs/PoseStamped),
+``robot_twist`` (geometry_msgs/TwistStamped, smoothed) and ``robot_path`` (nav_msgs/Path). A frame where a
+marker is missing publishes nothing; ``/diagnostics`` says which marker is missing (WARN, ERROR after
+``lost_timeout_s``) and returns to OK when the markers come back. All tracking is in
+:mod:`srs_ros.core.tracking`; this module is ROS wiring only.
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+import cv2
+import numpy as np
+from builtin_interfaces.msg import Time
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from geometry_msgs.msg import PoseStamped, TwistStamped
+from nav_msgs.msg import Path as PathMsg
+from rclpy.node import Node
+from rclpy.qos import qos_profile_sensor_data
+from sensor_msgs.msg import Image
+
+from srs_ros.core.camera_calibration import load_calibration
+from srs_ros.core.errors import ConfigurationError, InvalidInputError, SrsError
+from srs_ros.core.tracking import DEFAULT_ARUCO_DICTIONARY, Tracker, TrackerConfig, TrackResult, yaw_to_quaternion
+from srs_ros.nodes.common import (
+    DIAGNOSTICS_TOPIC,
+    PATH_TOPIC,
+    POSE_TOPIC,
+    TWIST_TOPIC,
+    ParameterSpec,
+    declare_parameters,
+    run_node,
+)
+
+IMAGE_TOPIC = "image_raw"
+_CHANNELS = {"bgr8": 3, "rgb8": 3, "mono8": 1, "8UC1": 1, "8UC3": 3, "bgra8": 4, "rgba8": 4}
+
+PARAMETERS = (
+    ParameterSpec("calibration_file", "", "floor calibration YAML; empty = config/camera_calibration.yaml",
+                  read_only=True),
+    ParameterSpec("source", "", "empty = subscribe to image_raw; else a video file path or a camera index (e.g. '0')",
+                  read_only=True),
+    ParameterSpec("source_rate_hz", 0.0, "frame rate for 'source', Hz; 0 = the video's own rate (30 if unknown)",
+                  0.0, 1000.0, read_only=True),
+    ParameterSpec("loop", False, "restart a 'source' video file at its end", read_only=True),
+    ParameterSpec("detector", "aruco", "marker kind: 'aruco' or 'color'", read_only=True),
+    ParameterSpec("aruco_dictionary", DEFAULT_ARUCO_DICTIONARY, "cv2.aruco predefined dictionary name",
+                  read_only=True),
+    ParameterSpec("tail_marker_id", 0, "ArUco id of the tail marker", 0, 1023, read_only=True),
+    ParameterSpec("head_marker_id", 1, "ArUco id of the head marker", 0, 1023, read_only=True),
+    ParameterSpec("tail_color_hsv_low", [100, 120, 70], "colour detector: tail HSV lower bound (OpenCV scale)",
+                  read_only=True),
+    ParameterSpec("tail_color_hsv_high", [130, 255, 255], "colour detector: tail HSV upper bound", read_only=True),
+    ParameterSpec("head_color_hsv_low", [170, 120, 70], "colour detector: head HSV lower bound (H wraps)",
+                  read_only=True),
+    ParameterSpec("head_color_hsv_high", [10, 255, 255], "colour detector: head HSV upper bound", read_only=True),
+    ParameterSpec("min_blob_area_px", 20.0, "colour detector: smallest blob, px^2", 1.0, 1e7, read_only=True),
+    ParameterSpec("position_ratio", 0.5, "pose point between tail (0) and head (1)", 0.0, 1.0, read_only=True),
+    ParameterSpec("velocity_window_s", 0.5, "velocity smoothing window, s", 0.01, 60.0, read_only=True),
+    ParameterSpec("max_gap_s", 0.5, "longest gap between tracked frames inside one velocity window, s",
+                  0.01, 60.0, read_only=True),
+    ParameterSpec("roi_margin_px", 40, "search margin around the last markers, px (0 = whole frame)", 0, 10000,
+                  read_only=True),
+    ParameterSpec("frame_id", "", "frame of the outputs; empty = the calibration's frame_id", read_only=True),
+    ParameterSpec("path_max_poses", 5000, "longest trail kept in robot_path", 2, 1000000, read_only=True),
+    ParameterSpec("path_min_step_m", 0.002, "a trail point is added after this much motion, m", 0.0, 10.0,
+                  read_only=True),
+    ParameterSpec("lost_timeout_s", 1.0, "markers or images missing this long = ERROR on /diagnostics, s",
+                  0.01, 3600.0, read_only=True),
+    ParameterSpec("diagnostics_period_s", 1.0, "period of the /diagnostics report, s", 0.05, 60.0, read_only=True),
+)
+
+
+# ------------------------------------------------------------------------------------------
+# sensor_msgs/Image <-> NumPy (no cv_bridge needed)
+# ------------------------------------------------------------------------------------------
+def image_msg_to_array(msg: Image) -> np.ndarray:
+    """An Image message as a BGR (h, w, 3) or mono (h, w) uint8 array (a copy; row padding removed)."""
+    channels = _CHANNELS.get(msg.encoding)
+    if channels is None:
+        raise InvalidInputError(
+            f"image encoding {msg.encoding!r} is not supported; expected one of {sorted(_CHANNELS)}."
+        )
+    row_bytes = msg.width * channels
+    if msg.step < row_bytes or len(msg.data) < msg.step * msg.height:
+        raise InvalidInputError(
+            f"image {msg.width}x{msg.height} {msg.encoding}: step {msg.step} and {len(msg.data)} bytes are too small "
+            f"(expected step >= {row_bytes} and {msg.step * msg.height} bytes)."
+        )
+    buffer = np.frombuffer(msg.data, dtype=np.uint8, count=msg.step * msg.height).reshape(msg.height, msg.step)
+    pixels = buffer[:, :row_bytes].reshape(msg.height, msg.width, channels)
+    conversions = {"rgb8": cv2.COLOR_RGB2BGR, "bgra8": cv2.COLOR_BGRA2BGR, "rgba8": cv2.COLOR_RGBA2BGR}
+    if msg.encoding in conversions:
+        return cv2.cvtColor(pixels, conversions[msg.encoding])
+    return pixels[:, :, 0].copy() if channels == 1 else pixels.copy()
+
+
+def array_to_image_msg(image: np.ndarray, stamp: Time | None = None, frame_id: str = "camera") -> Image:
+    """A BGR (h, w, 3) or mono (h, w) uint8 array as an Image message (bgr8 or mono8)."""
+    image = np.ascontiguousarray(image)
+    if image.dtype != np.uint8 or image.ndim not in (2, 3) or (image.ndim == 3 and image.shape[2] != 3):
+        raise InvalidInputError(f"image {image.shape} {image.dtype}; expected uint8 (h, w) mono or (h, w, 3) BGR.")
+    msg = Image()
+    if stamp is not None:
+        msg.header.stamp = stamp
+    msg.header.frame_id = frame_id
+    msg.height, msg.width = image.shape[:2]
+    msg.encoding = "mono8" if image.ndim == 2 else "bgr8"
+    msg.step = msg.width * (1 if image.ndim == 2 else 3)
+    msg.data = image.tobytes()
+    return msg
+
+
+def stamp_to_seconds(stamp: Time) -> float:
+    """A builtin_interfaces/Time in seconds."""
+    return stamp.sec + 1e-9 * stamp.nanosec
+
+
+def seconds_to_stamp(seconds: float) -> Time:
+    """Seconds as a builtin_interfaces/Time."""
+    sec = int(seconds // 1)
+    return Time(sec=sec, nanosec=min(int(round((seconds - sec) * 1e9)), 999_999_999))
+
+
+# ------------------------------------------------------------------------------------------
+# The node
+# ------------------------------------------------------------------------------------------
+class CameraTrackerNode(Node):
+    """Wires images in and pose, twist, path and diagnostics out around a :class:`Tracker`."""
+
+    def __init__(self):
+        """Declare parameters, load the calibration, start the subscription or the video reader."""
+        super().__init__("camera_tracker")
+        declare_parameters(self, PARAMETERS)
+        p = {spec.name: self.get_parameter(spec.name).value for spec in PARAMETERS}
+        calibration_file = p["calibration_file"] or None
+        self.calibration = load_calibration(calibration_file)
+        self.tracker = Tracker(self.calibration, TrackerConfig.from_dict(p))
+        self.frame_id = p["frame_id"] or self.calibration.frame_id
+        self.path_max_poses = int(p["path_max_poses"])
+        self.path_min_step_m = float(p["path_min_step_m"])
+        self.lost_timeout_s = float(p["lost_timeout_s"])
+
+        self.pose_pub = self.create_publisher(PoseStamped, POSE_TOPIC, 10)
+        self.twist_pub = self.create_publisher(TwistStamped, TWIST_TOPIC, 10)
+        self.path_pub = self.create_publisher(PathMsg, PATH_TOPIC, 1)
+        self.diag_pub = self.create_publisher(DiagnosticArray, DIAGNOSTICS_TOPIC, 10)
+        self.path = PathMsg()
+        self.path.header.frame_id = self.frame_id
+
+        self.frames = 0
+        self.tracked_frames = 0
+        self.last_result: TrackResult | None = None
+        self.last_frame_wall_s: float | None = None
+        self.last_tracked_wall_s: float | None = None
+        self.last_level: bytes | None = None
+        self.start_wall_s = time.monotonic()
+
+        self.capture: cv2.VideoCapture | None = None
+        self.source = str(p["source"])
+        if self.source:
+            self._open_source(self.source, float(p["source_rate_hz"]), bool(p["loop"]))
+        else:
+            self.create_subscription(Image, IMAGE_TOPIC, self.on_image, qos_profile_sensor_data)
+        self.create_timer(float(p["diagnostics_period_s"]), self.publish_diagnostics)
+        where = f"source {self.source!r}" if self.source else f"topic {self.resolve_topic_name(IMAGE_TOPIC)}"
+        self.get_logger().info(
+            f"tracking {self.tracker.describe_markers()} from {where}; calibration {self.calibration.source} "
+            f"(reprojection rms {self.calibration.rms_error_mm:.2f} mm), frame '{self.frame_id}'"
+        )
+
+    # -- inputs ------------------------------------------------------------------------------------
+    def _open_source(self, source: str, rate_hz: float, loop: bool) -> None:
+        is_camera = source.isdigit()
+        if not is_camera and not Path(source).is_file():
+            raise ConfigurationError(f"source {source!r} is neither a camera index nor an existing video file.")
+        self.capture = cv2.VideoCapture(int(source) if is_camera else source)
+        if not self.capture.isOpened():
+            raise ConfigurationError(f"OpenCV cannot open source {source!r}; check the path, codec or camera index.")
+        self.source_is_camera, self.loop = is_camera, loop
+        fps = rate_hz or self.capture.get(cv2.CAP_PROP_FPS) or 30.0
+        self.source_start_s = stamp_to_seconds(self.get_clock().now().to_msg())
+        self.last_source_stamp_s = self.source_start_s
+        self.source_frame_period_s = 1.0 / (self.capture.get(cv2.CAP_PROP_FPS) or fps)
+        self.source_timer = self.create_timer(1.0 / fps, self.on_source_timer)
+
+    def on_source_timer(self) -> None:
+        """Read one frame of the video/camera and track it."""
+        ok, frame = self.capture.read()
+        if not ok and self.loop and not self.source_is_camera:
+            self.capture.set(cv2.CAP_PROP_POS_FRAMES, 0)
+            # The next pass continues the file's time line, so stamps never run backwards.
+            self.source_start_s = self.last_source_stamp_s + self.source_frame_period_s
+            self.tracker.velocity_filter.reset()
+            ok, frame = self.capture.read()
+        if not ok:
+            self.get_logger().info(f"source {self.source!r}: no more frames; tracking stopped.")
+            self.source_timer.cancel()
+            return
+        if self.source_is_camera:
+            stamp = self.get_clock().now().to_msg()
+        else:
+            self.last_source_stamp_s = self.source_start_s + self.capture.get(cv2.CAP_PROP_POS_MSEC) / 1000.0
+            stamp = seconds_to_stamp(self.last_source_stamp_s)
+        self.track(frame, stamp)
+
+    def on_image(self, msg: Image) -> None:
+        """Track one received image."""
+        try:
+            frame = image_msg_to_array(msg)
+        except InvalidInputError as exc:
+            self.get_logger().error(str(exc), throttle_duration_sec=5.0)
+            return
+        self.track(frame, msg.header.stamp)
+
+    # -- outputs -----------------------------------------------------------------------------------
+    def track(self, frame: np.ndarray, stamp: Time) -> None:
+        """Run the tracker on a frame and publish what it found (nothing when a marker is missing)."""
+        result = self.tracker.process(frame, stamp_to_seconds(stamp))
+        now = time.monotonic()
+        self.frames += 1
+        self.last_frame_wall_s = now
+        self.last_result = result
+        if result.tracked:
+            self.tracked_frames += 1
+            self.last_tracked_wall_s = now
+            self._publish_pose(result, stamp)
+        if self._level() != self.last_level:
+            self.publish_diagnostics()
+
+    def _publish_pose(self, result: TrackResult, stamp: Time) -> None:
+        x, y, yaw = (float(v) for v in result.pose)
+        pose = PoseStamped()
+        pose.header.stamp, pose.header.frame_id = stamp, self.frame_id
+        pose.pose.position.x, pose.pose.position.y = x, y
+        q = yaw_to_quaternion(yaw)
+        pose.pose.orientation.z, pose.pose.orientation.w = float(q[2]), float(q[3])
+        self.pose_pub.publish(pose)
+        if result.velocity is not None:
+            twist = TwistStamped()
+            twist.header = pose.header
+            twist.twist.linear.x, twist.twist.linear.y = float(result.velocity[0]), float(result.velocity[1])
+            twist.twist.angular.z = float(result.velocity[2])
+            self.twist_pub.publish(twist)
+        last = self.path.poses[-1].pose.position if self.path.poses else None
+        if last is None or np.hypot(x - last.x, y - last.y) >= self.path_min_step_m:
+            self.path.poses.append(pose)
+            del self.path.poses[:-self.path_max_poses]
+            self.path.header.stamp = stamp
+            self.path_pub.publish(self.path)
+
+    def _level(self) -> bytes:
+        now = time.monotonic()
+        if self.last_result is None or now - (self.last_frame_wall_s or 0.0) > self.lost_timeout_s:
+            waited = now - (self.last_frame_wall_s or self.start_wall_s)
+            return DiagnosticStatus.ERROR if waited > self.lost_timeout_s else DiagnosticStatus.WARN
+        if self.last_result.tracked:
+            return DiagnosticStatus.OK
+        lost_for = now - (self.last_tracked_wall_s or self.start_wall_s)
+        return DiagnosticStatus.ERROR if lost_for > self.lost_timeout_s else DiagnosticStatus.WARN
+
+    def publish_diagnostics(self) -> None:
+        """Publish the tracking status on /diagnostics (also at once whenever the level changes)."""
+        level = self._level()
+        self.last_level = level
+        result = self.last_result
+        if result is None or time.monotonic() - (self.last_frame_wall_s or 0.0) > self.lost_timeout_s:
+            message = "no images received" if result is None else "images stopped arriving"
+        elif result.tracked:
+            message = "tracking"
+        else:
+            message = f"markers lost ({result.message}); no pose published"
+        values: dict[str, Any] = {
+            "frames": self.frames, "tracked_frames": self.tracked_frames,
+            "markers": self.tracker.describe_markers(), "frame_id": self.frame_id,
+            "calibration_rms_mm": f"{self.calibration.rms_error_mm:.3f}",
+        }
+        if result is not None:
+            values["seen"] = ",".join(sorted(result.markers_px)) or "none"
+        status = DiagnosticStatus(level=level, name=f"{self.get_name()}: marker tracking",
+                                  message=message, hardware_id=self.source or self.resolve_topic_name(IMAGE_TOPIC))
+        status.values = [KeyValue(key=k, value=str(v)) for k, v in values.items()]
+        array = DiagnosticArray(status=[status])
+        array.header.stamp = self.get_clock().now().to_msg()
+        self.diag_pub.publish(array)
+
+    def destroy_node(self) -> None:
+        """Release the video source, then the ROS entities."""
+        if self.capture is not None:
+            self.capture.release()
+        super().destroy_node()
+
+
+def main(args: list[str] | None = None) -> int:
+    """Console script ``camera_tracker``; a bad calibration or source exits with status 2 and the reason."""
+    try:
+        return run_node(CameraTrackerNode, args)
+    except SrsError as exc:
+        print(f"camera_tracker: {exc}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,145 @@
+"""``srs_calibrate_camera``: compute and save the camera's image -> floor homography, and report its error.
+
+Two ways in:
+
+* ``--pairs pairs.csv|pairs.yaml``: four or more measured point pairs (CSV header ``u_px,v_px,x_m,y_m``,
+  or a YAML ``point_pairs:`` list of ``{u_px, v_px, x_m, y_m}``);
+* ``--image floor.png --markers layout.yaml``: a photo of ArUco markers laid at known floor positions.
+  ``layout.yaml`` holds ``aruco_dictionary`` (default DICT_4X4_50), optionally ``marker_size_m`` (then all
+  four corners of each marker are used, else only centres, so at least four markers) and
+  ``markers: [{id, x_m, y_m, yaw_rad}]`` (marker centre on the floor; yaw 0 = the marker's top edge
+  faces floor +Y).
+
+The result goes to ``--out`` (default ``config/camera_calibration.yaml``) with the reprojection error
+(mm) of every point; ``--max-rms-mm`` makes a poor fit exit with status 1.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+import cv2
+import numpy as np
+
+from srs_ros.core.camera_calibration import (
+    DEFAULT_CALIBRATION_FILE,
+    CameraCalibration,
+    calibration_from_pairs,
+    read_point_pairs,
+    save_calibration,
+)
+from srs_ros.core.errors import ConfigurationError, SrsError
+from srs_ros.core.robot import config_dir, read_yaml
+from srs_ros.core.tracking import DEFAULT_ARUCO_DICTIONARY, aruco_dictionary, quad_centre
+
+
+def marker_corners_floor_m(x_m: float, y_m: float, yaw_rad: float, size_m: float) -> np.ndarray:
+    """Floor positions (4, 2) of a marker's corners in ArUco order (top-left, top-right, bottom-right, bottom-left).
+
+    The marker's top edge faces its local +Y; ``yaw_rad`` turns the marker about the floor's +Z.
+    """
+    half = 0.5 * size_m
+    local = np.array([[-half, half], [half, half], [half, -half], [-half, -half]])
+    c, s = math.cos(yaw_rad), math.sin(yaw_rad)
+    return local @ np.array([[c, s], [-s, c]]) + np.array([x_m, y_m])
+
+
+def pairs_from_marker_image(image: np.ndarray, layout: Mapping[str, Any], source: str = "<layout>"
+                            ) -> tuple[np.ndarray, np.ndarray, list[int]]:
+    """Point pairs (image_px, floor_m) from ArUco markers laid at known floor positions; also the ids not found."""
+    markers = layout.get("markers") if isinstance(layout, Mapping) else None
+    if not isinstance(markers, list) or not markers:
+        raise ConfigurationError(f"{source}: expected a 'markers:' list of {{id, x_m, y_m, yaw_rad}} mappings.")
+    size_m = layout.get("marker_size_m")
+    try:
+        known = {int(m["id"]): (float(m["x_m"]), float(m["y_m"]), float(m.get("yaw_rad", 0.0))) for m in markers}
+    except (KeyError, TypeError, ValueError) as exc:
+        raise ConfigurationError(
+            f"{source}: each marker needs id, x_m, y_m numbers (and optional yaw_rad) ({exc!r})."
+        ) from exc
+    params = cv2.aruco.DetectorParameters()
+    params.cornerRefinementMethod = cv2.aruco.CORNER_REFINE_SUBPIX
+    detector = cv2.aruco.ArucoDetector(aruco_dictionary(str(layout.get("aruco_dictionary", DEFAULT_ARUCO_DICTIONARY))),
+                                       params)
+    gray = image if image.ndim == 2 else cv2.cvtColor(image, cv2.COLOR_BGR2GRAY)
+    corners, ids, _ = detector.detectMarkers(gray)
+    found = {} if ids is None else {int(i): q.reshape(4, 2).astype(np.float64) for q, i in zip(corners, ids.ravel())}
+    image_px, floor_m = [], []
+    for marker_id, (x, y, yaw) in known.items():
+        if marker_id not in found:
+            continue
+        if size_m:
+            image_px.append(found[marker_id])
+            floor_m.append(marker_corners_floor_m(x, y, yaw, float(size_m)))
+        else:
+            image_px.append(quad_centre(found[marker_id])[None])
+            floor_m.append(np.array([[x, y]]))
+    missing = sorted(set(known) - set(found))
+    if not image_px:
+        raise ConfigurationError(f"{source}: none of the markers {sorted(known)} was found in the image.")
+    return np.concatenate(image_px), np.concatenate(floor_m), missing
+
+
+def report(calibration: CameraCalibration) -> str:
+    """A table of every point pair's reprojection error and the summary (mm)."""
+    lines = ["   u_px     v_px      x_m      y_m   error_mm"]
+    for (u, v), (x, y), e in zip(calibration.image_px, calibration.floor_m, calibration.reprojection_errors_mm):
+        lines.append(f"{u:8.2f} {v:8.2f} {x:8.4f} {y:8.4f} {e:9.3f}")
+    lines.append(f"reprojection error over {len(calibration.image_px)} points: rms {calibration.rms_error_mm:.3f} mm, "
+                 f"max {calibration.max_error_mm:.3f} mm")
+    return "\n".join(lines)
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Console script ``srs_calibrate_camera``."""
+    parser = argparse.ArgumentParser(prog="srs_calibrate_camera", description=__doc__.splitlines()[0],
+                                     formatter_class=argparse.RawDescriptionHelpFormatter, epilog=__doc__)
+    group = parser.add_mutually_exclusive_group(required=True)
+    group.add_argument("--pairs", help="CSV or YAML file of point pairs (u_px, v_px, x_m, y_m)")
+    group.add_argument("--image", help="image of ArUco markers laid on the floor (needs --markers)")
+    parser.add_argument("--markers", help="YAML layout of the floor markers (with --image)")
+    parser.add_argument("--image-size", type=int, nargs=2, metavar=("W", "H"), help="image size, px (with --pairs)")
+    parser.add_argument("--frame-id", default="floor", help="frame of the floor coordinates (default floor)")
+    parser.add_argument("--out", help=f"output YAML (default config/{DEFAULT_CALIBRATION_FILE})")
+    parser.add_argument("--max-rms-mm", type=float, help="exit with status 1 if the rms error is above this, mm")
+    args = parser.parse_args(argv)
+    try:
+        missing: list[int] = []
+        if args.pairs:
+            image_px, floor_m = read_point_pairs(args.pairs)
+            size = tuple(args.image_size) if args.image_size else None
+            source = args.pairs
+        else:
+            if not args.markers:
+                parser.error("--image needs --markers (the floor layout YAML)")
+            image = cv2.imread(args.image, cv2.IMREAD_COLOR)
+            if image is None:
+                raise ConfigurationError(f"{args.image}: cannot be read as an image (missing file or unknown format).")
+            image_px, floor_m, missing = pairs_from_marker_image(image, read_yaml(args.markers), args.markers)
+            size = (image.shape[1], image.shape[0])
+            source = f"{args.image} + {args.markers}"
+        calibration = calibration_from_pairs(image_px, floor_m, size, args.frame_id)
+    except SrsError as exc:
+        print(f"srs_calibrate_camera: {exc}", file=sys.stderr)
+        return 2
+    if missing:
+        print(f"warning: markers not found in the image: {missing}", file=sys.stderr)
+    print(report(calibration))
+    out = Path(args.out) if args.out else config_dir() / DEFAULT_CALIBRATION_FILE
+    save_calibration(calibration, out, f"srs_calibrate_camera from {source}\n"
+                                       "homography_image_to_floor maps pixels (u, v, 1) to floor metres (x, y, 1).")
+    print(f"saved {out}")
+    if args.max_rms_mm is not None and calibration.rms_error_mm > args.max_rms_mm:
+        print(f"rms error {calibration.rms_error_mm:.3f} mm is above --max-rms-mm {args.max_rms_mm}; "
+              "re-measure the points or re-take the image.", file=sys.stderr)
+        return 1
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

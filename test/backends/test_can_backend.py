@@ -1,0 +1,498 @@
+"""CAN backend on real python-can buses: a second `virtual` bus on the same channel plays the DAC board."""
+
+import os
+import socket
+import textwrap
+import threading
+import time
+import uuid
+from pathlib import Path
+
+import can
+import cantools
+import numpy as np
+import pytest
+
+from srs_ros.backends import create_backend
+from srs_ros.backends.can_backend import CanBackend
+from srs_ros.core.errors import BackendUnavailableError, ConfigurationError, HardwareError
+from srs_ros.core.rig import load_rig
+from srs_ros.core.robot import config_dir, default_robot
+
+DBC = cantools.database.load_file(str(config_dir() / "srs_dac.dbc"))
+COMMAND_IDS = [0x100, 0x101, 0x102]
+MONITOR_IDS = [0x180, 0x181, 0x182]
+V_PER_BAR = 10.0 / 9.0  # ITV3050
+
+
+def expected_mv(pressure_bar):
+    return np.round(np.clip(pressure_bar, 0.0, 4.0) * V_PER_BAR * 1000.0)
+
+
+@pytest.fixture
+def channel():
+    return f"srs_test_{uuid.uuid4().hex[:8]}"
+
+
+@pytest.fixture
+def board(channel):
+    """The DAC board's side of the virtual bus: receives every frame the backend sends."""
+    bus = can.Bus(interface="virtual", channel=channel, receive_own_messages=False)
+    yield bus
+    bus.shutdown()
+
+
+def backend_on(channel, **options) -> CanBackend:
+    return CanBackend(options={"interface": "virtual", "channel": channel, **options})
+
+
+def receive(bus, count, timeout_s=5.0) -> list:
+    """The next `count` frames (fails if they do not arrive), then check nothing else is queued."""
+    frames, end = [], time.monotonic() + timeout_s
+    while len(frames) < count:
+        message = bus.recv(timeout=max(end - time.monotonic(), 0.0))
+        assert message is not None, f"received {len(frames)} of {count} frames"
+        frames.append(message)
+    return frames
+
+
+def decode_write(frames) -> np.ndarray:
+    """Nine command voltages (mV) from the three frames of one write, checking IDs and order."""
+    assert [f.arbitration_id for f in frames] == COMMAND_IDS
+    assert all(not f.is_extended_id and f.dlc == 8 for f in frames)
+    signals = {}
+    for frame in frames:
+        signals.update(DBC.decode_message(frame.arbitration_id, frame.data))
+    return np.round(np.array([signals[f"CMD_CH{i}"] for i in range(1, 10)]) * 1000.0)
+
+
+def assert_nothing_more(bus):
+    extra = bus.recv(timeout=0.05)
+    assert extra is None, f"unexpected frame {extra}"
+
+
+def test_open_vents_and_every_write_sends_the_nine_commands(board, channel):
+    pressure = np.array([0.0, 0.5, 1.0, 1.5, 2.0, 2.5, 3.0, 4.0, 7.5])  # 7.5 bar: above the limit
+    with backend_on(channel) as backend:
+        assert decode_write(receive(board, 3)) == pytest.approx(np.zeros(9))  # open -> 0 V everywhere
+        sent = backend.write_pressures(pressure)
+        assert sent[-1] == 4.0
+        millivolts = decode_write(receive(board, 3))
+        assert millivolts == pytest.approx(expected_mv(pressure))
+        assert millivolts[7] == 4444 and millivolts[8] == 4444  # 4 bar on an ITV3050 = 4.444 V, never more
+        backend.write_pressures(np.full(9, 1.5))
+        raw = receive(board, 3)
+        assert int.from_bytes(raw[0].data[0:2], "little") == 1667  # little-endian millivolts: 1.5 bar
+    assert decode_write(receive(board, 3)) == pytest.approx(np.zeros(9))  # close vents
+    assert_nothing_more(board)
+
+
+def test_channel_mapping_follows_the_rig(board, channel):
+    channels = [9, 8, 7, 6, 5, 4, 3, 2, 1]
+    with backend_on(channel, channels=channels) as backend:
+        receive(board, 3)
+        pressure = np.linspace(0.5, 4.0, 9)
+        backend.write_pressures(pressure)
+        by_channel = decode_write(receive(board, 3))
+        assert by_channel == pytest.approx(expected_mv(pressure)[::-1])
+        assert backend.channel_labels()[0] == "CMD_CH9 in SRS_CMD_C (0x102)"
+
+
+def test_a_burst_at_the_command_rate_arrives_complete_and_in_order(board, channel):
+    rate_hz, writes = 200.0, 100
+    with backend_on(channel) as backend:
+        receive(board, 3)
+        start = time.perf_counter()
+        for k in range(writes):
+            target = start + k / rate_hz
+            while time.perf_counter() < target:
+                time.sleep(min(target - time.perf_counter(), 0.002))
+            backend.write_pressures(np.full(9, (k % 40) / 10.0))
+        frames = receive(board, 3 * writes)
+    for k in range(writes):
+        assert decode_write(frames[3 * k:3 * k + 3]) == pytest.approx(expected_mv(np.full(9, (k % 40) / 10.0)))
+    stamps = np.array([f.timestamp for f in frames[::3]])
+    measured_hz = (writes - 1) / (stamps[-1] - stamps[0])
+    assert 0.5 * rate_hz < measured_hz < 1.2 * rate_hz  # loose: the machine may be busy
+
+
+def test_vent_sends_zero_frames_and_close_is_idempotent(board, channel):
+    backend = backend_on(channel)
+    backend.open()
+    receive(board, 3)
+    backend.write_pressures(np.full(9, 3.0))
+    assert decode_write(receive(board, 3)) == pytest.approx(expected_mv(np.full(9, 3.0)))
+    backend.vent()
+    assert decode_write(receive(board, 3)) == pytest.approx(np.zeros(9))
+    backend.close()
+    assert decode_write(receive(board, 3)) == pytest.approx(np.zeros(9))
+    backend.close()
+    assert_nothing_more(board)
+    with pytest.raises(HardwareError, match="not open"):
+        backend.write_pressures(np.ones(9))
+
+
+def test_send_failure_raises_hardware_error_and_the_backend_reopens(board, channel, monkeypatch):
+    backend = backend_on(channel)
+    backend.open()
+    receive(board, 3)
+
+    def dead_bus(message, timeout=None):
+        raise can.CanOperationError("Transmit buffer full (bus-off?)")
+
+    first_bus = backend._bus
+    monkeypatch.setattr(first_bus, "send", dead_bus)
+    with pytest.raises(HardwareError, match=r"0x100.*Transmit buffer full") as failure:
+        backend.write_pressures(np.full(9, 2.0))
+    assert isinstance(failure.value.__cause__, can.CanOperationError)
+    with pytest.raises(HardwareError):  # close still tries to vent, which fails on the dead bus ...
+        backend.close()
+    assert not backend.is_open  # ... and releases it anyway
+    assert_nothing_more(board)
+
+    backend.open()  # recovery: a fresh bus
+    assert backend._bus is not first_bus
+    assert decode_write(receive(board, 3)) == pytest.approx(np.zeros(9))
+    backend.write_pressures(np.full(9, 2.0))
+    assert decode_write(receive(board, 3)) == pytest.approx(expected_mv(np.full(9, 2.0)))
+    backend.close()
+
+
+class RefusingBus(can.BusABC):
+    """A bus whose controller is bus-off: every send raises CanOperationError."""
+
+    def __init__(self, channel=None, **kwargs):
+        self.channel_info = "refusing"
+        self.shut_down = False
+        super().__init__(channel=channel, **kwargs)
+
+    def send(self, msg, timeout=None):
+        raise can.CanOperationError("bus-off", error_code=0x40)
+
+    def _recv_internal(self, timeout):
+        return None, False
+
+    def shutdown(self):
+        self.shut_down = True
+        super().shutdown()
+
+
+def test_open_on_a_refusing_bus_fails_and_leaves_nothing_open(monkeypatch):
+    created = []
+
+    def make_bus(**kwargs):
+        created.append(RefusingBus(**kwargs))
+        return created[-1]
+
+    monkeypatch.setattr(can, "Bus", make_bus)
+    backend = CanBackend(options={"interface": "virtual", "channel": "unused"})
+    with pytest.raises(HardwareError, match="bus-off") as failure:
+        backend.open()
+    assert isinstance(failure.value.__cause__, can.CanOperationError)
+    assert not backend.is_open and backend._bus is None and created[0].shut_down
+
+
+def monitor_frames(volts):
+    values = {f"MON_CH{i + 1}": v for i, v in enumerate(volts)}
+    frames = []
+    for frame_id in MONITOR_IDS:
+        message = DBC.get_message_by_frame_id(frame_id)
+        data = message.encode({s.name: values[s.name] for s in message.signals})
+        frames.append(can.Message(arbitration_id=frame_id, is_extended_id=False, data=data))
+    return frames
+
+
+def test_monitor_readback_becomes_measured_pressure(board, channel):
+    with backend_on(channel) as backend:
+        receive(board, 3)
+        state = backend.read_state()
+        assert state.measured_pressure_bar is None  # nothing heard yet
+        volts = np.linspace(1.0, 5.0, 9)  # ITV monitor: 1 V = 0 bar, 5 V = 9 bar
+        for frame in monitor_frames(volts):
+            board.send(frame)
+        board.send(can.Message(arbitration_id=0x7FF, is_extended_id=False, data=b"\xff" * 8))  # not ours
+        board.send(can.Message(arbitration_id=MONITOR_IDS[0], is_extended_id=False, data=b"\x01"))  # malformed
+        deadline = time.monotonic() + 5.0
+        while time.monotonic() < deadline:
+            state = backend.read_state()
+            if state.measured_pressure_bar is not None and not np.isnan(state.measured_pressure_bar).any() \
+                    and state.details["readback_decode_errors"] == 1:
+                break
+        assert state.measured_pressure_bar == pytest.approx((volts - 1.0) / 4.0 * 9.0, abs=0.01)
+        assert state.details["readback_decode_errors"] == 1
+        assert max(state.details["readback_age_s"]) < 5.0
+
+
+def test_readback_can_be_switched_off(board, channel):
+    with backend_on(channel, readback=False) as backend:
+        for frame in monitor_frames(np.full(9, 3.0)):
+            board.send(frame)
+        assert backend.read_state().measured_pressure_bar is None
+
+
+OTHER_BOARD_DBC = """VERSION ""
+NS_ :
+BS_:
+BU_: HOST DAC
+BO_ {cmd_a} OTHER_DAC_1: 8 HOST
+ SG_ OUT_3 : 7|12@0+ (0.002442,0) [0|10] "V" DAC
+ SG_ OUT_2 : 11|12@0+ (0.002442,0) [0|10] "V" DAC
+ SG_ OUT_1 : 31|12@0+ (0.002442,0) [0|10] "V" DAC
+ SG_ OUT_0 : 35|12@0+ (0.002442,0) [0|10] "V" DAC
+ SG_ ENABLE : 63|8@0+ (1,0) [0|255] "" DAC
+BO_ {cmd_b} OTHER_DAC_2: 8 HOST
+ SG_ OUT_4 : 7|12@0+ (0.002442,0) [0|10] "V" DAC
+ SG_ OUT_5 : 11|12@0+ (0.002442,0) [0|10] "V" DAC
+ SG_ OUT_6 : 31|12@0+ (0.002442,0) [0|10] "V" DAC
+ SG_ OUT_7 : 35|12@0+ (0.002442,0) [0|10] "V" DAC
+ SG_ OUT_8 : 55|12@0+ (0.002442,0) [0|10] "V" DAC
+BA_DEF_ SG_ "GenSigStartValue" INT 0 255;
+BA_DEF_DEF_ "GenSigStartValue" 0;
+BA_ "GenSigStartValue" SG_ {cmd_a} ENABLE 165;
+"""
+
+
+def test_another_board_needs_only_another_dbc(board, channel, tmp_path):
+    """Extended IDs, big-endian 12-bit counts, 0-based channel names and an enable byte: no code change."""
+    path = tmp_path / "other_dac.dbc"
+    path.write_text(OTHER_BOARD_DBC.format(cmd_a=0x80000010, cmd_b=0x80000011))  # 0x8... marks extended in DBC
+    options = {"dbc_file": str(path), "channels": list(range(9)), "command_signal": "OUT_{channel}",
+               "readback": False}
+    with backend_on(channel, **options) as backend:
+        receive(board, 2)
+        backend.write_pressures(np.full(9, 4.0))
+        frames = receive(board, 2)
+    assert [(f.arbitration_id, f.is_extended_id) for f in frames] == [(0x10, True), (0x11, True)]
+    other = cantools.database.load_file(str(path))
+    decoded = {**other.decode_message(0x10, frames[0].data, force_extended_id=True),
+               **other.decode_message(0x11, frames[1].data, force_extended_id=True)}
+    assert [decoded[f"OUT_{i}"] for i in range(9)] == pytest.approx([4.0 * V_PER_BAR] * 9, abs=0.0025)
+    assert decoded["ENABLE"] == 165  # a non-command signal goes out at its DBC start value
+
+
+def test_python_can_config_file_opens_the_bus(board, channel, tmp_path):
+    ini = tmp_path / "can.ini"
+    ini.write_text(f"[srs]\ninterface = virtual\nchannel = {channel}\n")
+    with CanBackend(options={"can_config_file": str(ini), "can_config_context": "srs"}) as backend:
+        receive(board, 3)
+        backend.write_pressures(np.full(9, 1.0))
+        assert decode_write(receive(board, 3)) == pytest.approx(expected_mv(np.full(9, 1.0)))
+
+
+@pytest.mark.parametrize(("options", "key"), [
+    ({"chanels": [1]}, "chanels"),
+    ({"channels": [1, 2, 3]}, "channels"),
+    ({"channels": [1, 1, 2, 3, 4, 5, 6, 7, 8]}, "channels"),
+    ({"bitrate": "fast"}, "bitrate"),
+    ({"interface": ""}, "interface"),
+    ({"dbc_file": "no_such_layout.dbc"}, "dbc_file"),
+    ({"command_signal": "CMD_CH"}, "command_signal"),
+    ({"command_signal": "MISSING_{channel}"}, "command_signal"),
+    ({"monitor_signal": "MISSING_{channel}"}, "monitor_signal"),
+    ({"monitor_range_v": [5.0, 1.0]}, "monitor_range_v"),
+    ({"send_timeout_s": 0}, "send_timeout_s"),
+    ({"readback": "yes"}, "readback"),
+    ({"bus_options": ["fd"]}, "bus_options"),
+    ({"can_config_file": "/no/such/can.ini"}, "can_config_file"),
+])
+def test_invalid_options_fail_with_the_key_named(options, key):
+    with pytest.raises(ConfigurationError, match=f"'{key}'"):
+        create_backend("can", options={"interface": "virtual", "channel": "x", **options})
+
+
+def test_a_dbc_in_the_wrong_unit_or_range_is_rejected(tmp_path):
+    source = (config_dir() / "srs_dac.dbc").read_text()
+    for bad, match in ((source.replace('[0|10] "V" SRS_DAC', '[0|10] "mV" SRS_DAC', 1), "unit"),
+                       (source.replace('(0.001,0) [0|10] "V" SRS_DAC', '(0.001,0) [0|3] "V" SRS_DAC', 1), "range")):
+        path = tmp_path / "bad.dbc"
+        path.write_text(bad)
+        with pytest.raises(ConfigurationError, match=f"'dbc_file'.*{match}"):
+            CanBackend(options={"interface": "virtual", "dbc_file": str(path)})
+
+
+def test_unknown_interface_fails_at_open_with_the_key_named():
+    backend = CanBackend(options={"interface": "no_such_adapter", "channel": "x"})
+    with pytest.raises(ConfigurationError, match="'interface'.*socketcan"):
+        backend.open()
+    assert not backend.is_open
+
+
+def test_missing_interface_arguments_name_bus_options():
+    backend = CanBackend(options={"interface": "socketcand", "channel": "can0"})  # needs host and port
+    with pytest.raises(ConfigurationError, match="'bus_options'.*host"):
+        backend.open()
+    assert not backend.is_open
+
+
+def test_an_interface_without_its_driver_is_unavailable(monkeypatch):
+    def missing_driver(**kwargs):
+        raise can.CanInterfaceNotImplementedError("PCANBasic.dll not found")
+
+    monkeypatch.setattr(can, "Bus", missing_driver)
+    with pytest.raises(BackendUnavailableError, match="pcan.*PCANBasic"):
+        CanBackend(options={"interface": "pcan", "channel": "PCAN_USBBUS1"}).open()
+
+
+def test_the_shipped_can_rig_is_valid():
+    rig = load_rig(config_dir() / "rigs" / "can.yaml")
+    assert rig.backend == "can" and rig.robot.regulator.name == "ITV3050"
+    backend = create_backend(rig.backend, rig.robot, rig.backend_options)
+    assert backend.channels == tuple(range(1, 10)) and backend.dbc_path.name == "srs_dac.dbc"
+    assert backend._bus_kwargs == {"interface": "socketcan", "channel": "can0", "bitrate": 500000}
+    assert len(backend.channel_labels()) == default_robot().joint_count
+
+
+# socketcan on vcan0: defined (and so collected) only where the kernel offers the interface, e.g. after
+# `sudo modprobe vcan && sudo ip link add vcan0 type vcan && sudo ip link set up vcan0`.
+if Path("/sys/class/net/vcan0").exists() and os.name == "posix":
+
+    def test_socketcan_vcan0_carries_the_commands():
+        with can.Bus(interface="socketcan", channel="vcan0") as vcan_board:
+            with CanBackend(options={"interface": "socketcan", "channel": "vcan0"}) as backend:
+                assert decode_write(receive(vcan_board, 3)) == pytest.approx(np.zeros(9))
+                backend.write_pressures(np.full(9, 2.5))
+                assert decode_write(receive(vcan_board, 3)) == pytest.approx(expected_mv(np.full(9, 2.5)))
+            assert decode_write(receive(vcan_board, 3)) == pytest.approx(np.zeros(9))
+
+
+# -- end to end: the hardware node (its own process) on a CAN bus that fails and comes back -----------------
+class FakeSocketcand:
+    """A minimal socketcand daemon on loopback (python-can's `socketcand` interface connects to it over TCP).
+
+    It plays the DAC board for a node in another process: records every `< send ... >` frame, answers
+    with monitor read-back frames, and can drop the connection as a dead bus would.
+    """
+
+    def __init__(self, monitor_v: float = 3.0):
+        self.server = socket.create_server(("127.0.0.1", 0))
+        self.server.settimeout(0.1)
+        self.port = self.server.getsockname()[1]
+        self.frames: list[tuple[int, bytes]] = []
+        self.connections = 0
+        self.drop = threading.Event()
+        self.stop = threading.Event()
+        message = DBC.get_message_by_name("SRS_MON_A")
+        data = message.encode({s.name: monitor_v for s in message.signals})
+        self.monitor = f"< frame 180 0.0 {data.hex().upper()} >".encode()
+        self.thread = threading.Thread(target=self._serve, daemon=True)
+        self.thread.start()
+
+    def close(self):
+        self.stop.set()
+        self.thread.join(5.0)
+        self.server.close()
+
+    def _serve(self):
+        while not self.stop.is_set():
+            try:
+                connection, _ = self.server.accept()
+            except TimeoutError:
+                continue
+            with connection:
+                self.connections += 1
+                self._session(connection)
+
+    def _session(self, connection):
+        connection.settimeout(2.0)
+        for reply_to in (None, "< open", "< rawmode"):
+            if reply_to is not None:
+                assert connection.recv(256).decode().startswith(reply_to)
+            connection.sendall(b"< hi >" if reply_to is None else b"< ok >")
+        connection.settimeout(0.05)
+        buffer = ""
+        while not self.stop.is_set() and not self.drop.is_set():
+            try:
+                chunk = connection.recv(4096).decode()
+            except TimeoutError:
+                continue
+            if not chunk:
+                return
+            buffer += chunk
+            *complete, buffer = buffer.split(">")
+            for text in complete:
+                parts = text.strip("< ").split()
+                if parts[:1] == ["send"]:
+                    frame_id, dlc = int(parts[1], 16), int(parts[2], 16)
+                    self.frames.append((frame_id, bytes(int(b, 16) for b in parts[3:3 + dlc])))
+            connection.sendall(self.monitor)
+        self.drop.clear()  # leaving the with block closes the socket: the node's next sends fail
+
+    def last_write_mv(self) -> np.ndarray | None:
+        frames = list(self.frames)
+        for k in range(len(frames) - 3, -1, -1):
+            window = frames[k:k + 3]
+            if [f for f, _ in window] == COMMAND_IDS:
+                signals = {}
+                for frame_id, data in window:
+                    signals.update(DBC.decode_message(frame_id, data))
+                return np.round(np.array([signals[f"CMD_CH{i}"] for i in range(1, 10)]) * 1000.0)
+        return None
+
+
+@pytest.mark.ros
+@pytest.mark.slow
+def test_hardware_node_can_fault_goes_to_error_and_recovers(launch_node, ros_client, tmp_path):
+    from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
+    from sensor_msgs.msg import JointState
+    from srs_testing import ros_args
+
+    from srs_ros.nodes.common import ACTUATOR_STATE_TOPIC, DIAGNOSTICS_TOPIC, SETPOINT_TOPIC, setpoint_qos
+
+    daemon = FakeSocketcand(monitor_v=3.0)  # 3 V on the ITV monitor output = (3 - 1) / 4 * 9 = 4.5 bar
+    try:
+        rig = tmp_path / "socketcand.yaml"
+        rig.write_text(textwrap.dedent(f"""\
+            rig:
+              name: socketcand_dac
+              backend: can
+              regulator_model: ITV3050
+              command_rate_hz: 50.0
+              setpoint_timeout_s: 1.0
+              backend_options:
+                interface: socketcand
+                channel: can0
+                bus_options: {{host: 127.0.0.1, port: {daemon.port}}}
+            """))
+        node = launch_node("hardware_node", ros_args({"rig_file": str(rig)}))
+        client = ros_client
+        publisher = client.node.create_publisher(JointState, SETPOINT_TOPIC, setpoint_qos())
+        states = client.subscribe(JointState, ACTUATOR_STATE_TOPIC)
+        diagnostics = client.subscribe(DiagnosticArray, DIAGNOSTICS_TOPIC)
+        names = list(default_robot().joint_names)
+
+        def stream_until(lengths_m, predicate, what, timeout_s=15.0):
+            msg = JointState(name=names, position=[float(v) for v in lengths_m])
+            end = time.monotonic() + timeout_s
+            while not predicate():
+                assert time.monotonic() < end, f"timed out waiting for {what}; node output:\n{node.output()}"
+                publisher.publish(msg)
+                client.executor.spin_once(timeout_sec=0.01)
+
+        def commanding(millivolts):
+            return lambda: (last := daemon.last_write_mv()) is not None and np.allclose(last, millivolts)
+
+        client.spin_until(lambda: client.lifecycle_state("/hardware_node") == "unconfigured", what="node up")
+        for transition in ("configure", "activate"):
+            assert client.change_state("/hardware_node", transition), node.output()
+        stream_until(np.full(9, 0.02), commanding(np.full(9, 2222.0)), "2 bar = 2.222 V on the bus")
+        client.spin_until(lambda: states and len(states[-1].effort) == 9 and states[-1].effort[0] == pytest.approx(
+            4.5, abs=0.01), what="monitor read-back as effort")
+
+        daemon.drop.set()  # the bus dies
+        stream_until(np.full(9, 0.02), lambda: client.lifecycle_state("/hardware_node") == "unconfigured",
+                     "the CAN send failure to take the node through ErrorProcessing")
+        client.spin_until(lambda: diagnostics and diagnostics[-1].status[0].level == DiagnosticStatus.ERROR,
+                          what="the fault on /diagnostics")
+        assert "CAN send" in diagnostics[-1].status[0].message and "HardwareError" in diagnostics[-1].status[0].message
+
+        sent_before = len(daemon.frames)
+        for transition in ("configure", "activate"):  # the bus is back: recover without restarting the process
+            assert client.change_state("/hardware_node", transition), node.output()
+        assert daemon.connections == 2
+        stream_until(np.full(9, 0.03), commanding(np.full(9, 3333.0)), "3 bar = 3.333 V after recovery")
+        assert daemon.frames[sent_before][1] == bytes(8)  # a re-opened bus starts vented
+        assert client.change_state("/hardware_node", "deactivate")
+        client.spin_until(commanding(np.zeros(9)), what="vent frames on deactivate")
+        assert node.alive()
+    finally:
+        daemon.close()

@@ -1,0 +1,210 @@
+"""Camera tracking core: homography fit, pose from markers, accuracy on synthetic frames, velocities."""
+
+import math
+
+import numpy as np
+import pytest
+
+from srs_ros.core.camera_calibration import (
+    apply_homography,
+    calibration_from_pairs,
+    fit_homography,
+    load_calibration,
+    read_point_pairs,
+    save_calibration,
+)
+from srs_ros.core.errors import ConfigurationError, InvalidInputError
+from srs_ros.core.tracking import (
+    Tracker,
+    TrackerConfig,
+    VelocityFilter,
+    pose_from_markers,
+    quad_centre,
+    traveling_velocity,
+    window_slope,
+    wrap_angle,
+    yaw_to_quaternion,
+)
+from srs_ros.tools.synthetic_scene import RobotAppearance, SyntheticScene, constant_velocity_poses
+
+POSITION_TOL_M = 0.002
+YAW_TOL_RAD = math.radians(1.0)
+
+
+@pytest.fixture(scope="module")
+def scene():
+    return SyntheticScene()
+
+
+@pytest.fixture(scope="module")
+def calibration(scene):
+    return scene.camera.calibration()
+
+
+def yaw_error(a, b):
+    return abs(float(wrap_angle(a - b)))
+
+
+# -- homography ---------------------------------------------------------------------------------
+def test_fit_homography_recovers_the_camera(scene, calibration):
+    truth = np.linalg.inv(scene.camera.homography_floor_to_image)
+    truth /= truth[2, 2]
+    np.testing.assert_allclose(calibration.homography_image_to_floor, truth, rtol=1e-8, atol=1e-12)
+    assert calibration.rms_error_mm < 1e-6
+    floor = np.array([[[0.1, -0.2], [0.3, 0.25]], [[-0.4, 0.1], [0.0, 0.0]]])  # batched (2, 2, 2)
+    np.testing.assert_allclose(calibration.image_to_floor(calibration.floor_to_image(floor)), floor, atol=1e-12)
+
+
+def test_fit_homography_with_noisy_pixels_reports_mm_error(scene):
+    rng = np.random.default_rng(3)
+    floor = rng.uniform([-0.4, -0.3], [0.4, 0.3], (12, 2))
+    pixels = apply_homography(scene.camera.homography_floor_to_image, floor) + rng.normal(0, 0.3, (12, 2))
+    calib = calibration_from_pairs(pixels, floor)
+    assert 0.05 < calib.rms_error_mm < 1.5
+    assert calib.max_error_mm >= calib.rms_error_mm
+
+
+def test_fit_homography_rejects_too_few_or_collinear_points():
+    with pytest.raises(InvalidInputError, match="at least 4"):
+        fit_homography([[0, 0], [1, 0], [0, 1]], [[0, 0], [1, 0], [0, 1]])
+    line = [[0, 0], [1, 1], [2, 2], [3, 3]]
+    with pytest.raises(InvalidInputError, match="degenerate"):
+        fit_homography(line, line)
+
+
+def test_calibration_yaml_round_trip_and_default_file(tmp_path, calibration):
+    path = save_calibration(calibration, tmp_path / "cal.yaml", "test")
+    loaded = load_calibration(path)
+    np.testing.assert_allclose(loaded.homography_image_to_floor, calibration.homography_image_to_floor, rtol=1e-12)
+    assert loaded.image_size_px == (640, 480)
+    image_px, floor_m = read_point_pairs(path)
+    assert image_px.shape == floor_m.shape == calibration.image_px.shape
+    default = load_calibration()
+    assert default.frame_id == "floor" and default.rms_error_mm < 0.01
+
+
+def test_calibration_file_errors_say_what_is_missing(tmp_path):
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("camera_calibration:\n  point_pairs: []\n")
+    with pytest.raises(ConfigurationError, match="srs_calibrate_camera"):
+        load_calibration(bad)
+    with pytest.raises(ConfigurationError, match="no such file"):
+        load_calibration(tmp_path / "absent.yaml")
+
+
+# -- geometry -----------------------------------------------------------------------------------
+def test_pose_from_markers_is_batched():
+    tail = np.array([[0.0, 0.0], [1.0, 1.0]])
+    head = np.array([[0.0, 0.4], [0.6, 1.0]])
+    pose = pose_from_markers(tail, head)
+    np.testing.assert_allclose(pose, [[0.0, 0.2, math.pi / 2], [0.8, 1.0, math.pi]])
+    np.testing.assert_allclose(pose_from_markers(tail[0], head[0], position_ratio=0.0), [0, 0, math.pi / 2])
+    np.testing.assert_allclose(yaw_to_quaternion(math.pi / 2), [0, 0, math.sqrt(0.5), math.sqrt(0.5)])
+
+
+def test_quad_centre_is_the_projective_centre(scene):
+    square = np.array([[-0.02, 0.02], [0.02, 0.02], [0.02, -0.02], [-0.02, -0.02]]) + [0.3, 0.2]
+    image = apply_homography(scene.camera.homography_floor_to_image, square)
+    centre = apply_homography(scene.camera.homography_floor_to_image, [0.3, 0.2])
+    np.testing.assert_allclose(quad_centre(image), centre, atol=1e-9)
+
+
+# -- synthetic frames ---------------------------------------------------------------------------
+def test_aruco_pose_within_2mm_and_1deg_on_noisy_blurred_frames(scene, calibration):
+    rng = np.random.default_rng(11)
+    tracker = Tracker(calibration, TrackerConfig(roi_margin_px=0))
+    poses = np.column_stack([rng.uniform(-0.35, 0.35, 12), rng.uniform(-0.2, 0.2, 12), rng.uniform(-3.1, 3.1, 12)])
+    for i, pose in enumerate(poses):
+        result = tracker.process(scene.render(pose, rng), 0.1 * i)
+        assert result.tracked, f"pose {pose} not tracked: {result.message}"
+        assert np.linalg.norm(result.pose[:2] - pose[:2]) < POSITION_TOL_M
+        assert yaw_error(result.pose[2], pose[2]) < YAW_TOL_RAD
+
+
+def test_partial_occlusion_away_from_markers_keeps_the_pose(scene, calibration):
+    tracker = Tracker(calibration)
+    pose = np.array([0.1, -0.05, 0.4])
+    # A hand over the middle of the body, between the two markers.
+    hand = np.array([[0.07, -0.12], [0.13, -0.12], [0.13, 0.05], [0.07, 0.05]])
+    result = tracker.process(scene.render(pose, occluders_m=[hand]), 0.0)
+    assert result.tracked
+    assert np.linalg.norm(result.pose[:2] - pose[:2]) < POSITION_TOL_M
+    assert yaw_error(result.pose[2], pose[2]) < YAW_TOL_RAD
+
+
+def test_no_pose_when_a_marker_is_hidden_and_recovery_after(scene, calibration):
+    tracker = Tracker(calibration)
+    pose = np.array([-0.1, 0.05, -0.8])
+    head = scene.robot.marker_centres_m(pose)["head"]
+    cover = head + 0.03 * np.array([[-1, 0], [0.2, -1], [1, 0], [0.2, 1]])  # covers most of the head marker
+    hidden = tracker.process(scene.render(pose, occluders_m=[cover]), 0.0)
+    assert not hidden.tracked and hidden.pose is None and hidden.velocity is None
+    assert "head" in hidden.message and "tail" in hidden.markers_px
+    empty = tracker.process(scene.render(None), 0.1)
+    assert not empty.tracked and empty.markers_px == {}
+    back = tracker.process(scene.render(pose), 0.2)
+    assert back.tracked and np.linalg.norm(back.pose[:2] - pose[:2]) < POSITION_TOL_M
+
+
+def test_color_blob_markers_within_2mm_and_1deg(calibration):
+    scene = SyntheticScene(robot=RobotAppearance(marker_style="color", marker_size_m=0.035))
+    tracker = Tracker(calibration, TrackerConfig(detector="color"))
+    rng = np.random.default_rng(5)
+    for i, pose in enumerate([(0.0, 0.0, 0.3), (-0.3, 0.15, 2.5), (0.3, -0.2, -1.7)]):
+        result = tracker.process(scene.render(pose, rng), float(i))
+        assert result.tracked, result.message
+        assert np.linalg.norm(result.pose[:2] - np.array(pose[:2])) < POSITION_TOL_M
+        assert yaw_error(result.pose[2], pose[2]) < YAW_TOL_RAD
+
+
+def test_constant_speed_run_velocity_within_2_percent(scene, calibration):
+    velocity = np.array([0.05, -0.03])  # m/s
+    times, poses = constant_velocity_poses(3.0, 10.0, (-0.2, 0.1, 0.5), velocity, yaw_rate_rad_s=0.1)
+    tracker = Tracker(calibration, TrackerConfig(velocity_window_s=1.0))
+    rng = np.random.default_rng(2)
+    results = [tracker.process(scene.render(p, rng), t) for t, p in zip(times, poses)]
+    assert all(r.tracked for r in results)
+    track = np.array([r.pose for r in results])
+    tv = traveling_velocity(times, track[:, 0], track[:, 1])
+    np.testing.assert_allclose([tv.vx_cm_s, tv.vy_cm_s], 100 * velocity, rtol=0.02)
+    smoothed = results[-1].velocity
+    np.testing.assert_allclose(smoothed[:2], velocity, rtol=0.02)
+    assert smoothed[2] == pytest.approx(0.1, abs=0.02)
+
+
+# -- velocity helpers ---------------------------------------------------------------------------
+def test_window_slope_is_exact_for_a_line_and_needs_two_times():
+    t = np.array([0.0, 0.1, 0.3, 0.4])
+    np.testing.assert_allclose(window_slope(t, np.column_stack([2 * t + 1, -t])), [2.0, -1.0])
+    with pytest.raises(InvalidInputError):
+        window_slope([1.0, 1.0], [[0.0], [1.0]])
+
+
+def test_velocity_filter_unwraps_yaw_and_restarts_after_a_gap():
+    vf = VelocityFilter(window_s=1.0, max_gap_s=0.3)
+    out = None
+    for k in range(6):
+        out = vf.update(0.1 * k, (0.01 * k, 0.0, wrap_angle(3.0 + 0.05 * k)))
+    np.testing.assert_allclose(out, [0.1, 0.0, 0.5], atol=1e-9)
+    assert vf.update(2.0, (0.0, 0.0, 0.0)) is None  # gap: no velocity across it
+
+
+def test_traveling_velocity_skips_lost_frames_and_averages_ends():
+    t = np.linspace(0, 15, 151)
+    x, y = 0.04 * t, -0.02 * t
+    x[50:60] = np.nan  # markers lost for a second
+    tv = traveling_velocity(t, x, y, end_window_s=1.0)
+    assert tv.vx_cm_s == pytest.approx(4.0) and tv.vy_cm_s == pytest.approx(-2.0)
+    assert tv.samples == 141 and tv.duration_s == pytest.approx(14.0)
+    assert tv.table_text() == "4.00 / 2.00 cm/s"  # Table I prints magnitudes
+    with pytest.raises(InvalidInputError, match="markers ever seen"):
+        traveling_velocity([0.0, 1.0], [np.nan, np.nan], [0.0, 0.0])
+
+
+def test_tracker_config_rejects_bad_choices():
+    with pytest.raises(ConfigurationError, match="'aruco' or 'color'"):
+        TrackerConfig(detector="laser")
+    with pytest.raises(ConfigurationError, match="must differ"):
+        TrackerConfig(tail_marker_id=3, head_marker_id=3)
+    with pytest.raises(ConfigurationError, match="unknown ArUco dictionary"):
+        Tracker(load_calibration(), TrackerConfig(aruco_dictionary="DICT_NOPE"))

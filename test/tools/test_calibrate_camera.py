@@ -1,0 +1,57 @@
+"""srs_calibrate_camera: homography from point pairs or from ArUco markers on the floor, with its error in mm."""
+
+import cv2
+import numpy as np
+import yaml
+
+from srs_ros.core.camera_calibration import apply_homography, load_calibration
+from srs_ros.tools import calibrate_camera
+from srs_ros.tools.synthetic_scene import SyntheticScene
+
+LAYOUT = [(10, -0.4, -0.25, 0.0), (11, 0.4, -0.25, 0.3), (12, 0.4, 0.25, -0.5), (13, -0.4, 0.25, 1.2),
+          (14, 0.0, 0.0, 2.0)]
+
+
+def check_against_truth(path, scene, tol_mm):
+    calib = load_calibration(path)
+    floor = np.array([[x, y] for x in np.linspace(-0.45, 0.45, 5) for y in np.linspace(-0.3, 0.3, 4)])
+    pixels = apply_homography(scene.camera.homography_floor_to_image, floor)
+    assert np.max(np.linalg.norm(calib.image_to_floor(pixels) - floor, axis=1)) * 1000 < tol_mm
+
+
+def test_calibration_from_floor_markers_image(tmp_path, capsys):
+    scene = SyntheticScene()
+    size_m = 0.08
+    cv2.imwrite(str(tmp_path / "floor.png"), scene.render_floor_markers(LAYOUT, size_m))
+    layout = {"aruco_dictionary": "DICT_4X4_50", "marker_size_m": size_m,
+              "markers": [{"id": i, "x_m": x, "y_m": y, "yaw_rad": yaw} for i, x, y, yaw in LAYOUT]}
+    (tmp_path / "layout.yaml").write_text(yaml.safe_dump(layout))
+    out = tmp_path / "cal.yaml"
+    code = calibrate_camera.main(["--image", str(tmp_path / "floor.png"), "--markers", str(tmp_path / "layout.yaml"),
+                                  "--out", str(out), "--max-rms-mm", "2"])
+    printed = capsys.readouterr().out
+    assert code == 0, printed
+    assert "over 20 points" in printed and "rms" in printed
+    assert load_calibration(out).image_size_px == (640, 480)
+    check_against_truth(out, scene, tol_mm=2.0)
+
+
+def test_calibration_from_csv_pairs_and_threshold(tmp_path, capsys):
+    scene = SyntheticScene()
+    floor = np.array([[-0.4, -0.3], [0.4, -0.3], [0.4, 0.3], [-0.4, 0.3], [0.0, 0.1], [0.2, -0.1]])
+    pixels = apply_homography(scene.camera.homography_floor_to_image, floor)
+    pixels[4] += (3.0, 0.0)  # one badly clicked point
+    rows = "\n".join(f"{u},{v},{x},{y}" for (u, v), (x, y) in zip(pixels, floor))
+    (tmp_path / "pairs.csv").write_text("u_px,v_px,x_m,y_m\n" + rows + "\n")
+    out = tmp_path / "cal.yaml"
+    code = calibrate_camera.main(["--pairs", str(tmp_path / "pairs.csv"), "--out", str(out), "--max-rms-mm", "0.5"])
+    captured = capsys.readouterr()
+    assert code == 1 and "above --max-rms-mm" in captured.err
+    assert out.exists() and load_calibration(out).rms_error_mm > 0.5
+
+
+def test_too_few_pairs_is_refused(tmp_path, capsys):
+    (tmp_path / "pairs.csv").write_text("u_px,v_px,x_m,y_m\n1,2,0,0\n3,4,1,0\n5,9,0,1\n")
+    code = calibrate_camera.main(["--pairs", str(tmp_path / "pairs.csv"), "--out", str(tmp_path / "c.yaml")])
+    assert code == 2 and "at least 4" in capsys.readouterr().err
+    assert not (tmp_path / "c.yaml").exists()
