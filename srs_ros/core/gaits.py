@@ -1,0 +1,321 @@
+"""Gait library: each gait is a task-space shape over one cycle, registered by name (paper Sec. III).
+
+A gait is one shape function here, registered with ``@gait("name")``, plus one block of typed
+parameters with defaults and ranges in ``config/gaits.yaml``. A shape function maps phases ``(N,)``
+in ``[0, 1)`` and arc lengths ``s_m`` ``(M,)`` to the target curve in the robot frame ``(N, M, 3)``:
+the curve starts at the robot origin, leaves it along +Z (the unbent body's axis, CONVENTIONS.md),
+and is parameterised by arc length (metres).
+
+Body frame of a curve that lives in the world (serpentine, sidewinding): at the robot origin on the
+curve, +Z is the curve tangent (the body leaves its base along +Z), +Y is the ground normal (world up)
+made orthogonal to the tangent, and +X = Y x Z is the in-plane normal to the left of travel. This is
+the paper's (tangent, normal, cross product) frame with its axes renamed so that the tangent is the
+body's +Z, as the kinematics require.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+from functools import lru_cache
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from srs_ros.core.errors import ConfigurationError, InvalidInputError
+from srs_ros.core.robot import RobotDescription, config_dir, read_yaml
+
+ShapeFunction = Callable[[np.ndarray, np.ndarray, dict, RobotDescription], tuple[np.ndarray, dict]]
+
+_TYPES: dict[str, type] = {"float": float, "int": int, "bool": bool}
+
+
+@dataclass(frozen=True)
+class GaitParameter:
+    """One typed gait parameter with its default and allowed range (a ROS node declares it as is)."""
+
+    name: str
+    type: type
+    default: Any
+    minimum: float | None
+    maximum: float | None
+    unit: str
+    description: str
+
+    def check(self, gait_name: str, value: Any) -> Any:
+        """Return ``value`` converted to :attr:`type`, or raise :class:`InvalidInputError` saying why not."""
+        error = InvalidInputError(
+            f"gait '{gait_name}': parameter '{self.name}' is {value!r}; expected {self.allowed_text()}.")
+        if self.type is bool:
+            if not isinstance(value, (bool, np.bool_)):
+                raise error
+            return bool(value)
+        if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.integer, np.floating)):
+            raise error
+        if not math.isfinite(float(value)) or (self.type is int and float(value) != int(value)):
+            raise error
+        number = self.type(value)
+        if (self.minimum is not None and number < self.minimum) or (self.maximum is not None and number > self.maximum):
+            raise error
+        return number
+
+    def allowed_text(self) -> str:
+        """Human text of the allowed values, e.g. ``a float in [0.08, 2.0] m``."""
+        if self.type is bool:
+            return "true or false"
+        low = "-inf" if self.minimum is None else f"{self.minimum:g}"
+        high = "inf" if self.maximum is None else f"{self.maximum:g}"
+        return f"{'an' if self.type is int else 'a'} {self.type.__name__} in [{low}, {high}] {self.unit}".rstrip()
+
+
+@dataclass(frozen=True)
+class GaitSpec:
+    """A registered gait: its name, a description and its typed parameters."""
+
+    name: str
+    description: str
+    parameters: tuple[GaitParameter, ...]
+
+    @property
+    def defaults(self) -> dict[str, Any]:
+        """Parameter name -> default value."""
+        return {p.name: p.default for p in self.parameters}
+
+    def resolve(self, params: Mapping[str, Any] | None = None) -> dict[str, Any]:
+        """Defaults overlaid with ``params``, every value checked; unknown names raise :class:`InvalidInputError`."""
+        params = dict(params or {})
+        by_name = {p.name: p for p in self.parameters}
+        unknown = sorted(set(params) - set(by_name))
+        if unknown:
+            listing = ", ".join(f"{p.name} ({p.allowed_text()})" for p in self.parameters)
+            raise InvalidInputError(f"gait '{self.name}': unknown parameter(s) {unknown}; allowed: {listing}.")
+        return {name: p.check(self.name, params.get(name, p.default)) for name, p in by_name.items()}
+
+
+_SHAPES: dict[str, ShapeFunction] = {}
+
+
+def gait(name: str) -> Callable[[ShapeFunction], ShapeFunction]:
+    """Register a shape function under ``name`` (its parameters come from ``config/gaits.yaml``)."""
+    def register(function: ShapeFunction) -> ShapeFunction:
+        _SHAPES[name] = function
+        return function
+    return register
+
+
+def gaits_config_path() -> Path:
+    """The package's ``config/gaits.yaml``."""
+    return config_dir() / "gaits.yaml"
+
+
+@lru_cache(maxsize=4)
+def _load_config(path: str) -> dict:
+    data = read_yaml(path)
+    if not isinstance(data, Mapping) or not isinstance(data.get("gaits"), Mapping):
+        raise ConfigurationError(f"{path}: expected a mapping with a 'gaits:' section (one block per gait).")
+    return dict(data)
+
+
+def gaits_config(path: str | Path | None = None) -> dict:
+    """The parsed gait configuration (``gaits:`` and ``fitting:`` sections), cached."""
+    return _load_config(str(Path(path) if path else gaits_config_path()))
+
+
+def _parameter_from_yaml(gait_name: str, name: str, block: Any, where: str) -> GaitParameter:
+    if not isinstance(block, Mapping) or "default" not in block or block.get("type") not in _TYPES:
+        raise ConfigurationError(
+            f"{where}: parameter '{name}' of gait '{gait_name}' needs 'type' (one of {sorted(_TYPES)}) and 'default'.")
+    kind = _TYPES[block["type"]]
+    parameter = GaitParameter(name=name, type=kind, default=block["default"], minimum=block.get("minimum"),
+                              maximum=block.get("maximum"), unit=str(block.get("unit", "")),
+                              description=str(block.get("description", "")))
+    try:
+        default = parameter.check(gait_name, block["default"])
+    except InvalidInputError as exc:
+        raise ConfigurationError(f"{where}: default out of range: {exc}") from None
+    return GaitParameter(**{**parameter.__dict__, "default": default})
+
+
+def list_gaits(path: str | Path | None = None) -> dict[str, GaitSpec]:
+    """Every registered gait that has a block in ``config/gaits.yaml``: name -> :class:`GaitSpec`.
+
+    Raises :class:`ConfigurationError` if a registered gait has no YAML block, or the reverse.
+    """
+    where = str(path or gaits_config_path())
+    blocks = gaits_config(path)["gaits"]
+    missing, orphan = sorted(set(_SHAPES) - set(blocks)), sorted(set(blocks) - set(_SHAPES))
+    if missing or orphan:
+        raise ConfigurationError(
+            f"{where}: gaits without a YAML block {missing}, YAML blocks without a shape function {orphan}; "
+            "each gait needs both (a @gait function in srs_ros/core/gaits.py and a block under 'gaits:').")
+    specs = {}
+    for name, block in blocks.items():
+        params = (block or {}).get("parameters") or {}
+        specs[name] = GaitSpec(
+            name=name, description=" ".join(str((block or {}).get("description", "")).split()),
+            parameters=tuple(_parameter_from_yaml(name, key, value, where) for key, value in params.items()))
+    return specs
+
+
+def gait_spec(name: str) -> GaitSpec:
+    """The :class:`GaitSpec` of ``name``; an unknown name raises :class:`InvalidInputError` listing the gaits."""
+    specs = list_gaits()
+    if name not in specs:
+        raise InvalidInputError(f"gait: unknown gait {name!r}; expected one of {sorted(specs)}.")
+    return specs[name]
+
+
+def curve_length_m(robot: RobotDescription) -> float:
+    """Arc length of every target curve: the longest the body can be (all actuators fully extended)."""
+    return robot.module_count * (robot.unactuated_length_m + robot.max_extension_m)
+
+
+def gait_curves(name: str, phase, robot: RobotDescription, params: Mapping[str, Any] | None = None,
+                points: int = 401) -> tuple[np.ndarray, np.ndarray, dict]:
+    """Target curves of gait ``name`` at ``phase`` (N,): ``(curves (N, M, 3) m, s_m (M,), parameters used)``.
+
+    ``parameters used`` holds the resolved parameters plus what a shape derived (e.g. the serpentine
+    scale in metres per curve unit).
+    """
+    spec = gait_spec(name)
+    resolved = spec.resolve(params)
+    phase = np.atleast_1d(np.asarray(phase, dtype=np.float64))
+    s_m = np.linspace(0.0, curve_length_m(robot), points)
+    curves, derived = _SHAPES[name](phase, s_m, resolved, robot)
+    return curves, s_m, {**resolved, **derived}
+
+
+# --------------------------------------------------------------------------------------------
+# Shapes
+# --------------------------------------------------------------------------------------------
+def _cumulative_trapezoid(values: np.ndarray, s_m: np.ndarray) -> np.ndarray:
+    """Integral from s_m[0] of ``values`` (..., M, 3) along axis -2, same shape, 0 at the start."""
+    steps = 0.5 * (values[..., 1:, :] + values[..., :-1, :]) * np.diff(s_m)[:, None]
+    return np.concatenate([np.zeros_like(values[..., :1, :]), np.cumsum(steps, axis=-2)], axis=-2)
+
+
+def _in_body_frame(curve: np.ndarray, tangent0: np.ndarray) -> np.ndarray:
+    """Express world curves (N, M, 3) that start at the robot origin in the body frame there.
+
+    +Z = the tangent at the origin, +Y = world up made orthogonal to it, +X = Y x Z (module docstring).
+    """
+    z_axis = tangent0 / np.linalg.norm(tangent0, axis=-1, keepdims=True)
+    up = np.array([0.0, 0.0, 1.0])
+    y_axis = up - (z_axis @ up)[..., None] * z_axis
+    y_axis /= np.linalg.norm(y_axis, axis=-1, keepdims=True)
+    x_axis = np.cross(y_axis, z_axis)
+    frame = np.stack([x_axis, y_axis, z_axis], axis=-2)                    # rows: body axes in world
+    return np.einsum("nij,nmj->nmi", frame, curve)
+
+
+def _sliding_wave(phase, s_m, yaw_rad, pitch_rad, wavelength_m):
+    """A curve given by its tangent angles, with the robot origin slid ``phase`` wavelengths along it.
+
+    ``yaw_rad(sigma)`` and ``pitch_rad(sigma)`` are the tangent's heading and elevation at arc length
+    ``sigma`` (m); the tangent is ``(cos p cos y, cos p sin y, sin p)``. Positions are the integral of
+    the tangent from the origin (trapezoid rule on the M arc-length samples).
+    """
+    sigma = phase[:, None] * wavelength_m + s_m[None, :]                    # (N, M)
+    yaw, pitch = yaw_rad(sigma), pitch_rad(sigma)
+    tangent = np.stack([np.cos(pitch) * np.cos(yaw), np.cos(pitch) * np.sin(yaw), np.sin(pitch)], axis=-1)
+    curve = _cumulative_trapezoid(tangent, s_m)
+    return _in_body_frame(curve, tangent[:, 0, :])
+
+
+def _serpenoid_units(robot: RobotDescription, b_rad_per_unit: float, body_wavelengths: float) -> tuple[float, float]:
+    """(scale m per curve unit, wavelength m): the unbent body spans ``body_wavelengths`` wavelengths."""
+    wavelength_units = 2.0 * math.pi / b_rad_per_unit
+    body_m = robot.module_count * robot.unactuated_length_m
+    scale = body_m / (body_wavelengths * wavelength_units)
+    return scale, scale * wavelength_units
+
+
+@gait("serpentine")
+def serpentine(phase, s_m, params, robot):
+    """Serpenoid of paper eq. 4, ``heading(sigma) = a cos(b sigma) + c sigma`` in curve units, z = 0.
+
+    Scale: the curve unit is ``scale_m_per_unit = module_count * L0 / (body_wavelengths * 2 pi / b)``
+    metres; with the defaults (b = pi/4: 8 units per wavelength, one wavelength per 0.45 m body) it
+    is 0.05625 m, so the body shows one full S, whose largest curvature (|a| b / scale = 11 1/m) is
+    within the bending a module reaches at 4 bar. The origin slides one wavelength per cycle.
+    """
+    scale, wavelength_m = _serpenoid_units(robot, params["b_rad_per_unit"], params["body_wavelengths"])
+    a, b, c = params["a_rad"], params["b_rad_per_unit"], params["c_rad_per_unit"]
+    curves = _sliding_wave(phase, s_m, lambda sg: a * np.cos(b * sg / scale) + c * sg / scale,
+                           np.zeros_like, wavelength_m)
+    return curves, {"scale_m_per_unit": scale, "wavelength_m": wavelength_m}
+
+
+@gait("sidewinding")
+def sidewinding(phase, s_m, params, robot):
+    """Two orthogonal tangent-angle waves a quarter period apart (a 3-D serpenoid, helix-like body).
+
+    ``heading = lateral cos(k sigma)``, ``elevation = vertical sin(k sigma)``, ``k = 2 pi / wavelength``;
+    the wavelength is the unbent body length / ``body_wavelengths``; the origin slides one wavelength
+    per cycle.
+    """
+    wavelength_m = robot.module_count * robot.unactuated_length_m / params["body_wavelengths"]
+    k = 2.0 * math.pi / wavelength_m
+    lateral, vertical = params["lateral_rad"], params["vertical_rad"]
+    curves = _sliding_wave(phase, s_m, lambda sg: lateral * np.cos(k * sg),
+                           lambda sg: vertical * np.sin(k * sg), wavelength_m)
+    return curves, {"wavelength_m": wavelength_m}
+
+
+def helix_curves(phase, s_m, radius_m: float, pitch_m: float, turns_per_cycle: float = 1.0) -> np.ndarray:
+    """A helix leaving the origin along +Z, its bending plane turned ``2 pi turns_per_cycle phase`` about +Z.
+
+    Curvature ``radius / (radius^2 + c^2)``, torsion ``c / (radius^2 + c^2)``, ``c = pitch / 2 pi``; at the
+    origin the principal normal points along ``(cos psi, sin psi, 0)``. A pitch of 0 is the circular
+    arc of radius ``radius_m`` of the rolling gaits (paper Sec. III).
+    """
+    c = pitch_m / (2.0 * math.pi)
+    w = math.hypot(radius_m, c)
+    t = s_m / w
+    # In the (normal, binormal, tangent) frame at the origin of the standard helix.
+    normal = radius_m * (1.0 - np.cos(t))
+    binormal = c * radius_m * (t - np.sin(t)) / w
+    along = (radius_m * radius_m * np.sin(t) + c * c * t) / w
+    psi = 2.0 * math.pi * turns_per_cycle * np.asarray(phase)[:, None]
+    cos_psi, sin_psi = np.cos(psi), np.sin(psi)
+    return np.stack([normal * cos_psi - binormal * sin_psi, normal * sin_psi + binormal * cos_psi,
+                     np.broadcast_to(along, psi.shape[:1] + along.shape)], axis=-1)
+
+
+@gait("inward_rolling")
+def inward_rolling(phase, s_m, params, robot):
+    """Circular arc of radius ``r_R`` turning one revolution about +Z per cycle, positive sense (Sec. III)."""
+    return helix_curves(phase, s_m, params["radius_m"], 0.0, 1.0), {}
+
+
+@gait("outward_rolling")
+def outward_rolling(phase, s_m, params, robot):
+    """The inward-rolling cycle reversed in time: its shape at phase p is the inward shape at -p."""
+    return helix_curves(phase, s_m, params["radius_m"], 0.0, -1.0), {}
+
+
+@gait("helical_rolling")
+def helical_rolling(phase, s_m, params, robot):
+    """A helix turning one revolution about the body's +Z per cycle (beyond the paper)."""
+    return helix_curves(phase, s_m, params["helix_radius_m"], params["helix_pitch_m"], 1.0), {}
+
+
+def rolling_arc_lengths(phase, radius_m: float, robot: RobotDescription, turns_per_cycle: float = 1.0) -> np.ndarray:
+    """Exact joint-space solution (N, 9) of the rolling arc of radius ``radius_m`` at ``phase`` (N,).
+
+    Every module is one piece of the arc (constant curvature ``1 / radius_m``) bent in the arc's
+    plane; module ``i`` (0-based) sees that plane at ``psi - i * sigma`` (the inter-module twist), with
+    ``psi = 2 pi turns_per_cycle phase``. With the least-extension lengths of CONVENTIONS.md,
+    ``l_j = r phi (m - cos(theta_j - plane))``, ``m = max_j cos(theta_j - plane)``, and the bend
+    ``phi = L / radius`` of the arc length ``L = L0 + r phi m``: ``phi = L0 / (radius - r m)``.
+    """
+    phase = np.atleast_1d(np.asarray(phase, dtype=np.float64))
+    psi = 2.0 * math.pi * turns_per_cycle * phase
+    planes = psi[:, None] - np.arange(robot.module_count) * robot.module_twist_rad          # (N, M)
+    reach = np.cos(robot.actuator_angles_rad - planes[..., None]).max(axis=-1)              # m, (N, M)
+    bend = robot.unactuated_length_m / (radius_m - robot.actuator_radius_m * reach)
+    varying = robot.actuator_radius_m * bend[..., None] * (
+        reach[..., None] - np.cos(robot.actuator_angles_rad - planes[..., None]))
+    return varying.reshape(len(phase), robot.joint_count)

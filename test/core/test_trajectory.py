@@ -1,0 +1,142 @@
+"""Gait cycles: validation, amplitude and frequency, periodic playback, poor-fit reporting, CSV round trip."""
+
+import warnings
+
+import numpy as np
+import pytest
+
+from srs_ros.core.errors import InvalidInputError
+from srs_ros.core.robot import default_robot
+from srs_ros.core.trajectory import GaitCycle, PoorFitWarning, generate_cycle, list_gaits
+
+ROBOT = default_robot()
+
+
+@pytest.fixture(scope="module")
+def inward():
+    return generate_cycle("inward_rolling", 4.0, 1.0, samples=32)
+
+
+@pytest.fixture(scope="module")
+def serpentine():
+    return generate_cycle("serpentine", 3.0, 0.5, samples=32)
+
+
+def test_cycle_fields(inward):
+    assert inward.gait == "inward_rolling" and inward.sample_count == 32
+    assert inward.lengths_m.shape == (32, 9) and inward.fit_error_mm.shape == (32,)
+    assert inward.joint_names == ROBOT.joint_names
+    assert inward.ok and inward.poor_samples == ()
+    assert inward.period_s == 1.0
+    np.testing.assert_allclose(inward.phase, np.arange(32) / 32)
+    np.testing.assert_allclose(inward.time_s, np.arange(32) / 32)
+    assert inward.parameters["radius_m"] == 0.2 and inward.parameters["amplitude_scale"] > 1.0
+    assert inward.lengths_m.min() >= 0.0 and inward.lengths_m.max() <= ROBOT.max_extension_m
+    assert "inward_rolling" in inward.summary() and "no poor samples" in inward.summary()
+
+
+@pytest.mark.parametrize("amplitude", [1.0, 2.5, 4.0])
+def test_largest_pressure_is_the_amplitude(amplitude):
+    cycle = generate_cycle("outward_rolling", amplitude, 0.25, samples=16)
+    assert cycle.pressures_bar.max() == pytest.approx(amplitude)
+    assert cycle.period_s == pytest.approx(4.0)
+
+
+def test_more_amplitude_bends_more():
+    low = generate_cycle("inward_rolling", 2.0, 1.0, samples=16)
+    high = generate_cycle("inward_rolling", 4.0, 1.0, samples=16)
+    np.testing.assert_allclose(high.lengths_m, 2.0 * low.lengths_m, rtol=1e-9, atol=1e-12)
+    # The bending angle of the first module doubles with the amplitude.
+    from srs_ros.core.kinematics import lengths_to_bend
+    bend_low = lengths_to_bend(low.lengths_m[:, :3])[0]
+    bend_high = lengths_to_bend(high.lengths_m[:, :3])[0]
+    np.testing.assert_allclose(bend_high, 2.0 * bend_low)
+
+
+def test_outward_is_inward_reversed_in_time(inward):
+    outward = generate_cycle("outward_rolling", 4.0, 1.0, samples=32)
+    reversed_index = (-np.arange(32)) % 32
+    np.testing.assert_allclose(outward.lengths_m, inward.lengths_m[reversed_index], atol=2e-5)
+
+
+@pytest.mark.parametrize("name", ["inward", "serpentine"])
+def test_cycle_closes_smoothly(name, request):
+    cycle = request.getfixturevalue(name)
+    steps = np.abs(np.diff(np.vstack([cycle.lengths_m, cycle.lengths_m[:1]]), axis=0)).max(axis=1)
+    # The wrap-around step (last -> first) is no larger than a typical step, and no step jumps.
+    assert steps[-1] <= 1.5 * np.median(steps)
+    assert steps.max() <= 2.5 * np.median(steps)
+    np.testing.assert_allclose(cycle.lengths_at(1.0), cycle.lengths_m[0], atol=1e-12)
+    np.testing.assert_allclose(cycle.lengths_at(0.5), cycle.lengths_m[16], atol=1e-12)
+
+
+def test_velocities_are_the_phase_derivative_times_frequency(serpentine):
+    h = 1e-6
+    numeric = (serpentine.lengths_at(0.3 + h) - serpentine.lengths_at(0.3 - h)) / (2 * h)
+    np.testing.assert_allclose(serpentine.velocities_at(0.3), numeric * serpentine.frequency_hz, rtol=1e-5,
+                               atol=1e-9)
+
+
+def test_serpentine_parameters_report_the_scale(serpentine):
+    assert serpentine.parameters["scale_m_per_unit"] == pytest.approx(0.075)
+    assert serpentine.fit_error_mm.max() < serpentine.parameters["poor_fit_mm"]
+
+
+@pytest.mark.parametrize("kwargs,match", [
+    ({"gait": "slither"}, "expected one of"),
+    ({"amplitude_bar": 0.0}, r"amplitude_bar.*\(0, 4\] bar"),
+    ({"amplitude_bar": 4.5}, r"amplitude_bar.*\(0, 4\] bar"),
+    ({"amplitude_bar": float("nan")}, "amplitude_bar"),
+    ({"frequency_hz": 0.0}, "frequency_hz.*> 0 Hz"),
+    ({"frequency_hz": -1.0}, "frequency_hz"),
+    ({"samples": 7}, "samples.*>= 8"),
+    ({"samples": 16.0}, "samples"),
+    ({"params": {"radius": 0.2}}, "unknown parameter"),
+    ({"params": {"radius_m": 5.0}}, r"radius_m.*\[0.08, 2\]"),
+])
+def test_bad_requests_are_refused_with_what_is_allowed(kwargs, match):
+    request = {"gait": "inward_rolling", "amplitude_bar": 2.0, "frequency_hz": 1.0, "samples": 16, **kwargs}
+    with pytest.raises(InvalidInputError, match=match):
+        generate_cycle(**request)
+
+
+def test_poor_samples_warn_and_are_listed():
+    with pytest.warns(PoorFitWarning, match="poor"):
+        cycle = generate_cycle("serpentine", 2.0, 1.0, samples=8,
+                               params={"body_wavelengths": 2.0, "poor_fit_mm": 1.0})
+    assert not cycle.ok and cycle.poor_samples == tuple(range(8))
+    assert "8 poor sample(s)" in cycle.summary()
+
+
+def test_good_cycles_do_not_warn():
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        generate_cycle("helical_rolling", 3.0, 1.0, samples=16)
+
+
+def test_csv_round_trip(tmp_path, serpentine):
+    path = serpentine.to_csv(tmp_path / "serp.csv")
+    header = path.read_text().splitlines()[0].split(",")
+    assert header[:11] == ["phase", "time_s", *ROBOT.joint_names]
+    assert header[11] == "fit_error_mm" and header[12] == "m1_pma1_bar" and header[-1] == "poor"
+    back = GaitCycle.from_csv(path)
+    assert back.gait == "serpentine" and back.frequency_hz == 0.5 and back.amplitude_bar == 3.0
+    np.testing.assert_array_equal(back.lengths_m, serpentine.lengths_m)
+    np.testing.assert_array_equal(back.fit_error_mm, serpentine.fit_error_mm)
+    assert back.parameters["scale_m_per_unit"] == pytest.approx(serpentine.parameters["scale_m_per_unit"])
+    # Without the sidecar, frequency and amplitude come from the columns.
+    (tmp_path / "serp.csv.yaml").unlink()
+    bare = GaitCycle.from_csv(path)
+    assert bare.frequency_hz == pytest.approx(0.5) and bare.amplitude_bar == pytest.approx(3.0)
+    np.testing.assert_array_equal(bare.lengths_m, serpentine.lengths_m)
+
+
+def test_csv_with_missing_columns_is_refused(tmp_path):
+    path = tmp_path / "bad.csv"
+    path.write_text("phase,time_s\n0,0\n")
+    with pytest.raises(InvalidInputError, match="missing column"):
+        GaitCycle.from_csv(path)
+
+
+def test_list_gaits_is_reexported():
+    assert "serpentine" in list_gaits()

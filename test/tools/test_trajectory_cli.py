@@ -1,0 +1,76 @@
+"""The srs_trajectory tool: CSV and PNG outputs, the gait list, and exit code 2 with a message on bad arguments."""
+
+import csv
+import struct
+
+import pytest
+
+from srs_ros.plotting import DPI, FIGURE_SIZE_IN
+from srs_ros.tools.trajectory_cli import main
+
+
+def _png_size(path):
+    data = path.read_bytes()
+    assert data[:8] == b"\x89PNG\r\n\x1a\n"
+    return struct.unpack(">II", data[16:24])
+
+
+def test_writes_csv_and_both_figures(tmp_path, capsys):
+    out, plot = tmp_path / "traj.csv", tmp_path / "traj.png"
+    code = main(["--gait", "inward_rolling", "--amplitude-bar", "4", "--frequency-hz", "1", "--samples", "16",
+                 "--out", str(out), "--plot", str(plot)])
+    assert code == 0
+    assert "inward_rolling" in capsys.readouterr().out
+    with out.open() as stream:
+        rows = list(csv.DictReader(stream))
+    assert len(rows) == 16
+    assert list(rows[0])[:2] == ["phase", "time_s"] and "m3_pma3" in rows[0] and "fit_error_mm" in rows[0]
+    assert max(float(r[f"m{i}_pma{j}_bar"]) for r in rows for i in (1, 2, 3) for j in (1, 2, 3)) == pytest.approx(4.0)
+    expected = (int(FIGURE_SIZE_IN[0] * DPI), int(FIGURE_SIZE_IN[1] * DPI))
+    for name in ("traj_shapes.png", "traj_joints.png"):
+        path = tmp_path / name
+        assert path.stat().st_size > 10_000
+        assert _png_size(path) == expected
+
+
+@pytest.mark.parametrize("argv", [["--list"], ["--gait", "list"]])
+def test_lists_gaits_and_parameters(argv, capsys):
+    assert main(argv) == 0
+    text = capsys.readouterr().out
+    for name in ("serpentine", "inward_rolling", "outward_rolling", "sidewinding", "helical_rolling", "radius_m"):
+        assert name in text
+
+
+@pytest.mark.parametrize("argv,message", [
+    (["--gait", "slither", "--amplitude-bar", "2", "--frequency-hz", "1"], "unknown gait"),
+    (["--gait", "serpentine", "--amplitude-bar", "5", "--frequency-hz", "1"], "amplitude_bar"),
+    (["--gait", "serpentine", "--amplitude-bar", "0", "--frequency-hz", "1"], "amplitude_bar"),
+    (["--gait", "serpentine", "--amplitude-bar", "2", "--frequency-hz", "-1"], "frequency_hz"),
+    (["--gait", "serpentine", "--amplitude-bar", "2", "--frequency-hz", "1", "--samples", "4"], "samples"),
+    (["--gait", "inward_rolling", "--amplitude-bar", "2", "--frequency-hz", "1", "--param", "radius_m=9"],
+     "radius_m"),
+    (["--gait", "inward_rolling", "--amplitude-bar", "2", "--frequency-hz", "1", "--param", "radius_m"],
+     "NAME=VALUE"),
+])
+def test_bad_values_exit_2_with_a_message(argv, message, capsys):
+    assert main(argv) == 2
+    assert message in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("argv", [
+    ["--gait", "serpentine"],
+    ["--gait", "serpentine", "--amplitude-bar", "two", "--frequency-hz", "1"],
+    ["--gait", "serpentine", "--amplitude-bar", "2", "--frequency-hz", "1", "--plot", "x.jpg"],
+])
+def test_bad_arguments_exit_2(argv, capsys):
+    with pytest.raises(SystemExit) as exit_info:
+        main(argv)
+    assert exit_info.value.code == 2
+    assert "error" in capsys.readouterr().err
+
+
+def test_strict_exits_3_on_poor_samples(tmp_path, capsys):
+    code = main(["--gait", "serpentine", "--amplitude-bar", "2", "--frequency-hz", "1", "--samples", "8",
+                 "--param", "body_wavelengths=2", "--param", "poor_fit_mm=1", "--strict"])
+    assert code == 3
+    assert "warning" in capsys.readouterr().err
