@@ -1,0 +1,336 @@
+"""Phase-based playback of a periodic joint-space cycle: the logic of the gait_player, without ROS.
+
+A :class:`GaitPlayback` turns a sampled cycle (lengths in metres, shape ``(N, D)``, sample ``i`` at
+phase ``i / N``) into a stream of setpoints, one per :meth:`GaitPlayback.step`. Every output is
+
+    positions_m = gain * cycle(phase),   gain = envelope * amplitude_scale,   phase += frequency_hz * dt_s
+
+so that nothing the caller changes makes a setpoint jump:
+
+- the phase is integrated, so a frequency change alters the speed, never the position on the cycle;
+- ``envelope`` (soft start and stop), ``amplitude_scale`` and ``frequency_hz`` each move to a new
+  target along a raised-cosine ramp (zero slope at both ends) of ``ramp_time_s``;
+- a new cycle takes over by cross-fading from the old one over ``blend_time_s`` at the same phase.
+
+Scaling lengths toward zero scales pressures toward zero (P = k * l), so a gain of 0 is the vented
+robot and a ramp of the gain is a ramp of every pressure.
+"""
+
+from __future__ import annotations
+
+import enum
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from srs_ros.core.errors import InvalidInputError
+from srs_ros.core.interpolation import PeriodicTrajectory
+
+
+def smoothstep(progress: float) -> float:
+    """Raised cosine 0 -> 1 over progress 0 -> 1, flat at both ends (no step in value or slope)."""
+    u = min(max(progress, 0.0), 1.0)
+    return 0.5 - 0.5 * math.cos(math.pi * u)
+
+
+class SmoothTransition:
+    """A scalar that moves to each new target along a raised cosine lasting ``duration_s``.
+
+    A new target set mid-way starts a fresh transition from the current value, so the value itself
+    never jumps.
+
+    >>> gain = SmoothTransition(0.0)
+    >>> gain.set_target(1.0, duration_s=2.0)
+    >>> round(gain.step(1.0), 3), round(gain.step(1.0), 3)
+    (0.5, 1.0)
+    """
+
+    def __init__(self, value: float):
+        self.value = float(value)
+        self._start = self.value
+        self.target = self.value
+        self._duration_s = 0.0
+        self._elapsed_s = 0.0
+
+    @property
+    def settled(self) -> bool:
+        """True once the value has reached its target."""
+        return self.value == self.target
+
+    def set_target(self, target: float, duration_s: float) -> None:
+        """Start moving from the current value to ``target`` over ``duration_s`` (0 = at once)."""
+        target = float(target)
+        if target == self.target:
+            return
+        self._start, self.target = self.value, target
+        self._duration_s, self._elapsed_s = max(float(duration_s), 0.0), 0.0
+        if self._duration_s == 0.0:
+            self.value = target
+
+    def step(self, dt_s: float) -> float:
+        """Advance by ``dt_s`` seconds; return the new value."""
+        if not self.settled:
+            self._elapsed_s += dt_s
+            progress = self._elapsed_s / self._duration_s if self._duration_s > 0 else 1.0
+            self.value = self.target if progress >= 1.0 else (
+                self._start + (self.target - self._start) * smoothstep(progress))
+        return self.value
+
+
+class _Mix:
+    """A fixed mixture ``(1 - w) * old + w * new`` of two cycles (an interrupted cross-fade, frozen)."""
+
+    def __init__(self, old, new, weight: float):
+        self.old, self.new, self.weight = old, new, weight
+
+    def values(self, phase) -> np.ndarray:
+        return (1.0 - self.weight) * self.old.values(phase) + self.weight * self.new.values(phase)
+
+    def derivatives(self, phase) -> np.ndarray:
+        return (1.0 - self.weight) * self.old.derivatives(phase) + self.weight * self.new.derivatives(phase)
+
+
+class PlaybackState(enum.Enum):
+    """Where the playback is: IDLE outputs zeros; the others move along the cycle."""
+
+    IDLE = "idle"
+    STARTING = "starting"
+    RUNNING = "running"
+    STOPPING = "stopping"
+
+
+@dataclass(frozen=True)
+class Setpoint:
+    """One output of :meth:`GaitPlayback.step`."""
+
+    positions_m: np.ndarray
+    velocities_m_per_s: np.ndarray
+    phase: float
+    cycles_done: float
+    gain: float
+    frequency_hz: float
+    state: PlaybackState
+
+
+class GaitPlayback:
+    """Plays a periodic cycle with soft start/stop, live amplitude/frequency and jump-free takeover.
+
+    >>> import numpy as np
+    >>> player = GaitPlayback(ramp_time_s=0.5)
+    >>> player.load(0.03 * (1 + np.sin(2 * np.pi * np.arange(32) / 32))[:, None], frequency_hz=1.0)
+    >>> player.start()
+    >>> [player.step(0.01).state.value for _ in range(2)][-1]
+    'starting'
+    """
+
+    def __init__(self, ramp_time_s: float = 1.0, blend_time_s: float = 0.5):
+        self.ramp_time_s = self._positive("ramp_time_s", ramp_time_s, allow_zero=True)
+        self.blend_time_s = self._positive("blend_time_s", blend_time_s, allow_zero=True)
+        self._cycle = None
+        self._old_cycle = None
+        self._blend = SmoothTransition(1.0)
+        self._envelope = SmoothTransition(0.0)
+        self._amplitude = SmoothTransition(1.0)
+        self._frequency = SmoothTransition(0.0)
+        self._trajectory_frequency_hz = 0.0
+        self._frequency_override_hz = 0.0
+        self._phase = 0.0
+        self._cycles_done = 0.0
+        self._stop_after_cycles: float | None = None
+        self.state = PlaybackState.IDLE
+
+    # ---------------------------------------------------------------- inputs
+    @staticmethod
+    def _positive(name: str, value: float, allow_zero: bool = False) -> float:
+        value = float(value)
+        if not math.isfinite(value) or value < 0.0 or (value == 0.0 and not allow_zero):
+            bound = ">= 0" if allow_zero else "> 0"
+            raise InvalidInputError(f"{name}: expected a finite number {bound}, got {value!r}.")
+        return value
+
+    @property
+    def has_cycle(self) -> bool:
+        """True once a cycle has been loaded."""
+        return self._cycle is not None
+
+    @property
+    def dimension(self) -> int | None:
+        """Number of joints of the loaded cycle (None before the first one)."""
+        return None if self._cycle is None else self._cycle.values(0.0).shape[-1]
+
+    def load(self, samples_m, frequency_hz: float) -> None:
+        """Take a new cycle ``(N, D)`` at ``frequency_hz``; while playing, cross-fade to it at the same phase."""
+        cycle = PeriodicTrajectory(samples_m)
+        frequency_hz = self._positive("frequency_hz", frequency_hz)
+        if self.dimension is not None and cycle.samples.shape[1] != self.dimension:
+            raise InvalidInputError(
+                f"samples_m: the new cycle has {cycle.samples.shape[1]} joints, the playing one {self.dimension}; "
+                "a takeover must keep the joint count.")
+        playing = self.state is not PlaybackState.IDLE and self._cycle is not None
+        if playing and self.blend_time_s > 0.0:
+            current = self._cycle if self._old_cycle is None else _Mix(self._old_cycle, self._cycle, self._blend.value)
+            self._old_cycle = current
+            self._blend = SmoothTransition(0.0)
+            self._blend.set_target(1.0, self.blend_time_s)
+        else:
+            self._old_cycle = None
+            self._blend = SmoothTransition(1.0)
+        self._cycle = cycle
+        self._trajectory_frequency_hz = frequency_hz
+        self._retarget_frequency(self.blend_time_s if playing else 0.0)
+
+    def start(self, cycles: int = 0) -> None:
+        """Ramp in (from the cycle's phase 0 if idle); ``cycles`` > 0 ramps out after that many cycles."""
+        if self._cycle is None:
+            raise InvalidInputError("start: no cycle loaded yet; load a trajectory first.")
+        if cycles < 0:
+            raise InvalidInputError(f"cycles: expected an integer >= 0 (0 = forever), got {cycles}.")
+        if self.state is PlaybackState.IDLE:
+            self._phase, self._cycles_done = 0.0, 0.0
+            self._retarget_frequency(0.0)
+        self._stop_after_cycles = self._cycles_done + cycles if cycles > 0 else None
+        if self.state is not PlaybackState.RUNNING:
+            self.state = PlaybackState.STARTING
+            self._envelope.set_target(1.0, self.ramp_time_s)
+
+    def stop(self) -> None:
+        """Ramp out to zero over ``ramp_time_s`` (the cycle keeps moving meanwhile), then go idle."""
+        if self.state in (PlaybackState.STARTING, PlaybackState.RUNNING):
+            self.state = PlaybackState.STOPPING
+            self._envelope.set_target(0.0, self.ramp_time_s)
+        self._stop_after_cycles = None
+
+    def set_amplitude_scale(self, scale: float) -> None:
+        """Scale every length by ``scale`` in [0, 1], reached smoothly over ``ramp_time_s``."""
+        scale = float(scale)
+        if not (0.0 <= scale <= 1.0):
+            raise InvalidInputError(f"amplitude_scale: expected a value in [0, 1], got {scale!r}.")
+        self._amplitude.set_target(scale, self.ramp_time_s)
+
+    def set_frequency_override(self, frequency_hz: float) -> None:
+        """Play at ``frequency_hz`` instead of the cycle's own (0 = the cycle's), reached over ``ramp_time_s``."""
+        self._frequency_override_hz = self._positive("frequency_hz", frequency_hz, allow_zero=True)
+        self._retarget_frequency(self.ramp_time_s)
+
+    def set_ramp_time(self, ramp_time_s: float) -> None:
+        """Duration of the soft start/stop and of amplitude/frequency changes (takes effect at the next change)."""
+        self.ramp_time_s = self._positive("ramp_time_s", ramp_time_s, allow_zero=True)
+
+    def set_blend_time(self, blend_time_s: float) -> None:
+        """Duration of the cross-fade when a new cycle takes over."""
+        self.blend_time_s = self._positive("blend_time_s", blend_time_s, allow_zero=True)
+
+    def _retarget_frequency(self, duration_s: float) -> None:
+        target = self._frequency_override_hz or self._trajectory_frequency_hz
+        if self.state is PlaybackState.IDLE:
+            duration_s = 0.0
+        self._frequency.set_target(target, duration_s)
+
+    # ---------------------------------------------------------------- output
+    @property
+    def phase(self) -> float:
+        """Current phase in [0, 1)."""
+        return self._phase
+
+    @property
+    def frequency_hz(self) -> float:
+        """Frequency currently played (moving to its target after a change)."""
+        return self._frequency.value
+
+    def _shape(self, phase: float) -> tuple[np.ndarray, np.ndarray]:
+        """Blended cycle values and d/dphase at ``phase``."""
+        values, slopes = self._cycle.values(phase), self._cycle.derivatives(phase)
+        if self._old_cycle is not None:
+            w = self._blend.value
+            values = (1.0 - w) * self._old_cycle.values(phase) + w * values
+            slopes = (1.0 - w) * self._old_cycle.derivatives(phase) + w * slopes
+        return values, slopes
+
+    def _gain(self) -> float:
+        return self._envelope.value * self._amplitude.value
+
+    def step(self, dt_s: float) -> Setpoint:
+        """Advance the playback by ``dt_s`` seconds and return the setpoint for the new instant."""
+        dt_s = self._positive("dt_s", dt_s, allow_zero=True)
+        if self._cycle is None:
+            raise InvalidInputError("step: no cycle loaded yet; load a trajectory first.")
+        if self.state is PlaybackState.IDLE:
+            zeros = np.zeros(self.dimension)
+            return Setpoint(zeros, zeros.copy(), self._phase, self._cycles_done, 0.0, 0.0, self.state)
+
+        gain_before, blend_before, old_cycle = self._gain(), self._blend.value, self._old_cycle
+        frequency_hz = self._frequency.step(dt_s)
+        advance = frequency_hz * dt_s
+        self._phase = (self._phase + advance) % 1.0
+        self._cycles_done += advance
+        self._amplitude.step(dt_s)
+        self._envelope.step(dt_s)
+        self._blend.step(dt_s)
+        if self._old_cycle is not None and self._blend.settled:
+            self._old_cycle = None
+        self._advance_state()
+
+        gain = self._gain()
+        values, slopes = self._shape(self._phase)
+        velocities = gain * slopes * frequency_hz
+        if dt_s > 0.0:
+            velocities = velocities + (gain - gain_before) / dt_s * values
+            if old_cycle is not None:
+                fade_rate = (self._blend.value - blend_before) / dt_s
+                velocities = velocities + gain * fade_rate * (
+                    self._cycle.values(self._phase) - old_cycle.values(self._phase))
+        return Setpoint(gain * values, velocities, self._phase, self._cycles_done, gain, frequency_hz, self.state)
+
+    def _advance_state(self) -> None:
+        if self._stop_after_cycles is not None and self._cycles_done >= self._stop_after_cycles:
+            self.stop()
+        if self.state is PlaybackState.STARTING and self._envelope.settled:
+            self.state = PlaybackState.RUNNING
+        elif self.state is PlaybackState.STOPPING and self._envelope.settled:
+            self.state = PlaybackState.IDLE
+            self._old_cycle = None
+            self._blend = SmoothTransition(1.0)
+
+
+def cycle_from_points(joint_names, times_s, positions_m, expected_names, max_length_m: float,
+                      tolerance_m: float = 1e-6) -> tuple[np.ndarray, float]:
+    """One period of trajectory points -> ``(samples (N, D) in expected_names order, frequency_hz)``.
+
+    The points must start at time 0 and be equally spaced in time. If the last point repeats the first,
+    it closes the cycle and its time is the period (what the trajectory_server publishes); otherwise
+    the period is one step longer than the last time. Raises :class:`InvalidInputError` saying what is
+    wrong with the message.
+    """
+    names = list(joint_names)
+    missing = [n for n in expected_names if n not in names]
+    unknown = [n for n in names if n not in expected_names]
+    if missing or unknown or len(set(names)) != len(names):
+        raise InvalidInputError(
+            f"joint_names: expected each of {list(expected_names)} once, got {names} "
+            f"(missing {missing}, unknown {unknown}).")
+    times = np.asarray(times_s, dtype=np.float64)
+    points = np.asarray(positions_m, dtype=np.float64)
+    if points.ndim != 2 or points.shape != (times.size, len(names)):
+        raise InvalidInputError(
+            f"points: expected {times.size} points with {len(names)} positions each, got shape {points.shape}.")
+    if times.size < 5:
+        raise InvalidInputError(f"points: expected at least 5 points over one period, got {times.size}.")
+    if not (np.all(np.isfinite(times)) and np.all(np.isfinite(points))):
+        raise InvalidInputError("points: every time_from_start and position must be finite.")
+    steps = np.diff(times)
+    step = float(np.mean(steps))
+    if abs(times[0]) > 1e-6 or step <= 0 or np.max(np.abs(steps - step)) > 0.01 * step:
+        raise InvalidInputError(
+            "time_from_start: expected equally spaced times from 0 over one period, "
+            f"got {times[0]:.6f} .. {times[-1]:.6f} s with steps {steps.min():.6f} .. {steps.max():.6f} s.")
+    low, high = float(points.min()), float(points.max())
+    if low < -tolerance_m - 1e-3 or high > max_length_m + 1e-3:
+        raise InvalidInputError(
+            f"positions: lengths must lie in [0, {max_length_m}] m, got {low:.4f} .. {high:.4f} m.")
+    ordered = points[:, [names.index(n) for n in expected_names]]
+    if np.all(np.abs(ordered[-1] - ordered[0]) <= tolerance_m):
+        samples, period_s = ordered[:-1], float(times[-1])
+    else:
+        samples, period_s = ordered, float(times[-1] + step)
+    return samples, 1.0 / period_s

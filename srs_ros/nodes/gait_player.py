@@ -1,0 +1,201 @@
+"""gait_player: streams the latched gait cycle as joint-length setpoints at a fixed rate.
+
+Interface (relative names)::
+
+    subscribes  gait_trajectory   trajectory_msgs/JointTrajectory   reliable + transient_local (latched)
+    publishes   joint_setpoints   sensor_msgs/JointState            best effort; names m1_pma1..m3_pma3,
+                                                                    position (m), velocity (m/s), stamp = now
+    services    ~/start, ~/stop   std_srvs/Trigger
+    parameters  rate_hz, cycles, amplitude_scale, frequency_hz, ramp_time_s, blend_time_s, autostart,
+                zero_hold_s, robot_description_file (read-only)
+
+Behaviour, as a robotics user expects it:
+
+- Nothing is published before ``~/start`` (or ``autostart``, which starts when the first trajectory
+  arrives). ``~/start`` ramps every length in from 0 over ``ramp_time_s`` (raised cosine), from phase 0.
+- ``~/stop`` (or the end of ``cycles`` > 0 cycles) ramps out to 0 over ``ramp_time_s`` while the
+  cycle keeps moving; then zero lengths are published for ``zero_hold_s`` so the hardware sees a
+  clean 0, and then the stream ends (the hardware node vents when setpoints go stale anyway).
+- ``amplitude_scale`` and ``frequency_hz`` (0 = the trajectory's own) change live, each over
+  ``ramp_time_s``; the phase is integrated, so neither makes a setpoint jump. ``cycles`` is read at
+  ``~/start``. ``rate_hz`` changes live (the timer is re-created).
+- A new trajectory cross-fades from the old one over ``blend_time_s`` at the same phase.
+- The phase follows the monotonic clock; after a stall longer than 50 ms it advances by 50 ms only,
+  so a late tick never makes the setpoint jump.
+
+The playback logic lives in :mod:`srs_ros.core.playback`; this node is the ROS wiring around it.
+"""
+
+from __future__ import annotations
+
+import time
+from typing import Any
+
+from rcl_interfaces.msg import SetParametersResult
+from rclpy.node import Node
+from sensor_msgs.msg import JointState
+from std_srvs.srv import Trigger
+from trajectory_msgs.msg import JointTrajectory
+
+from srs_ros.core.errors import SrsError
+from srs_ros.core.playback import GaitPlayback, PlaybackState, cycle_from_points
+from srs_ros.core.robot import load_robot
+from srs_ros.nodes.common import (
+    SETPOINT_TOPIC,
+    TRAJECTORY_TOPIC,
+    ParameterSpec,
+    check_parameters,
+    declare_parameters,
+    latched_qos,
+    run_node,
+    setpoint_qos,
+)
+
+#: Largest phase step per tick: a stalled process resumes where it was instead of jumping ahead.
+MAX_STEP_S = 0.05
+
+PARAMETERS = (
+    ParameterSpec("rate_hz", 200.0, "setpoint rate in Hz (live)", 1.0, 1000.0),
+    ParameterSpec("cycles", 0, "cycles to play after ~/start, then ramp out; 0 = forever (read at ~/start)",
+                  0, 1_000_000),
+    ParameterSpec("amplitude_scale", 1.0, "scale of every length, 0..1 (live, reached over ramp_time_s)", 0.0, 1.0),
+    ParameterSpec("frequency_hz", 0.0, "playback frequency in Hz, 0 = the trajectory's own (live)", 0.0, 5.0),
+    ParameterSpec("ramp_time_s", 1.0, "soft start/stop and live-change duration in s", 0.05, 60.0),
+    ParameterSpec("blend_time_s", 0.5, "cross-fade duration in s when a new trajectory takes over", 0.05, 10.0),
+    ParameterSpec("autostart", False, "start as soon as the first trajectory arrives"),
+    ParameterSpec("zero_hold_s", 0.5, "zero lengths are published this long after a ramp-out, in s", 0.0, 10.0),
+    ParameterSpec("robot_description_file", "", "robot description YAML; '' = the package's config/robot.yaml",
+                  read_only=True),
+)
+
+
+class GaitPlayer(Node):
+    """ROS wiring of :class:`GaitPlayback`: trajectory in, timed JointState setpoints out."""
+
+    def __init__(self, **kwargs):
+        super().__init__("gait_player", **kwargs)
+        self._specs = declare_parameters(self, PARAMETERS)
+        self._robot = load_robot(self._param("robot_description_file") or None)
+        self._playback = GaitPlayback(self._param("ramp_time_s"), self._param("blend_time_s"))
+        self._playback.set_amplitude_scale(self._param("amplitude_scale"))
+        self._playback.set_frequency_override(self._param("frequency_hz"))
+        self._zeros_until = 0.0
+        self._last_tick = time.monotonic()
+        self._message = JointState()
+        self._message.name = list(self._robot.joint_names)
+
+        self.add_on_set_parameters_callback(self._check_parameters)
+        self.add_post_set_parameters_callback(self._apply_parameters)
+        self._publisher = self.create_publisher(JointState, SETPOINT_TOPIC, setpoint_qos())
+        self.create_subscription(JointTrajectory, TRAJECTORY_TOPIC, self._on_trajectory, latched_qos())
+        self.create_service(Trigger, "~/start", self._on_start)
+        self.create_service(Trigger, "~/stop", self._on_stop)
+        self._timer = self.create_timer(1.0 / self._param("rate_hz"), self._on_tick)
+        self.get_logger().info(
+            f"streaming {SETPOINT_TOPIC} at {self._param('rate_hz'):g} Hz once started; waiting for "
+            f"{TRAJECTORY_TOPIC} (autostart={self._param('autostart')})")
+
+    def _param(self, name: str) -> Any:
+        return self.get_parameter(name).value
+
+    # ------------------------------------------------------------- parameters
+    def _check_parameters(self, params) -> SetParametersResult:
+        return check_parameters(self._specs, params)
+
+    def _apply_parameters(self, params) -> None:
+        for param in params:
+            if param.name == "amplitude_scale":
+                self._playback.set_amplitude_scale(param.value)
+            elif param.name == "frequency_hz":
+                self._playback.set_frequency_override(param.value)
+            elif param.name == "ramp_time_s":
+                self._playback.set_ramp_time(param.value)
+            elif param.name == "blend_time_s":
+                self._playback.set_blend_time(param.value)
+            elif param.name == "rate_hz":
+                self.destroy_timer(self._timer)
+                self._timer = self.create_timer(1.0 / float(param.value), self._on_tick)
+
+    # ------------------------------------------------------------- inputs
+    def _on_trajectory(self, msg: JointTrajectory) -> None:
+        times = [p.time_from_start.sec + 1e-9 * p.time_from_start.nanosec for p in msg.points]
+        try:
+            samples, frequency_hz = cycle_from_points(
+                msg.joint_names, times, [list(p.positions) for p in msg.points], self._robot.joint_names,
+                self._robot.max_extension_m)
+            was_idle = self._playback.state is PlaybackState.IDLE
+            first = not self._playback.has_cycle
+            self._playback.load(samples, frequency_hz)
+        except SrsError as exc:
+            self.get_logger().error(f"ignored the trajectory on {TRAJECTORY_TOPIC}: {exc} "
+                                    "The previous trajectory (if any) keeps playing.")
+            return
+        how = "loaded" if was_idle else f"taking over with a {self._playback.blend_time_s:g} s cross-fade"
+        self.get_logger().info(f"trajectory {how}: {samples.shape[0]} samples, {frequency_hz:g} Hz")
+        if first and self._param("autostart"):
+            self._start()
+
+    def _start(self) -> str:
+        cycles = int(self._param("cycles"))
+        state = self._playback.state
+        self._playback.start(cycles)
+        if state is PlaybackState.RUNNING:
+            return "already running" + (f"; ramps out after {cycles} more cycles" if cycles else "")
+        text = (f"starting: ramp in over {self._playback.ramp_time_s:g} s, "
+                f"{self._playback.frequency_hz:g} Hz, " + (f"{cycles} cycles" if cycles else "until ~/stop"))
+        self.get_logger().info(text)
+        return text
+
+    def _on_start(self, _request, response):
+        if not self._playback.has_cycle:
+            response.success = False
+            response.message = (f"no trajectory received on {self.resolve_topic_name(TRAJECTORY_TOPIC)} yet; "
+                                "start trajectory_server (or call its ~/regenerate), then call ~/start again")
+            return response
+        response.success, response.message = True, self._start()
+        return response
+
+    def _on_stop(self, _request, response):
+        if self._playback.state in (PlaybackState.IDLE, PlaybackState.STOPPING):
+            response.success, response.message = True, f"already {self._playback.state.value}"
+            return response
+        self._playback.stop()
+        response.success = True
+        response.message = f"stopping: ramp out over {self._playback.ramp_time_s:g} s"
+        self.get_logger().info(response.message)
+        return response
+
+    # ------------------------------------------------------------- output
+    def _on_tick(self) -> None:
+        now = time.monotonic()
+        dt_s = min(now - self._last_tick, MAX_STEP_S)
+        self._last_tick = now
+        if not self._playback.has_cycle:
+            return
+        before = self._playback.state
+        setpoint = self._playback.step(dt_s)
+        if setpoint.state is PlaybackState.IDLE:
+            if before is not PlaybackState.IDLE:
+                self._zeros_until = now + self._param("zero_hold_s")
+                self.get_logger().info("stopped: ramp-out done, holding zero lengths")
+            if now > self._zeros_until:
+                return
+        msg = self._message
+        msg.header.stamp = self.get_clock().now().to_msg()
+        msg.position = setpoint.positions_m.tolist()
+        msg.velocity = setpoint.velocities_m_per_s.tolist()
+        self._publisher.publish(msg)
+
+    @property
+    def playback(self) -> GaitPlayback:
+        """The playback state (for an in-process bringup's status line)."""
+        return self._playback
+
+
+def main(args: list[str] | None = None) -> int:
+    """Console script ``gait_player``."""
+    return run_node(GaitPlayer, args)
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,237 @@
+"""trajectory_server: fits one gait cycle on request and latches it as a JointTrajectory.
+
+Interface (relative names)::
+
+    publishes   gait_trajectory   trajectory_msgs/JointTrajectory   reliable + transient_local (latched)
+    services    ~/regenerate      std_srvs/Trigger
+    parameters  gait, amplitude_bar, frequency_hz, samples, generate_on_start, reject_poor_fit,
+                <gait>.<parameter> for every gait of config/gaits.yaml (e.g. serpentine.scale),
+                robot_description_file (read-only)
+
+The trajectory holds one period: ``samples + 1`` points, point ``i`` at ``time_from_start = i / (samples *
+frequency_hz)``, the last repeating the first to close the cycle; positions are actuator length changes
+in metres (joint names ``m1_pma1 .. m3_pma3``), velocities in m/s.
+
+Parameters take effect at the next ``~/regenerate`` (one is run at start-up unless
+``generate_on_start`` is false). A request that cannot be fitted answers ``success=false`` with the
+reason, and the last good trajectory stays latched. Samples whose fit error exceeds the gait's
+``poor_fit_mm`` are listed in the response (a constant-curvature body cannot follow a serpenoid
+exactly): with ``reject_poor_fit`` true such a cycle is refused like a failure; by default it is
+published with a WARNING in the response and the log. The fit runs on a
+reentrant callback group of a multi-threaded executor, so parameter services keep answering and a
+second ``~/regenerate`` during a fit is answered at once with "busy".
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+import warnings
+from typing import Any
+
+import numpy as np
+from builtin_interfaces.msg import Duration
+from rcl_interfaces.msg import SetParametersResult
+from rclpy.callback_groups import ReentrantCallbackGroup
+from rclpy.executors import MultiThreadedExecutor
+from rclpy.node import Node
+from std_srvs.srv import Trigger
+from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
+
+from srs_ros.core.errors import SrsError
+from srs_ros.core.interpolation import PeriodicTrajectory
+from srs_ros.core.robot import load_robot
+from srs_ros.core.trajectory import PoorFitWarning, generate_cycle, list_gaits
+from srs_ros.nodes.common import (
+    TRAJECTORY_TOPIC,
+    ParameterSpec,
+    check_parameters,
+    declare_parameters,
+    latched_qos,
+    run_node,
+)
+
+#: Longest wait at shutdown for a running fit to finish before the node is destroyed.
+SHUTDOWN_WAIT_S = 30.0
+
+ROBOT_FILE = ParameterSpec("robot_description_file", "",
+                           "robot description YAML; '' = the package's config/robot.yaml", read_only=True)
+
+
+def base_parameters(max_pressure_bar: float, gait_names: list[str]) -> tuple[ParameterSpec, ...]:
+    """The request parameters; ``amplitude_bar`` is capped by the robot's pressure limit."""
+    return (
+        ParameterSpec("gait", "inward_rolling" if "inward_rolling" in gait_names else gait_names[0],
+                      f"gait to fit, one of {gait_names}", additional_constraints=f"one of {gait_names}"),
+        ParameterSpec("amplitude_bar", float(max_pressure_bar),
+                      f"largest pressure of the cycle in bar, 0 < A <= {max_pressure_bar:g}",
+                      0.0, float(max_pressure_bar)),
+        ParameterSpec("frequency_hz", 1.0, "cycle frequency in Hz, 0 < f <= 5", 0.0, 5.0),
+        ParameterSpec("samples", 64, "shapes fitted per cycle (>= 8)", 8, 1024),
+        ParameterSpec("generate_on_start", True, "fit and publish once at start-up"),
+        ParameterSpec("reject_poor_fit", False,
+                      "refuse a cycle with poor samples (false: publish it and report them as a warning)"),
+    )
+
+
+def gait_parameters(gaits: dict) -> tuple[ParameterSpec, ...]:
+    """One ``<gait>.<parameter>`` spec per parameter of every gait, with its range and unit."""
+    specs = []
+    for name, spec in gaits.items():
+        for p in spec.parameters:
+            unit = f" [{p.unit}]" if p.unit else ""
+            specs.append(ParameterSpec(f"{name}.{p.name}", p.type(p.default),
+                                       f"{p.description}{unit}; {p.allowed_text()}", p.minimum, p.maximum))
+    return tuple(specs)
+
+
+def _listing(indices, shown: int = 12) -> str:
+    """``[1, 2, 3]``, ``[1, ..., 12, ...] (40 in all)`` or ``none``."""
+    if not indices:
+        return "none"
+    more = f", ...] ({len(indices)} in all)" if len(indices) > shown else "]"
+    return "[" + ", ".join(str(i) for i in indices[:shown]) + more
+
+
+def trajectory_message(cycle, stamp) -> JointTrajectory:
+    """One closed period of ``cycle`` (lengths (N, D) at phase i/N) as a JointTrajectory."""
+    lengths = np.asarray(cycle.lengths_m, dtype=np.float64)
+    count = lengths.shape[0]
+    period_ns = round(1e9 / cycle.frequency_hz)
+    slopes = PeriodicTrajectory(lengths).derivatives(np.arange(count) / count) * cycle.frequency_hz
+    msg = JointTrajectory()
+    msg.header.stamp = stamp
+    msg.joint_names = list(cycle.joint_names)
+    for i in range(count + 1):
+        t_ns = period_ns * i // count
+        point = JointTrajectoryPoint()
+        point.positions = lengths[i % count].tolist()
+        point.velocities = slopes[i % count].tolist()
+        point.time_from_start = Duration(sec=int(t_ns // 1_000_000_000), nanosec=int(t_ns % 1_000_000_000))
+        msg.points.append(point)
+    return msg
+
+
+class TrajectoryServer(Node):
+    """ROS wiring of :func:`srs_ros.core.trajectory.generate_cycle`: parameters in, latched trajectory out."""
+
+    def __init__(self, **kwargs):
+        super().__init__("trajectory_server", **kwargs)
+        self._gaits = list_gaits()
+        self._specs = declare_parameters(self, [ROBOT_FILE])
+        self._robot = load_robot(self.get_parameter(ROBOT_FILE.name).value or None)
+        self._specs.update(declare_parameters(self, base_parameters(self._robot.max_pressure_bar, sorted(self._gaits))))
+        self._specs.update(declare_parameters(self, gait_parameters(self._gaits)))
+        self.add_on_set_parameters_callback(self._check_parameters)
+
+        self._fit_lock = threading.Lock()
+        self._fit_started: tuple[float, str] = (0.0, "")
+        self._last_good = ""
+        self._group = ReentrantCallbackGroup()
+        self._publisher = self.create_publisher(JointTrajectory, TRAJECTORY_TOPIC, latched_qos())
+        self.create_service(Trigger, "~/regenerate", self._on_regenerate, callback_group=self._group)
+        self._startup_timer = None
+        if self.get_parameter("generate_on_start").value:
+            self._startup_timer = self.create_timer(0.0, self._on_startup, callback_group=self._group)
+        self.get_logger().info(f"gaits: {sorted(self._gaits)}; call ~/regenerate after changing parameters")
+
+    # ------------------------------------------------------------- parameters
+    def _check_parameters(self, params) -> SetParametersResult:
+        return check_parameters(self._specs, params, self._extra_check)
+
+    def _extra_check(self, name: str, value: Any) -> str:
+        if name == "gait" and value not in self._gaits:
+            return f"gait: unknown gait {value!r}; expected one of {sorted(self._gaits)}."
+        if name in ("amplitude_bar", "frequency_hz") and value <= 0.0:
+            return f"{name}: must be > 0, got {value}; {self._specs[name].description}."
+        gait_name, _, param_name = name.partition(".")
+        if param_name and gait_name in self._gaits:
+            spec = {p.name: p for p in self._gaits[gait_name].parameters}.get(param_name)
+            if spec is not None:
+                try:
+                    spec.check(gait_name, value)
+                except SrsError as exc:
+                    return str(exc)
+        return ""
+
+    def _request(self) -> dict[str, Any]:
+        """The fit request from the current parameters (read once, so a fit sees one consistent set)."""
+        gait = self.get_parameter("gait").value
+        params = {name: p.value for name, p in self.get_parameters_by_prefix(gait).items()}
+        return {"gait": gait, "amplitude_bar": self.get_parameter("amplitude_bar").value,
+                "frequency_hz": self.get_parameter("frequency_hz").value,
+                "samples": self.get_parameter("samples").value, "robot": self._robot, "params": params}
+
+    # ------------------------------------------------------------- fitting
+    def regenerate(self) -> tuple[bool, str]:
+        """Fit and publish the cycle for the current parameters; (success, what happened)."""
+        if not self._fit_lock.acquire(blocking=False):
+            started_s, what = self._fit_started
+            return False, (f"busy: a fit of {what} is running for {time.monotonic() - started_s:.1f} s; "
+                           "try again when it finishes")
+        try:
+            request = self._request()
+            what = f"{request['gait']} at {request['amplitude_bar']:g} bar, {request['frequency_hz']:g} Hz"
+            self._fit_started = (time.monotonic(), what)
+            try:
+                with warnings.catch_warnings():  # poor samples are reported in the response instead
+                    warnings.simplefilter("ignore", PoorFitWarning)
+                    cycle = generate_cycle(**request)
+            except (SrsError, ValueError, ArithmeticError) as exc:
+                return False, f"fit of {what} failed: {exc}; {self._kept()}"
+            elapsed_s = time.monotonic() - self._fit_started[0]
+            errors = np.asarray(cycle.fit_error_mm, dtype=np.float64)
+            quality = (f"{len(errors)} samples, fit error mean {errors.mean():.2f} mm, worst {errors.max():.2f} mm, "
+                       f"poor samples {_listing(cycle.poor_samples)}")
+            if not self.context.ok():
+                return False, f"fit of {what} discarded: the node is shutting down"
+            if not cycle.ok and self.get_parameter("reject_poor_fit").value:
+                return False, f"fit of {what} refused, reject_poor_fit is true ({quality}); {self._kept()}"
+            self._publisher.publish(trajectory_message(cycle, self.get_clock().now().to_msg()))
+            self._last_good = what
+            warning = "" if cycle.ok else "WARNING: poor samples do not follow the gait shape; "
+            return True, (f"{warning}published {what} on {self._publisher.topic_name} ({quality}; "
+                          f"fitted in {elapsed_s:.1f} s)")
+        finally:
+            self._fit_lock.release()
+
+    def _kept(self) -> str:
+        if self._last_good:
+            return f"the last good trajectory ({self._last_good}) stays published"
+        return "no trajectory has been published yet"
+
+    def _on_regenerate(self, _request, response):
+        response.success, response.message = self.regenerate()
+        self._log(response.success, f"~/regenerate: {response.message}")
+        return response
+
+    def _on_startup(self) -> None:
+        self._startup_timer.cancel()
+        success, message = self.regenerate()
+        self._log(success, f"start-up fit: {message}")
+
+    def _log(self, success: bool, text: str) -> None:
+        # rclpy refuses two severities from one call site, hence one line per severity.
+        if not success:
+            self.get_logger().error(text)
+        elif "WARNING" in text:
+            self.get_logger().warning(text)
+        else:
+            self.get_logger().info(text)
+
+    def wait_for_fit(self, timeout_s: float = SHUTDOWN_WAIT_S) -> bool:
+        """Block until no fit is running (True) or ``timeout_s`` passed (False)."""
+        if self._fit_lock.acquire(timeout=timeout_s):
+            self._fit_lock.release()
+            return True
+        return False
+
+
+def main(args: list[str] | None = None) -> int:
+    """Console script ``trajectory_server``."""
+    return run_node(TrajectoryServer, args, executor_factory=lambda: MultiThreadedExecutor(num_threads=3),
+                    on_shutdown=lambda node: node.wait_for_fit())
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,182 @@
+"""Playback of a gait cycle: ramps, live changes and takeover never make a setpoint jump."""
+
+import numpy as np
+import pytest
+
+from srs_ros.core.errors import InvalidInputError
+from srs_ros.core.interpolation import PeriodicTrajectory
+from srs_ros.core.playback import (
+    GaitPlayback,
+    PlaybackState,
+    SmoothTransition,
+    cycle_from_points,
+    smoothstep,
+)
+
+DT_S = 0.005  # 200 Hz
+MAX_M = 0.065
+
+
+def rolling_cycle(count=64, shift=0.0, amplitude_m=MAX_M):
+    """Nine sinusoids 120 degrees apart per module: the exact joint-space shape of a rolling arc."""
+    phase = np.arange(count)[:, None] / count + shift
+    offsets = np.arange(9)[None, :] * 2 * np.pi / 3 + np.repeat([0.0, 1.0, 2.0], 3)[None, :] * np.pi / 3
+    return 0.5 * amplitude_m * (1 + np.cos(2 * np.pi * phase - offsets))
+
+
+def run(player, seconds, dt_s=DT_S):
+    return [player.step(dt_s) for _ in range(round(seconds / dt_s))]
+
+
+def positions(setpoints):
+    return np.array([s.positions_m for s in setpoints])
+
+
+def largest_step_m(setpoints):
+    return float(np.max(np.abs(np.diff(positions(setpoints), axis=0))))
+
+
+def steady_step_bound_m(frequency_hz, dt_s=DT_S):
+    """Largest change of one tick while running steadily: max |d cycle / d phase| * f * dt, with margin."""
+    slope = np.max(np.abs(PeriodicTrajectory(rolling_cycle()).derivatives(np.linspace(0, 1, 400))))
+    return 1.5 * slope * frequency_hz * dt_s
+
+
+def started(frequency_hz=1.0, ramp_time_s=0.5, **kwargs):
+    player = GaitPlayback(ramp_time_s=ramp_time_s, **kwargs)
+    player.load(rolling_cycle(), frequency_hz)
+    player.start()
+    return player
+
+
+def test_smoothstep_and_transition_are_continuous():
+    assert smoothstep(-1) == 0.0 and smoothstep(0.5) == pytest.approx(0.5) and smoothstep(2) == 1.0
+    value = SmoothTransition(0.0)
+    value.set_target(1.0, 1.0)
+    trace = [value.step(0.01) for _ in range(50)]
+    value.set_target(0.0, 1.0)  # reversed mid-way: continues from where it is
+    trace += [value.step(0.01) for _ in range(150)]
+    assert max(np.abs(np.diff(trace))) < 0.02 and trace[-1] == 0.0 and value.settled
+
+
+def test_idle_player_outputs_zeros_and_start_needs_a_cycle():
+    player = GaitPlayback()
+    with pytest.raises(InvalidInputError, match="no cycle loaded"):
+        player.start()
+    player.load(rolling_cycle(), 1.0)
+    setpoint = player.step(DT_S)
+    assert setpoint.state is PlaybackState.IDLE and not np.any(setpoint.positions_m)
+
+
+def test_soft_start_ramps_from_zero_then_follows_the_cycle_at_the_integrated_phase():
+    player = started(frequency_hz=1.0, ramp_time_s=0.5)
+    ramp = run(player, 0.5)
+    assert np.max(ramp[0].positions_m) < 1e-4  # starts at (almost) zero
+    gains = [s.gain for s in ramp]
+    assert np.all(np.diff(gains) >= 0) and gains[-1] == pytest.approx(1.0)
+    steady = run(player, 1.3)
+    assert steady[-1].state is PlaybackState.RUNNING
+    expected = PeriodicTrajectory(rolling_cycle()).values(steady[-1].phase)
+    assert np.allclose(steady[-1].positions_m, expected)
+    assert steady[-1].cycles_done == pytest.approx(1.8)
+    assert largest_step_m(ramp + steady) <= steady_step_bound_m(1.0)
+
+
+def test_velocities_match_the_change_of_positions():
+    player = started(frequency_hz=0.75)
+    trace = run(player, 1.0)
+    finite = np.diff(positions(trace), axis=0) / DT_S
+    reported = np.array([s.velocities_m_per_s for s in trace[1:]])
+    assert np.max(np.abs(finite - reported)) < 0.01  # m/s, a small fraction of the ~0.15 m/s peak
+
+
+def test_stop_ramps_to_zero_and_goes_idle():
+    player = started(ramp_time_s=0.4)
+    before = run(player, 1.0)
+    player.stop()
+    ramp = run(player, 0.45)
+    assert ramp[-1].state is PlaybackState.IDLE and not np.any(ramp[-1].positions_m)
+    assert np.all(np.diff([s.gain for s in ramp]) <= 0)
+    assert largest_step_m(before + ramp) <= steady_step_bound_m(1.0)
+
+
+def test_cycles_ramp_out_after_that_many():
+    player = GaitPlayback(ramp_time_s=0.2)
+    player.load(rolling_cycle(), 2.0)
+    player.start(cycles=3)
+    trace = run(player, 2.0)
+    stop_at = next(i for i, s in enumerate(trace) if s.state is PlaybackState.STOPPING)
+    assert trace[stop_at].cycles_done == pytest.approx(3.0, abs=2.0 * DT_S)
+    assert trace[-1].state is PlaybackState.IDLE
+
+
+@pytest.mark.parametrize("new_hz", [0.25, 2.5])
+def test_live_frequency_change_is_phase_continuous(new_hz):
+    player = started(frequency_hz=1.0)
+    trace = run(player, 1.2)
+    player.set_frequency_override(new_hz)
+    trace += run(player, 1.5)
+    assert trace[-1].frequency_hz == pytest.approx(new_hz)
+    assert largest_step_m(trace) <= steady_step_bound_m(max(1.0, new_hz))
+    player.set_frequency_override(0.0)  # back to the trajectory's own
+    assert run(player, 1.0)[-1].frequency_hz == pytest.approx(1.0)
+
+
+def test_live_amplitude_change_is_smooth():
+    player = started()
+    trace = run(player, 1.0)
+    player.set_amplitude_scale(0.3)
+    trace += run(player, 1.0)
+    assert trace[-1].gain == pytest.approx(0.3)
+    assert largest_step_m(trace) <= steady_step_bound_m(1.0)
+    with pytest.raises(InvalidInputError, match=r"\[0, 1\]"):
+        player.set_amplitude_scale(1.5)
+
+
+def test_new_cycle_takes_over_without_a_jump():
+    player = started(blend_time_s=0.3)
+    trace = run(player, 1.0)
+    other = rolling_cycle(shift=0.5, amplitude_m=0.04)  # half a period off: a hard switch would jump ~4 cm
+    hard_jump = np.max(np.abs(PeriodicTrajectory(other).values(player.phase) - trace[-1].positions_m))
+    assert hard_jump > 0.03
+    player.load(other, 1.5)
+    trace += run(player, 1.0)
+    assert largest_step_m(trace) <= steady_step_bound_m(1.5)
+    assert np.allclose(trace[-1].positions_m, PeriodicTrajectory(other).values(trace[-1].phase))
+    player.load(rolling_cycle(), 1.0)  # a takeover interrupted by another one
+    trace += run(player, 0.1)
+    player.load(other, 1.0)
+    trace += run(player, 1.0)
+    assert largest_step_m(trace) <= steady_step_bound_m(1.5)
+
+
+def test_takeover_keeps_the_joint_count():
+    player = started()
+    with pytest.raises(InvalidInputError, match="joint count"):
+        player.load(np.zeros((16, 3)), 1.0)
+
+
+NAMES = [f"m{i}_pma{j}" for i in (1, 2, 3) for j in (1, 2, 3)]
+
+
+def test_cycle_from_points_reads_a_closed_period_in_any_joint_order():
+    samples = rolling_cycle(16)
+    closed = np.vstack([samples, samples[:1]])
+    times = np.arange(17) * (2.0 / 16)  # 0.5 Hz
+    order = NAMES[::-1]
+    read, frequency_hz = cycle_from_points(order, times, closed[:, ::-1], NAMES, MAX_M)
+    assert frequency_hz == pytest.approx(0.5) and np.allclose(read, samples)
+    open_read, open_hz = cycle_from_points(NAMES, times[:16], samples, NAMES, MAX_M)
+    assert open_hz == pytest.approx(0.5) and np.allclose(open_read, samples)
+
+
+@pytest.mark.parametrize(("names", "times", "scale", "match"), [
+    (NAMES[:8] + ["tail"], None, 1.0, "missing"),
+    (NAMES, np.r_[0.0, np.cumsum(np.r_[np.full(8, 0.1), 0.3, np.full(7, 0.1)])], 1.0, "equally spaced"),
+    (NAMES, None, 3.0, "must lie in"),
+])
+def test_cycle_from_points_rejects_bad_messages(names, times, scale, match):
+    samples = rolling_cycle(17) * scale
+    times = np.arange(17) * 0.1 if times is None else times
+    with pytest.raises(InvalidInputError, match=match):
+        cycle_from_points(names, times, samples, NAMES, MAX_M)

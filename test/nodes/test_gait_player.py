@@ -1,0 +1,141 @@
+"""gait_player as a separate process: streams the latched trajectory, starts/stops softly, changes live.
+
+The test publishes the trajectory itself (as ``ros2 topic pub --qos-durability transient_local`` would),
+so these tests do not depend on the fitter.
+"""
+
+import numpy as np
+import pytest
+from builtin_interfaces.msg import Duration
+from rcl_interfaces.msg import SetParametersResult
+from sensor_msgs.msg import JointState
+from srs_testing import ros_args
+from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
+
+from srs_ros.core.interpolation import PeriodicTrajectory
+from srs_ros.core.robot import config_dir
+from srs_ros.nodes.common import SETPOINT_TOPIC, TRAJECTORY_TOPIC, latched_qos, setpoint_qos
+
+NAMES = [f"m{i}_pma{j}" for i in (1, 2, 3) for j in (1, 2, 3)]
+
+
+def rolling_cycle(count=64, shift=0.0, amplitude_m=0.065):
+    phase = np.arange(count)[:, None] / count + shift
+    offsets = np.arange(9)[None, :] * 2 * np.pi / 3 + np.repeat([0.0, 1.0, 2.0], 3)[None, :] * np.pi / 3
+    return 0.5 * amplitude_m * (1 + np.cos(2 * np.pi * phase - offsets))
+
+
+def trajectory(samples, frequency_hz):
+    """One closed period, as the trajectory_server publishes it."""
+    msg = JointTrajectory(joint_names=NAMES)
+    count = len(samples)
+    for i in range(count + 1):
+        t_ns = round(1e9 / frequency_hz) * i // count
+        msg.points.append(JointTrajectoryPoint(positions=samples[i % count].tolist(),
+                                               time_from_start=Duration(sec=t_ns // 10**9, nanosec=t_ns % 10**9)))
+    return msg
+
+
+def stamps_s(msgs):
+    return np.array([m.header.stamp.sec + 1e-9 * m.header.stamp.nanosec for m in msgs])
+
+
+def positions(msgs):
+    return np.array([m.position for m in msgs])
+
+
+def largest_excess_step_m(msgs, speed_m_per_s):
+    """Largest change between consecutive setpoints beyond what ``speed_m_per_s`` explains (0 = no jump)."""
+    steps = np.max(np.abs(np.diff(positions(msgs), axis=0)), axis=1)
+    return float(np.max(steps - speed_m_per_s * np.diff(stamps_s(msgs))))
+
+
+@pytest.fixture
+def player(launch_node, ros_client):
+    """A gait_player process, a latched trajectory publisher and a setpoint subscriber."""
+    def _start(**params):
+        params_file = ["--ros-args", "--params-file", str(config_dir() / "gait_player.yaml")]
+        proc = launch_node("gait_player", params_file + ros_args({"ramp_time_s": 0.3, "zero_hold_s": 0.3, **params}))
+        publisher = ros_client.node.create_publisher(JointTrajectory, TRAJECTORY_TOPIC, latched_qos())
+        setpoints = ros_client.subscribe(JointState, SETPOINT_TOPIC, setpoint_qos())
+        return proc, publisher, setpoints
+    return _start
+
+
+def start_when_loaded(client):
+    """Call ~/start until the player has the trajectory (discovery of the latched topic takes a moment)."""
+    responses = []
+    client.spin_until(lambda: responses.append(client.trigger("gait_player/start")) or responses[-1].success,
+                      10.0, "gait_player/start to succeed")
+    return responses[-1]
+
+
+def test_start_follows_the_trajectory_at_the_rate_and_stop_ramps_to_zero(player, ros_client):
+    proc, publisher, setpoints = player(rate_hz=200.0)
+    refused = ros_client.trigger("gait_player/start")
+    assert not refused.success and "no trajectory" in refused.message
+    samples = rolling_cycle()
+    publisher.publish(trajectory(samples, 1.0))
+    assert "starting" in start_when_loaded(ros_client).message
+    ros_client.spin_until(lambda: len(setpoints) >= 450, 10.0, "450 setpoints")
+
+    assert setpoints[0].name == NAMES
+    assert np.max(setpoints[0].position) < 0.005  # soft start: begins near zero
+    steady = [m for m in setpoints if m.header.stamp.sec + 1e-9 * m.header.stamp.nanosec
+              > stamps_s(setpoints[:1])[0] + 0.5]
+    median_period_s = float(np.median(np.diff(stamps_s(steady))))
+    assert median_period_s == pytest.approx(1 / 200.0, rel=0.2)
+    # Positions follow the cycle at phase = phase0 + f * t (phase0 found from the data, f = 1 Hz).
+    cycle, grid = PeriodicTrajectory(samples), np.linspace(0.0, 1.0, 2000, endpoint=False)
+    shapes, times = cycle.values(grid), stamps_s(steady)
+    best = np.array([grid[np.argmin(np.sum((shapes - p) ** 2, axis=1))] for p in positions(steady)])
+    offsets = np.angle(np.mean(np.exp(2j * np.pi * (best - 1.0 * times)))) / (2 * np.pi)
+    errors = np.max(np.abs(cycle.values(offsets + 1.0 * times) - positions(steady)), axis=1)
+    assert np.percentile(errors, 90) < 0.001, f"90th percentile error {np.percentile(errors, 90) * 1e3:.2f} mm"
+    assert np.allclose(steady[-1].velocity, 1.0 * cycle.derivatives(offsets + times[-1]), atol=0.03)
+
+    stop = ros_client.trigger("gait_player/stop")
+    assert stop.success and "ramp out" in stop.message
+    count = len(setpoints)
+    ros_client.spin_until(lambda: len(setpoints) > count and not np.any(setpoints[-1].position), 10.0,
+                          "zero setpoints after the ramp-out")
+    tail = setpoints[count - 1:]
+    assert largest_excess_step_m(tail, 0.3) < 0.001
+    ros_client.spin_for(1.0)  # after zero_hold_s the stream ends
+    final = len(setpoints)
+    ros_client.spin_for(0.5)
+    assert len(setpoints) == final and not np.any(setpoints[-1].position)
+    assert ros_client.trigger("gait_player/stop").message == "already idle"
+    assert proc.alive(), proc.output()
+
+
+def test_live_changes_and_takeover_never_jump_and_bad_parameters_are_rejected(player, ros_client):
+    proc, publisher, setpoints = player(autostart=True, blend_time_s=0.3)
+    publisher.publish(trajectory(rolling_cycle(), 1.0))
+    ros_client.spin_until(lambda: len(setpoints) >= 150, 10.0, "autostarted setpoints")
+    results = ros_client.set_parameters("gait_player", {"amplitude_scale": 0.4, "frequency_hz": 2.0})
+    assert all(r.successful for r in results), results
+    ros_client.spin_for(0.6)
+    publisher.publish(trajectory(rolling_cycle(shift=0.5, amplitude_m=0.05), 0.5))  # half a period off
+    ros_client.spin_for(0.8)
+    assert largest_excess_step_m(setpoints, 2 * np.pi * 0.0325 * 2.0 * 1.3) < 0.001, "a setpoint jumped"
+    settled = positions(setpoints[-40:])
+    assert 0.4 * 0.05 * 0.9 < np.max(settled) < 0.4 * 0.05 * 1.1  # amplitude_scale applied to the new cycle
+
+    bad = {"amplitude_scale": 1.5, "rate_hz": 5000.0, "ramp_time_s": 0.0, "frequency_hz": -1.0}
+    for name, value in bad.items():
+        result: SetParametersResult = ros_client.set_parameters("gait_player", {name: value})[0]
+        assert not result.successful and name in result.reason, (name, result.reason)
+    wrong_type = ros_client.set_parameters("gait_player", {"cycles": "three"})[0]
+    assert not wrong_type.successful and "INTEGER" in wrong_type.reason  # rclpy's own type check
+    read_only = ros_client.set_parameters("gait_player", {"robot_description_file": "/tmp/other.yaml"})[0]
+    assert not read_only.successful
+    assert ros_client.get_parameters("gait_player", ["amplitude_scale", "rate_hz"]) == {
+        "amplitude_scale": 0.4, "rate_hz": 200.0}
+
+    assert ros_client.set_parameters("gait_player", {"rate_hz": 500.0})[0].successful
+    ros_client.spin_for(0.3)
+    count = len(setpoints)
+    ros_client.spin_until(lambda: len(setpoints) >= count + 400, 10.0, "setpoints at 500 Hz")
+    assert float(np.median(np.diff(stamps_s(setpoints[count:])))) == pytest.approx(1 / 500.0, rel=0.2)
+    assert proc.alive(), proc.output()
