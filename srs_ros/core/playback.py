@@ -280,7 +280,9 @@ class GaitPlayback:
                 fade_rate = (self._blend.value - blend_before) / dt_s
                 velocities = velocities + gain * fade_rate * (
                     self._cycle.values(self._phase) - old_cycle.values(self._phase))
-        return Setpoint(gain * values, velocities, self._phase, self._cycles_done, gain, frequency_hz, self.state)
+        # Extending muscles: a spline's small undershoot below 0 near a kink of the cycle is not a command.
+        positions = np.maximum(gain * values, 0.0)
+        return Setpoint(positions, velocities, self._phase, self._cycles_done, gain, frequency_hz, self.state)
 
     def _advance_state(self) -> None:
         if self._stop_after_cycles is not None and self._cycles_done >= self._stop_after_cycles:

@@ -18,10 +18,13 @@ from typing import Any
 
 import rclpy
 from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor, SetParametersResult
+from rclpy.exceptions import InvalidParameterValueException, ParameterException
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from std_msgs.msg import Float64MultiArray, MultiArrayDimension
+
+from srs_ros.core.errors import SrsError
 
 TRAJECTORY_TOPIC = "gait_trajectory"
 SETPOINT_TOPIC = "joint_setpoints"
@@ -124,12 +127,16 @@ def run_node(node_factory: Callable[[], Node], args: list[str] | None = None, ex
     rclpy.init(args=args if args is not None else sys.argv)
     node = None
     executor = executor_factory()
+    status = 0
     try:
         node = node_factory()
         executor.add_node(node)
         executor.spin()
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
+    except STARTUP_ERRORS as exc:
+        print(startup_error_text(exc), file=sys.stderr, flush=True)
+        status = 2
     finally:
         if node is not None and on_shutdown is not None:
             on_shutdown(node)
@@ -137,4 +144,14 @@ def run_node(node_factory: Callable[[], Node], args: list[str] | None = None, ex
         if node is not None:
             node.destroy_node()
         rclpy.try_shutdown()
-    return 0
+    return status
+
+
+#: Errors that mean "the node cannot start with this configuration" (exit code 2, no traceback).
+STARTUP_ERRORS = (SrsError, InvalidParameterValueException, ParameterException)
+
+
+def startup_error_text(exc: BaseException) -> str:
+    """What to print when a node cannot start: the reason and what to do."""
+    return (f"cannot start: {exc}\nFix the parameter (--ros-args -p name:=value or the params file) "
+            "or the configuration file named above, then start again.")

@@ -250,11 +250,13 @@ class HardwareNode(LifecycleNode):
     def _on_command_tick(self) -> None:
         """Keep-alive at the command rate: re-send (or vent) unless a setpoint was just written through."""
         now_s = time.monotonic()
-        if now_s - self.status.last_command_s < 0.5 / self._command_rate_hz():
+        if now_s - self.status.last_command_s < 1.0 / self._command_rate_hz():
             return
         self._send_command(now_s)
 
     def _send_command(self, now_s: float) -> None:
+        if self.backend is None:  # released (cleanup, shutdown) while a callback was already queued
+            return
         pressure_bar, reason = self.gate.decide(now_s)
         self.status.last_command_s = now_s
         try:

@@ -38,7 +38,7 @@ from rclpy.node import Node
 from std_srvs.srv import Trigger
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
-from srs_ros.core.errors import SrsError
+from srs_ros.core.errors import ConfigurationError, SrsError
 from srs_ros.core.interpolation import PeriodicTrajectory
 from srs_ros.core.robot import load_robot
 from srs_ros.core.trajectory import PoorFitWarning, generate_cycle, list_gaits
@@ -123,6 +123,9 @@ class TrajectoryServer(Node):
         self._specs.update(declare_parameters(self, base_parameters(self._robot.max_pressure_bar, sorted(self._gaits))))
         self._specs.update(declare_parameters(self, gait_parameters(self._gaits)))
         self.add_on_set_parameters_callback(self._check_parameters)
+        initial = self._check_parameters([self.get_parameter(name) for name in self._specs])
+        if not initial.successful:
+            raise ConfigurationError(f"trajectory_server: invalid start-up parameter: {initial.reason}")
 
         self._fit_lock = threading.Lock()
         self._fit_started: tuple[float, str] = (0.0, "")

@@ -180,3 +180,15 @@ def test_cycle_from_points_rejects_bad_messages(names, times, scale, match):
     times = np.arange(17) * 0.1 if times is None else times
     with pytest.raises(InvalidInputError, match=match):
         cycle_from_points(names, times, samples, NAMES, MAX_M)
+
+
+def test_spline_undershoot_is_never_a_negative_length():
+    # A cycle with a sharp corner at 0: its periodic spline dips below 0 next to the corner.
+    phase = np.arange(16) / 16
+    samples = np.maximum(np.sin(2 * np.pi * phase), 0.0)[:, None] * 0.03
+    player = GaitPlayback(ramp_time_s=0.05)
+    player.load(samples, frequency_hz=1.0)
+    assert PeriodicTrajectory(samples).values(np.linspace(0, 1, 1000)).min() < 0  # the undershoot exists
+    player.start()
+    positions = np.array([player.step(0.001).positions_m for _ in range(2000)])
+    assert positions.min() >= 0.0

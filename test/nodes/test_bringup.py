@@ -1,0 +1,41 @@
+"""The main job: srs_bringup runs the whole system on the mock robot in one process; Ctrl-C vents."""
+
+import numpy as np
+from sensor_msgs.msg import JointState
+from std_msgs.msg import Float64MultiArray
+
+from srs_ros.core.robot import default_robot
+from srs_ros.nodes.common import setpoint_qos
+
+
+def test_bringup_streams_inward_rolling_at_4_bar_and_vents_on_ctrl_c(launch_node, ros_client):
+    proc = launch_node("srs_bringup", ["--status-period-s", "0.5"])
+    pressures = ros_client.subscribe(Float64MultiArray, "commanded_pressure_bar")
+    setpoints = ros_client.subscribe(JointState, "joint_setpoints", setpoint_qos())
+    ros_client.spin_until(lambda: pressures and max(max(m.data) for m in pressures) > 3.9, 30.0,
+                          "commanded pressures reaching the 4 bar amplitude")
+    robot = default_robot()
+    latest = np.array([m.data for m in pressures[-50:]])
+    assert latest.shape[1] == 9 and latest.max() <= robot.max_pressure_bar
+    assert pressures[-1].layout.dim[0].label == ",".join(robot.joint_names)
+    assert setpoints and list(setpoints[-1].name) == list(robot.joint_names)
+    assert proc.stop() == 0
+    output = proc.output()
+    assert "inward_rolling 4 bar 1 Hz" in output and "setpoints" in output and "largest" in output
+    assert "every valve vented to 0 bar" in output
+    assert "Traceback" not in output
+
+
+def test_bringup_rejects_bad_arguments(launch_node):
+    proc = launch_node("srs_bringup", ["--amplitude-bar", "abc"])
+    assert proc.process.wait(30) == 2
+    assert "invalid float value" in proc.output()
+
+
+def test_bringup_refuses_out_of_range_requests_with_the_reason(launch_node):
+    for args, reason in ((["--amplitude-bar", "5"], "amplitude_bar out of range"),
+                         (["--gait", "crawl"], "unknown gait 'crawl'; expected one of")):
+        proc = launch_node("srs_bringup", args)
+        assert proc.process.wait(30) == 2
+        output = proc.output()
+        assert reason in output and "Traceback" not in output
