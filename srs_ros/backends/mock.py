@@ -23,13 +23,13 @@ import numpy as np
 from srs_ros.backends.base import ActuatorBackend
 from srs_ros.core.errors import ConfigurationError, HardwareError
 from srs_ros.core.muscle_model import MuscleModel, MuscleParameters
-from srs_ros.core.robot import RobotDescription
+from srs_ros.core.robot import ABSOLUTE_MAX_PRESSURE_BAR, RobotDescription
 
 #: option -> (lowest, highest) for the numeric options.
 _RANGES: dict[str, tuple[float, float]] = {
     "pressure_time_constant_s": (0.0, 10.0),
     "transport_delay_s": (0.0, 2.0),
-    "deadzone_bar": (0.0, 4.0),
+    "deadzone_bar": (0.0, ABSOLUTE_MAX_PRESSURE_BAR),
     "max_extension_m": (1e-4, 1.0),
 }
 _FAULT_OPTIONS = ("fail_after_writes", "fail_on_open")

@@ -24,13 +24,16 @@ from srs_ros.core.validation import finite_array
 
 @dataclass(frozen=True)
 class MuscleParameters:
-    """Constants of the simulated muscles (all >= 0; ``full_extension_pressure_bar > deadzone_bar``)."""
+    """Constants of the simulated muscles (all >= 0; ``full_extension_pressure_bar > deadzone_bar``).
 
-    deadzone_bar: float = 1.0
-    pressure_time_constant_s: float = 0.08
-    transport_delay_s: float = 0.03
-    max_extension_m: float = 0.065
-    full_extension_pressure_bar: float = 4.0
+    No defaults: the mock backend fills them from the robot description and the rig's options.
+    """
+
+    deadzone_bar: float
+    pressure_time_constant_s: float
+    transport_delay_s: float
+    max_extension_m: float
+    full_extension_pressure_bar: float
 
 
 def extension_m(pressure_bar, params: MuscleParameters) -> np.ndarray:
