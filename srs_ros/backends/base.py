@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 
 from srs_ros.core.actuation import clamp_pressures_bar, pressures_to_command_v
-from srs_ros.core.errors import HardwareError
+from srs_ros.core.errors import HardwareError, InvalidInputError
 from srs_ros.core.robot import RobotDescription, default_robot
 
 
@@ -92,6 +92,9 @@ class ActuatorBackend(abc.ABC):
         sent), :class:`~srs_ros.core.errors.HardwareError` if the backend is not open or fails.
         """
         pressure = clamp_pressures_bar(pressure_bar, self.robot)
+        if pressure.shape != (self.robot.joint_count,):
+            raise InvalidInputError(f"pressure_bar: expected one command of shape ({self.robot.joint_count},) "
+                                    f"in bar, got shape {pressure.shape}; send batches one row at a time.")
         self._send(pressure)
         return pressure
 

@@ -237,9 +237,11 @@ def serpentine(phase, s_m, params, robot):
     """Serpenoid of paper eq. 4, ``heading(sigma) = a cos(b sigma) + c sigma`` in curve units, z = 0.
 
     Scale: the curve unit is ``scale_m_per_unit = module_count * L0 / (body_wavelengths * 2 pi / b)``
-    metres; with the defaults (b = pi/4: 8 units per wavelength, one wavelength per 0.45 m body) it
-    is 0.05625 m, so the body shows one full S, whose largest curvature (|a| b / scale = 11 1/m) is
-    within the bending a module reaches at 4 bar. The origin slides one wavelength per cycle.
+    metres; with the defaults (b = pi/4: 8 units per wavelength, ``body_wavelengths`` = 0.75 of a
+    wavelength on the 0.45 m body) it is 0.075 m per unit, whose largest curvature
+    (|a| b / scale = 8.2 1/m) is within the bending a module reaches at 4 bar (one full wavelength
+    on the body left actuators at their limit and 14 mm fit errors). The origin slides one
+    wavelength per cycle.
     """
     scale, wavelength_m = _serpenoid_units(robot, params["b_rad_per_unit"], params["body_wavelengths"])
     a, b, c = params["a_rad"], params["b_rad_per_unit"], params["c_rad_per_unit"]

@@ -6,6 +6,7 @@ The robot description says what the snake is; a rig file says how this lab's ben
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -81,7 +82,13 @@ def _with_regulator(robot: RobotDescription, model: str, where: str) -> RobotDes
                                  f"(regulator_models of {robot.source}).")
     data = dict(data)
     data["actuation"] = dict(data["actuation"], regulator_model=model)
-    return robot_from_dict(data, source=robot.source)
+    regulator = robot_from_dict(data, source=robot.source).regulator  # validates the model against the file
+    # Swap only the regulator: the caller's robot may carry a lowered pressure limit that must survive.
+    if regulator.full_scale_pressure_bar < robot.max_pressure_bar:
+        raise ConfigurationError(
+            f"{where}: 'regulator_model' {model!r} reaches {regulator.full_scale_pressure_bar} bar; "
+            f"expected at least max_pressure_bar = {robot.max_pressure_bar} bar.")
+    return dataclasses.replace(robot, regulator=regulator)
 
 
 def load_rig(path: str | Path | None = None, robot: RobotDescription | None = None) -> RigConfig:

@@ -31,6 +31,7 @@ from rclpy.node import Node
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 
+from srs_ros.core.robot import default_robot
 from srs_ros.nodes.common import (
     COMMANDED_PRESSURE_TOPIC,
     SETPOINT_TOPIC,
@@ -92,7 +93,8 @@ class StatusMonitor(Node):
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="srs_bringup", description=__doc__.split("\n")[0])
     parser.add_argument("--gait", default="inward_rolling", help="gait to stream (default inward_rolling)")
-    parser.add_argument("--amplitude-bar", type=float, default=4.0, help="largest pressure, bar (default 4)")
+    parser.add_argument("--amplitude-bar", type=float, default=None,
+                        help="largest pressure, bar (default: the robot's max_pressure_bar, 4)")
     parser.add_argument("--frequency-hz", type=float, default=1.0, help="gait frequency, Hz (default 1)")
     parser.add_argument("--samples", type=int, default=64, help="samples per fitted cycle (default 64)")
     parser.add_argument("--rate-hz", type=float, default=200.0, help="setpoint rate, Hz (default 200)")
@@ -104,6 +106,8 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def _params_file(args: argparse.Namespace) -> str:
+    if args.amplitude_bar is None:
+        args.amplitude_bar = default_robot().max_pressure_bar
     params = {
         "trajectory_server": {"gait": args.gait, "amplitude_bar": args.amplitude_bar,
                               "frequency_hz": args.frequency_hz, "samples": args.samples},

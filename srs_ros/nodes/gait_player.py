@@ -167,6 +167,7 @@ class GaitPlayer(Node):
 
     # ------------------------------------------------------------- output
     def _on_tick(self) -> None:
+        stamp = self.get_clock().now()  # the instant this setpoint is computed for
         now = time.monotonic()
         dt_s = min(now - self._last_tick, MAX_STEP_S)
         self._last_tick = now
@@ -181,7 +182,7 @@ class GaitPlayer(Node):
             if now > self._zeros_until:
                 return
         msg = self._message
-        msg.header.stamp = self.get_clock().now().to_msg()
+        msg.header.stamp = stamp.to_msg()
         msg.position = setpoint.positions_m.tolist()
         msg.velocity = setpoint.velocities_m_per_s.tolist()
         self._publisher.publish(msg)

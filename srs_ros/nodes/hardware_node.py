@@ -11,14 +11,16 @@ Interfaces (relative names, remappable):
 - subscribes ``joint_setpoints`` (sensor_msgs/JointState, best effort): ``name`` = every actuator
   (``m1_pma1`` ... ``m3_pma3``) once, in any order; ``position`` = actuator length change (m); age
   counts from reception. Rejected, never sent, throttled error log: wrong count, names/positions
-  mismatch, unknown or duplicate names, NaN/inf (the previous command continues until it is stale).
+  mismatch, unknown or duplicate names, NaN/inf, a stamp older than the timeout (the previous
+  command continues until it is stale).
   Finite lengths outside ``[0, max_extension_m]`` are accepted and limited by the one pressure clamp
   (``P = 100 l`` in ``[0, max_pressure_bar]``), with a throttled warning.
 - a fresh accepted setpoint is written through to the backend at once (latency from its stamp is
   reported in /diagnostics as ``command_latency_p50_ms`` / ``_p99_ms``); the command timer re-sends the
   latest decision (or 0 bar) at the command rate so the boards never time out.
 - publishes ``commanded_pressure_bar`` and ``command_voltage_v`` (std_msgs/Float64MultiArray, dim 0
-  labelled with the comma-joined joint names): exactly what the backend was sent on each command
+  labelled with the comma-joined joint names): what the backend was sent, at most at the command
+  rate (and at once when the output reason changes) on each command
   while configured (zeros when inactive, stale or e-stopped); ``actuator_state`` (sensor_msgs/JointState)
   at ``state_publish_rate_hz``: ``position`` = measured length (m), ``effort`` = measured pressure (bar),
   empty where the backend cannot measure; ``/diagnostics`` (diagnostic_msgs/DiagnosticArray, 1 Hz, in
@@ -46,7 +48,7 @@ from std_srvs.srv import Trigger
 
 from srs_ros.backends import BACKENDS, ActuatorBackend, create_backend
 from srs_ros.core.actuation import lengths_to_pressures_bar, pressures_to_command_v
-from srs_ros.core.errors import InvalidInputError
+from srs_ros.core.errors import ConfigurationError, InvalidInputError
 from srs_ros.core.rig import RigConfig, load_rig
 from srs_ros.core.robot import ABSOLUTE_MAX_PRESSURE_BAR, load_robot
 from srs_ros.core.safety import CommandGate, OutputReason, out_of_range_joints, setpoint_lengths_m
@@ -96,6 +98,7 @@ class HardwareStatus:
     reason: OutputReason = OutputReason.INACTIVE
     rate_window: tuple[float, int] = (math.nan, 0)  # (time s, ticks) at the previous diagnostics
     last_command_s: float = -math.inf  # monotonic time of the last write to the backend
+    last_publish_s: float = -math.inf  # monotonic time of the last commanded_pressure_bar message
     latency_ms: collections.deque = dataclasses.field(default_factory=lambda: collections.deque(maxlen=2000))
 
 
@@ -178,10 +181,16 @@ class HardwareNode(LifecycleNode):
         limit_bar = min(robot.max_pressure_bar, self.get_parameter("max_pressure_bar").value)
         rig = load_rig(self.get_parameter("rig_file").value or None,
                        dataclasses.replace(robot, max_pressure_bar=limit_bar))
+        timeout_s = self.get_parameter("setpoint_timeout_s").value or rig.setpoint_timeout_s
+        rate_hz = self.get_parameter("command_rate_hz").value or rig.command_rate_hz
+        if 1.0 / rate_hz > 0.5 * timeout_s:
+            # Staleness is acted on at command ticks: a slow tick would hold a stale pressure too long.
+            raise ConfigurationError(f"command_rate_hz is {rate_hz:g} Hz with setpoint_timeout_s {timeout_s:g} s; "
+                                     f"expected at least {2.0 / timeout_s:g} Hz (two commands per timeout).")
         backend = create_backend(self.get_parameter("backend").value or rig.backend, rig.robot, rig.backend_options)
         backend.open()
         self.gate.joint_count = rig.robot.joint_count
-        self.gate.setpoint_timeout_s = self.get_parameter("setpoint_timeout_s").value or rig.setpoint_timeout_s
+        self.gate.setpoint_timeout_s = timeout_s
         return rig, backend
 
     def _command_rate_hz(self) -> float:
@@ -238,14 +247,21 @@ class HardwareNode(LifecycleNode):
             self.get_logger().warning(f"setpoint lengths of {outside} outside [0, {robot.max_extension_m}] m; "
                                       f"pressures limited to [0, {robot.max_pressure_bar}] bar",
                                       throttle_duration_sec=LOG_THROTTLE_S)
+        # A stamped setpoint that is already older than the timeout (queued behind a stall) is stale on
+        # arrival; an unstamped one (stamp 0) is aged from its reception.
+        stamp_ns = msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
+        age_s = (self.get_clock().now().nanoseconds - stamp_ns) * 1e-9 if stamp_ns else 0.0
+        if age_s > self.gate.setpoint_timeout_s:
+            self.status.rejected_setpoints += 1
+            self.get_logger().error(f"rejected setpoint, not sent: its stamp is {age_s:.3f} s old, more than "
+                                    f"setpoint_timeout_s {self.gate.setpoint_timeout_s:g} s",
+                                    throttle_duration_sec=LOG_THROTTLE_S)
+            return
         now_s = time.monotonic()
         self.gate.accept(lengths_to_pressures_bar(lengths_m, robot), now_s)
         if self.gate.active and not self.gate.estop_latched:
             # Write through: a fresh setpoint reaches the valves now, not at the next tick.
-            self._send_command(now_s)
-            stamp_ns = msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
-            if stamp_ns:
-                self.status.latency_ms.append((self.get_clock().now().nanoseconds - stamp_ns) * 1e-6)
+            self._send_command(now_s, stamp_ns)
 
     def _on_command_tick(self) -> None:
         """Keep-alive at the command rate: re-send (or vent) unless a setpoint was just written through."""
@@ -254,19 +270,28 @@ class HardwareNode(LifecycleNode):
             return
         self._send_command(now_s)
 
-    def _send_command(self, now_s: float) -> None:
+    def _send_command(self, now_s: float, setpoint_stamp_ns: int = 0) -> None:
+        """Write the gate's decision to the backend; publish what was sent at most at the command rate."""
         if self.backend is None:  # released (cleanup, shutdown) while a callback was already queued
             return
         pressure_bar, reason = self.gate.decide(now_s)
         self.status.last_command_s = now_s
         try:
             sent_bar = self.backend.write_pressures(pressure_bar)
+            if setpoint_stamp_ns:
+                self.status.latency_ms.append((self.get_clock().now().nanoseconds - setpoint_stamp_ns) * 1e-6)
             state = self.backend.read_state() if self.status.ticks % self._state_every_ticks == 0 else None
         except Exception as exc:  # any backend failure takes the generic fault path
             self._on_backend_fault(exc)
             return
         self.status.ticks += 1
+        changed = reason is not self.status.reason
         self._note_reason(reason)
+        # Observers get the command at most at the command rate (and at once on a change of reason):
+        # a 1 kHz setpoint stream must not double the DDS load of the real-time path.
+        if not changed and now_s - self.status.last_publish_s < 0.9 / self._command_rate_hz():
+            return
+        self.status.last_publish_s = now_s
         names = self.rig.robot.joint_names
         self._runtime["pressure"].publish(labelled_array(names, sent_bar))
         self._runtime["voltage"].publish(labelled_array(names, pressures_to_command_v(sent_bar, self.rig.robot)))

@@ -5,7 +5,7 @@ Interface (relative names)::
     publishes   gait_trajectory   trajectory_msgs/JointTrajectory   reliable + transient_local (latched)
     services    ~/regenerate      std_srvs/Trigger
     parameters  gait, amplitude_bar, frequency_hz, samples, generate_on_start, reject_poor_fit,
-                <gait>.<parameter> for every gait of config/gaits.yaml (e.g. serpentine.scale),
+                <gait>.<parameter> for every gait of config/gaits.yaml (e.g. serpentine.body_wavelengths),
                 robot_description_file (read-only)
 
 The trajectory holds one period: ``samples + 1`` points, point ``i`` at ``time_from_start = i / (samples *

@@ -181,6 +181,9 @@ def _open_and_run(backend: ActuatorBackend, rig: RigConfig, joints: list[int], a
         print(f"srs_wiring_check: hardware error on the {backend.name} backend: {exc}", file=sys.stderr, flush=True)
         _vent_and_close(backend)
         return EXIT_HARDWARE
+    except BaseException:
+        _vent_and_close(backend)  # any other way out (a broken pipe, a bug) still leaves every valve at 0 bar
+        raise
     vented = _vent_and_close(backend)
     print(f"done: {len(joints)} regulator(s) pulsed, all vented" if vented else
           "done, but VENTING FAILED - shut off the supply", flush=True)

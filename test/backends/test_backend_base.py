@@ -51,3 +51,10 @@ def test_write_before_open_is_a_hardware_error():
 def test_unknown_backend_lists_the_known_ones():
     with pytest.raises(ConfigurationError, match=r"unknown backend 'pcan'; expected one of \['can', 'daq', 'mock'\]"):
         create_backend("pcan")
+
+
+def test_a_batch_is_not_a_command():
+    with RecordingBackend() as backend:
+        with pytest.raises(InvalidInputError, match=r"expected one command of shape \(9,\)"):
+            backend.write_pressures(np.zeros((2, 9)))
+        assert backend.sent == []

@@ -74,3 +74,11 @@ def test_amplitude_scale():
 def test_shipped_mock_rig():
     rig = load_rig()
     assert rig.backend == "mock" and rig.setpoint_timeout_s == 0.2 and rig.robot.regulator.name == "ITV3050"
+
+
+def test_rig_regulator_keeps_a_lowered_pressure_limit():
+    lowered = dataclasses.replace(ROBOT, max_pressure_bar=2.0)
+    rig = rig_from_dict({"rig": {"name": "r", "backend": "mock", "regulator_model": "ITV3030",
+                                 "command_rate_hz": 100, "setpoint_timeout_s": 0.2}}, lowered)
+    assert rig.robot.regulator.name == "ITV3030" and rig.robot.max_pressure_bar == 2.0
+    assert clamp_pressures_bar(np.full(9, 3.0), rig.robot) == pytest.approx(np.full(9, 2.0))

@@ -113,7 +113,8 @@ def test_setpoints_become_clamped_pressures_and_volts_and_deactivate_vents(hardw
     assert rig.client.lifecycle_state(NODE) == "inactive"
     count = len(rig.pressure)
     rig.stream(good, timeout_s=0.5)
-    assert all(np.allclose(msg.data, ZEROS) for msg in rig.pressure[count:])  # inactive sends 0 bar
+    inactive = rig.pressure[count:]
+    assert inactive and all(np.allclose(msg.data, ZEROS) for msg in inactive)  # inactive sends 0 bar
     assert proc.stop() == 0  # Ctrl-C: vent, close, exit cleanly
     assert "Traceback" not in proc.log_path.read_text()
 

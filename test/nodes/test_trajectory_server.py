@@ -81,7 +81,7 @@ def test_a_second_regenerate_during_a_fit_is_answered_busy(launch_node, ros_clie
     # Parameter services keep answering during the fit.
     assert ros_client.get_parameters("trajectory_server", ["samples"]) == {"samples": 64}
     ros_client.spin_until(first.done, 120.0, "the first fit")
-    assert answered_s < 5.0
+    assert answered_s < 9.0  # answered, not queued behind the fit (which takes far longer)
 
 
 def test_gait_player_streams_what_the_server_latched(launch_node, ros_client):
