@@ -58,7 +58,8 @@ class Rig:
             if until is not None and until():
                 return
             if time.monotonic() >= next_s:
-                self.publisher.publish(messages[sent % len(messages)])
+                message = messages[sent % len(messages)]
+                self.publisher.publish(message() if callable(message) else message)
                 sent, next_s = sent + 1, time.monotonic() + period_s
             self.client.executor.spin_once(timeout_sec=0.005)
         if until is not None:
@@ -243,3 +244,33 @@ def test_backend_fault_goes_to_the_error_state_and_reconfigure_recovers(hardware
     rig.stream(setpoint(LENGTHS_M), until=lambda: rig.diagnostic().level == DiagnosticStatus.OK,
                what="diagnostics OK after recovery")
     assert proc.alive()
+
+
+def test_setpoints_stamped_before_the_timeout_are_stale_on_arrival(hardware, ros_client):
+    proc, rig = hardware()
+    rig.start()
+    old = setpoint(LENGTHS_M)
+    old.header.stamp = (ros_client.node.get_clock().now() - rclpy_duration(2.0)).to_msg()  # queued behind a stall
+    rig.stream(old, until=lambda: int(rig.diagnostic("rejected_setpoints") or 0) >= 3, what="stale rejections")
+    assert all(np.allclose(m.data, ZEROS) for m in rig.pressure) and rig.pressure
+    def fresh():
+        msg = setpoint(LENGTHS_M)
+        msg.header.stamp = ros_client.node.get_clock().now().to_msg()
+        return msg
+
+    rig.stream(fresh, until=lambda: rig.commanded(PRESSURES_BAR), what="a freshly stamped setpoint commanded")
+    assert "its stamp is" in proc.output()
+
+
+def test_a_command_rate_too_slow_for_the_timeout_is_refused_at_configure(hardware):
+    proc, rig = hardware({"command_rate_hz": 2.0, "setpoint_timeout_s": 0.2})
+    rig.client.spin_until(lambda: rig.client.lifecycle_state(NODE) == "unconfigured", what="hardware_node up")
+    assert not rig.client.change_state(NODE, "configure")
+    assert rig.client.lifecycle_state(NODE) == "unconfigured"
+    rig.client.spin_until(lambda: "expected at least 10 Hz" in proc.output(), what="the reason in the log")
+
+
+def rclpy_duration(seconds: float):
+    from rclpy.duration import Duration
+
+    return Duration(seconds=seconds)
