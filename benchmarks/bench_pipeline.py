@@ -4,8 +4,10 @@ Starts trajectory_server, gait_player (autostart) and hardware_node (autostart, 
 processes on a private domain, listens to ``joint_setpoints`` from this process, and for each rate:
 
 - period error of the gait_player timer: |stamp[i+1] - stamp[i] - 1/rate| (us), p50 / p99 / max;
-- lost setpoints: gaps of more than 1.5 periods between consecutive received stamps, and
-  received vs expected count;
+- lost setpoints: published (gait_player prints its count at exit) minus received here, over the whole
+  run (the stream starts only after discovery); timer ticks missed: stamps expected at the rate minus
+  stamps received during the measurement (scheduling stalls of the timer, not DDS losses); gaps: intervals
+  longer than 1.5 periods;
 - latency from a setpoint's stamp to the hardware node's write to the backend (ms), p50 / p99, as
   measured inside hardware_node and reported on /diagnostics (windows of the last 2000 setpoints;
   the worst window's p99 is reported);
@@ -19,6 +21,8 @@ from __future__ import annotations
 
 import argparse
 import os
+import re
+import signal
 import sys
 import time
 from pathlib import Path
@@ -47,11 +51,16 @@ def run_rate(rate_hz: float, duration_s: float, env: dict[str, str], client: Ros
 
     from srs_ros.nodes.common import setpoint_qos
 
+    received_total = [0]
+    total_sub = client.node.create_subscription(
+        JointState, "joint_setpoints", lambda _m: received_total.__setitem__(0, received_total[0] + 1),
+        setpoint_qos(depth=100))
     processes = [
         NodeProcess("trajectory_server", ros_args({"gait": "inward_rolling"}), env=env),
         NodeProcess("hardware_node", ros_args({"autostart": True}), env=env),
-        NodeProcess("gait_player", ros_args({"autostart": True, "rate_hz": rate_hz}), env=env),
+        NodeProcess("gait_player", ros_args({"rate_hz": rate_hz}), env=env),
     ]
+    player = processes[-1]
     try:
         stamps_ns: list[int] = []
         recording = [False]
@@ -64,10 +73,16 @@ def run_rate(rate_hz: float, duration_s: float, env: dict[str, str], client: Ros
         sub = client.node.create_subscription(JointState, "joint_setpoints", on_setpoint, setpoint_qos(depth=100))
         dsub = client.node.create_subscription(
             DiagnosticArray, "/diagnostics", lambda m: diag.append(_diagnostic_values(m)) if recording[0] else None, 10)
-        seen: list = []
-        probe = client.node.create_subscription(JointState, "joint_setpoints", seen.append, setpoint_qos())
-        client.spin_until(lambda: len(seen) > 2 * rate_hz, 60.0, "the setpoint stream (fit + ramp-in)")
-        client.node.destroy_subscription(probe)
+        # Start only once both ends know each other, so every published setpoint can be counted here.
+        client.spin_until(lambda: client.node.count_publishers("joint_setpoints") >= 1, 30.0, "gait_player")
+        client.spin_until(lambda: client.node.count_subscribers("gait_trajectory") >= 1
+                          and client.node.count_publishers("gait_trajectory") >= 1, 30.0, "trajectory wiring")
+        client.spin_for(1.0)
+        started = client.trigger("gait_player/start", timeout_s=30.0)
+        while not started.success:  # the first fit may still be running
+            client.spin_for(0.5)
+            started = client.trigger("gait_player/start", timeout_s=30.0)
+        client.spin_until(lambda: received_total[0] > 2 * rate_hz, 60.0, "the setpoint stream (ramp-in)")
         cpu0 = {p.script: _cpu_seconds(p.process.pid) for p in processes}
         t0 = time.monotonic()
         recording[0] = True
@@ -76,8 +91,12 @@ def run_rate(rate_hz: float, duration_s: float, env: dict[str, str], client: Ros
         elapsed = time.monotonic() - t0
         cpu = {name: 100.0 * (_cpu_seconds(p.process.pid) - cpu0[name]) / elapsed
                for name, p in ((p.script, p) for p in processes)}
-        client.node.destroy_subscription(sub)
-        client.node.destroy_subscription(dsub)
+        player.process.send_signal(signal.SIGINT)  # its last words: how many setpoints it published
+        client.spin_until(lambda: player.process.poll() is not None, 15.0, "gait_player exit")
+        client.spin_for(0.5)
+        published = int(re.search(r"published (\d+) setpoints", player.output()).group(1))
+        for subscription in (sub, dsub, total_sub):
+            client.node.destroy_subscription(subscription)
     finally:
         for proc in processes:
             proc.stop()
@@ -90,6 +109,7 @@ def run_rate(rate_hz: float, duration_s: float, env: dict[str, str], client: Ros
     p99 = [float(d["command_latency_p99_ms"]) for d in diag if d.get("command_latency_p99_ms", "n/a") != "n/a"]
     return {
         "rate_hz": rate_hz, "received": len(stamps), "expected": expected,
+        "published_total": published, "received_total": received_total[0],
         "gaps": int(np.sum(dt > 1.5 * period_ns)),
         "period_p50_us": float(np.percentile(error_us, 50)), "period_p99_us": float(np.percentile(error_us, 99)),
         "period_max_us": float(error_us.max()),
@@ -118,7 +138,8 @@ def main() -> None:
             fastdds_shm_clean()
         r = results[-1]
         print(f"{r['rate_hz']:6.0f} Hz over {args.duration_s:g} s: "
-              f"received {r['received']} / expected {r['expected']}, gaps {r['gaps']} | "
+              f"lost {r['published_total'] - r['received_total']} of {r['published_total']} published, "
+              f"{r['expected'] - r['received']} timer ticks missed, gaps {r['gaps']} | "
               f"period error p50 {r['period_p50_us']:.0f} us, p99 {r['period_p99_us']:.0f} us, "
               f"max {r['period_max_us']:.0f} us | latency p50 {r['latency_p50_ms']:.3f} ms, "
               f"p99 {r['latency_p99_ms']:.3f} ms | CPU player {r['cpu_gait_player_pct']:.0f} %, "

@@ -82,6 +82,7 @@ class GaitPlayer(Node):
         self._zeros_until = 0.0
         self._last_tick = time.monotonic()
         self._message = JointState()
+        self.published_count = 0  # setpoints published since start-up (printed at exit, for loss checks)
         self._message.name = list(self._robot.joint_names)
 
         self.add_on_set_parameters_callback(self._check_parameters)
@@ -186,6 +187,7 @@ class GaitPlayer(Node):
         msg.position = setpoint.positions_m.tolist()
         msg.velocity = setpoint.velocities_m_per_s.tolist()
         self._publisher.publish(msg)
+        self.published_count += 1
 
     @property
     def playback(self) -> GaitPlayback:
@@ -195,7 +197,11 @@ class GaitPlayer(Node):
 
 def main(args: list[str] | None = None) -> int:
     """Console script ``gait_player``."""
-    return run_node(GaitPlayer, args)
+    return run_node(GaitPlayer, args, on_shutdown=_report_count)
+
+
+def _report_count(player: GaitPlayer) -> None:
+    print(f"gait_player: published {player.published_count} setpoints", flush=True)
 
 
 if __name__ == "__main__":

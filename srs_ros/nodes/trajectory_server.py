@@ -39,7 +39,6 @@ from std_srvs.srv import Trigger
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
 from srs_ros.core.errors import ConfigurationError, SrsError
-from srs_ros.core.interpolation import PeriodicTrajectory
 from srs_ros.core.robot import load_robot
 from srs_ros.core.trajectory import PoorFitWarning, generate_cycle, list_gaits
 from srs_ros.nodes.common import (
@@ -98,7 +97,7 @@ def trajectory_message(cycle, stamp) -> JointTrajectory:
     lengths = np.asarray(cycle.lengths_m, dtype=np.float64)
     count = lengths.shape[0]
     period_ns = round(1e9 / cycle.frequency_hz)
-    slopes = PeriodicTrajectory(lengths).derivatives(np.arange(count) / count) * cycle.frequency_hz
+    slopes = cycle.velocities_at(np.arange(count) / count)
     msg = JointTrajectory()
     msg.header.stamp = stamp
     msg.joint_names = list(cycle.joint_names)
