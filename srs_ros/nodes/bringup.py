@@ -5,11 +5,12 @@ lifecycle ``hardware_node`` (autostart: configured and active) on the chosen rig
 default), plus a small status monitor that prints gait, phase, setpoint and command rates and the
 largest commanded pressure until Ctrl-C (or ``--duration-s``); then the valves are vented.
 
-Executors: the real-time path (gait_player, hardware_node, status) shares one SingleThreadedExecutor
-in the main thread; the trajectory_server keeps its own multi-threaded executor in a second thread so
-that a fit (~0.1 s) never holds up a setpoint or a command (a MultiThreadedExecutor for everything was
-measured to drop the 200 Hz streams to 10-40 Hz in this rclpy). The GIL switch interval is lowered to
-0.5 ms so the real-time thread gets the interpreter back quickly while a fit runs.
+Executors: the real-time path (gait_player, hardware_node, status) shares one EventsExecutor, driven
+by a timed spin_once loop in the main thread (its spin() hangs in this rclpy); the trajectory_server
+keeps its own multi-threaded executor in a second thread so that a fit (~0.1 s) never holds up a
+setpoint or a command (a MultiThreadedExecutor for everything was measured to drop the 200 Hz streams
+to 10-40 Hz in this rclpy). The GIL switch interval is lowered to 0.5 ms so the real-time thread gets
+the interpreter back quickly while a fit runs.
 
 Example: ``srs_bringup --gait serpentine --amplitude-bar 3 --frequency-hz 0.5``. ROS arguments
 after ``--ros-args`` are passed on (e.g. remappings). ``launch/srs.launch.py`` starts the same nodes
@@ -27,7 +28,8 @@ import time
 
 import rclpy
 import yaml
-from rclpy.executors import ExternalShutdownException, MultiThreadedExecutor, SingleThreadedExecutor
+from rclpy.executors import ExternalShutdownException, MultiThreadedExecutor
+from rclpy.experimental import EventsExecutor
 from rclpy.node import Node
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
@@ -127,7 +129,7 @@ def main(argv: list[str] | None = None) -> int:
     ros_args = ros_args or ["--ros-args"]
     rclpy.init(args=["srs_bringup", *ros_args, "--params-file", _params_file(args)])
     sys.setswitchinterval(0.0005)
-    realtime = SingleThreadedExecutor()
+    realtime = EventsExecutor()
     fitting = MultiThreadedExecutor(num_threads=2)
     fitting_thread = threading.Thread(target=_spin_quietly, args=(fitting,), name="trajectory_server", daemon=True)
     nodes: list[Node] = []

@@ -136,7 +136,9 @@ def run_node(node_factory: Callable[[], Node], args: list[str] | None = None, ex
         # (its pauses show up as timer jitter in the setpoint stream).
         gc.collect()
         gc.freeze()
-        executor.spin()
+        # Timed spin_once loop, not spin(): this rclpy's EventsExecutor.spin() never runs a callback.
+        while rclpy.ok():
+            executor.spin_once(timeout_sec=0.1)
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     except STARTUP_ERRORS as exc:

@@ -32,6 +32,7 @@ import time
 from typing import Any
 
 from rcl_interfaces.msg import SetParametersResult
+from rclpy.experimental import EventsExecutor
 from rclpy.node import Node
 from sensor_msgs.msg import JointState
 from std_srvs.srv import Trigger
@@ -197,7 +198,7 @@ class GaitPlayer(Node):
 
 def main(args: list[str] | None = None) -> int:
     """Console script ``gait_player``."""
-    return run_node(GaitPlayer, args, on_shutdown=_report_count)
+    return run_node(GaitPlayer, args, executor_factory=EventsExecutor, on_shutdown=_report_count)
 
 
 def _report_count(player: GaitPlayer) -> None:

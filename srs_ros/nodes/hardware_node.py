@@ -41,6 +41,7 @@ import time
 
 import numpy as np
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from rclpy.experimental import EventsExecutor
 from rclpy.lifecycle import LifecycleNode, LifecycleState, TransitionCallbackReturn
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
@@ -432,7 +433,8 @@ def _describe(exc: BaseException) -> str:
 
 def main(args: list[str] | None = None) -> int:
     """``hardware_node``: spin until Ctrl-C, then vent and close the backend."""
-    return run_node(HardwareNode, args, on_shutdown=lambda node: node.release_hardware())
+    return run_node(HardwareNode, args, executor_factory=EventsExecutor,
+                    on_shutdown=lambda node: node.release_hardware())
 
 
 if __name__ == "__main__":
