@@ -20,7 +20,6 @@ as separate processes on a stock ROS install.
 from __future__ import annotations
 
 import argparse
-import gc
 import sys
 import tempfile
 import threading
@@ -40,6 +39,7 @@ from srs_ros.nodes.common import (
     SETPOINT_TOPIC,
     STARTUP_ERRORS,
     setpoint_qos,
+    spin_until_shutdown,
     startup_error_text,
 )
 from srs_ros.nodes.gait_player import GaitPlayer
@@ -142,11 +142,7 @@ def main(argv: list[str] | None = None) -> int:
         fitting_thread.start()
         for node in nodes[1:]:
             realtime.add_node(node)
-        end_s = time.monotonic() + args.duration_s if args.duration_s > 0 else float("inf")
-        gc.collect()
-        gc.freeze()  # as run_node: start-up objects are not rescanned by the GC during the run
-        while rclpy.ok() and time.monotonic() < end_s:
-            realtime.spin_once(timeout_sec=0.1)
+        spin_until_shutdown(realtime, args.duration_s)
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     except STARTUP_ERRORS as exc:

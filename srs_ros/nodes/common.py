@@ -12,7 +12,9 @@ Topic graph (relative names, remappable with ``--ros-args -r``)::
 from __future__ import annotations
 
 import gc
+import math
 import sys
+import time
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -132,13 +134,7 @@ def run_node(node_factory: Callable[[], Node], args: list[str] | None = None, ex
     try:
         node = node_factory()
         executor.add_node(node)
-        # Objects made at start-up live for the whole run: keep the cyclic GC from rescanning them
-        # (its pauses show up as timer jitter in the setpoint stream).
-        gc.collect()
-        gc.freeze()
-        # Timed spin_once loop, not spin(): this rclpy's EventsExecutor.spin() never runs a callback.
-        while rclpy.ok():
-            executor.spin_once(timeout_sec=0.1)
+        spin_until_shutdown(executor)
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     except STARTUP_ERRORS as exc:
@@ -152,6 +148,20 @@ def run_node(node_factory: Callable[[], Node], args: list[str] | None = None, ex
             node.destroy_node()
         rclpy.try_shutdown()
     return status
+
+
+def spin_until_shutdown(executor, duration_s: float = 0.0) -> None:
+    """Spin until Ctrl-C / shutdown (or ``duration_s`` > 0 seconds), for any executor.
+
+    A timed spin_once loop, not spin(): this rclpy's EventsExecutor.spin() never runs a callback.
+    Objects made at start-up live for the whole run, so the cyclic GC is told to leave them alone
+    (its pauses showed up as timer jitter in the setpoint stream).
+    """
+    end_s = time.monotonic() + duration_s if duration_s > 0 else math.inf
+    gc.collect()
+    gc.freeze()
+    while rclpy.ok() and time.monotonic() < end_s:
+        executor.spin_once(timeout_sec=0.1)
 
 
 #: Errors that mean "the node cannot start with this configuration" (exit code 2, no traceback).
