@@ -27,7 +27,7 @@ import time
 
 import rclpy
 import yaml
-from rclpy.executors import ExternalShutdownException, MultiThreadedExecutor
+from rclpy.executors import MultiThreadedExecutor
 from rclpy.experimental import EventsExecutor
 from rclpy.node import Node
 from sensor_msgs.msg import JointState
@@ -37,10 +37,9 @@ from srs_ros.core.robot import default_robot
 from srs_ros.nodes.common import (
     COMMANDED_PRESSURE_TOPIC,
     SETPOINT_TOPIC,
-    STARTUP_ERRORS,
+    CleanExit,
     setpoint_qos,
     spin_until_shutdown,
-    startup_error_text,
 )
 from srs_ros.nodes.gait_player import GaitPlayer
 from srs_ros.nodes.hardware_node import HardwareNode
@@ -134,27 +133,23 @@ def main(argv: list[str] | None = None) -> int:
     fitting_thread = threading.Thread(target=_spin_quietly, args=(fitting,), name="trajectory_server", daemon=True)
     nodes: list[Node] = []
     hardware = server = None
-    status = 0
+    outcome = CleanExit()
     try:
-        server, player, hardware = TrajectoryServer(), GaitPlayer(), HardwareNode()
-        nodes = [server, player, hardware, StatusMonitor(player, server, hardware, args.status_period_s)]
-        fitting.add_node(server)
-        fitting_thread.start()
-        for node in nodes[1:]:
-            realtime.add_node(node)
-        spin_until_shutdown(realtime, args.duration_s)
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    except STARTUP_ERRORS as exc:
-        print(startup_error_text(exc), file=sys.stderr, flush=True)
-        status = 2
+        with outcome:
+            server, player, hardware = TrajectoryServer(), GaitPlayer(), HardwareNode()
+            nodes = [server, player, hardware, StatusMonitor(player, server, hardware, args.status_period_s)]
+            fitting.add_node(server)
+            fitting_thread.start()
+            for node in nodes[1:]:
+                realtime.add_node(node)
+            spin_until_shutdown(realtime, args.duration_s)
     finally:
         realtime.shutdown()
         if hardware is not None:
             hardware.release_hardware()
             print("\nsrs_bringup: stopped; every valve vented to 0 bar", flush=True)
-        elif status == 0:
-            status = 1
+        elif outcome.exit_code == 0:
+            outcome.exit_code = 1
         if server is not None:
             server.wait_for_fit()
         fitting.shutdown()
@@ -163,14 +158,12 @@ def main(argv: list[str] | None = None) -> int:
         for node in nodes:
             node.destroy_node()
         rclpy.try_shutdown()
-    return status
+    return outcome.exit_code
 
 
 def _spin_quietly(executor) -> None:
-    try:
+    with CleanExit():
         executor.spin()
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
 
 
 if __name__ == "__main__":

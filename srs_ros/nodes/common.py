@@ -130,16 +130,12 @@ def run_node(node_factory: Callable[[], Node], args: list[str] | None = None, ex
     rclpy.init(args=args if args is not None else sys.argv)
     node = None
     executor = executor_factory()
-    status = 0
+    outcome = CleanExit()
     try:
-        node = node_factory()
-        executor.add_node(node)
-        spin_until_shutdown(executor)
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    except STARTUP_ERRORS as exc:
-        print(startup_error_text(exc), file=sys.stderr, flush=True)
-        status = 2
+        with outcome:
+            node = node_factory()
+            executor.add_node(node)
+            spin_until_shutdown(executor)
     finally:
         if node is not None and on_shutdown is not None:
             on_shutdown(node)
@@ -147,7 +143,29 @@ def run_node(node_factory: Callable[[], Node], args: list[str] | None = None, ex
         if node is not None:
             node.destroy_node()
         rclpy.try_shutdown()
-    return status
+    return outcome.exit_code
+
+
+class CleanExit:
+    """Context manager for the end of a node's main loop, holding its exit code.
+
+    Ctrl-C or an external shutdown end it quietly (exit code 0); a start-up error
+    (:data:`STARTUP_ERRORS`) prints the reason and what to do (exit code 2); anything else
+    propagates with its traceback.
+    """
+
+    def __init__(self) -> None:
+        self.exit_code = 0
+
+    def __enter__(self) -> CleanExit:
+        return self
+
+    def __exit__(self, kind, exc, _traceback) -> bool:
+        if kind is not None and issubclass(kind, STARTUP_ERRORS):
+            print(startup_error_text(exc), file=sys.stderr, flush=True)
+            self.exit_code = 2
+            return True
+        return kind is not None and issubclass(kind, (KeyboardInterrupt, ExternalShutdownException))
 
 
 def spin_until_shutdown(executor, duration_s: float = 0.0) -> None:

@@ -153,17 +153,21 @@ def _interrupt(process, timeout_s: float = 15.0) -> tuple[int, str, float]:
     return process.returncode, out + err, time.monotonic() - sent
 
 
-def test_ctrl_c_vents_at_once_mock_console_script():
-    process = subprocess.Popen(
-        [script_path("srs_wiring_check"), "--rig", str(config_dir() / "rigs" / "mock.yaml"), "--hold-s", "30"],
-        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+def _interrupt_during_first_pulse(command, env=None):
+    """Run the tool, press Ctrl-C while it holds pulse 1; (exit code, output, seconds to exit)."""
+    process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
     try:
         _wait_for_line(process, "pulse 1/9")
-        code, output, elapsed_s = _interrupt(process)
+        return _interrupt(process)
     finally:
         if process.poll() is None:
             process.kill()
             process.wait()
+
+
+def test_ctrl_c_vents_at_once_mock_console_script():
+    code, output, elapsed_s = _interrupt_during_first_pulse(
+        [script_path("srs_wiring_check"), "--rig", str(config_dir() / "rigs" / "mock.yaml"), "--hold-s", "30"])
     assert code == 130, output
     assert "interrupted: all regulators vented" in output and "Traceback" not in output
     assert elapsed_s < 10.0  # at once, not after the 30 s pulse
@@ -188,16 +192,8 @@ def test_ctrl_c_vents_at_once_on_a_can_bus(tmp_path):
     channel = f"srs_wiring_{uuid.uuid4().hex[:8]}"
     record = tmp_path / "frames.json"
     args = ["--rig", str(can_rig(tmp_path, channel, rate_hz=50.0)), "--hold-s", "30", "--vent-s", "0.05"]
-    process = subprocess.Popen([sys.executable, "-c", CAN_CHILD, channel, str(record), *args],
-                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                               env=dict(os.environ, PYTHONUNBUFFERED="1"))
-    try:
-        _wait_for_line(process, "pulse 1/9")
-        code, output, elapsed_s = _interrupt(process)
-    finally:
-        if process.poll() is None:
-            process.kill()
-            process.wait()
+    code, output, elapsed_s = _interrupt_during_first_pulse(
+        [sys.executable, "-c", CAN_CHILD, channel, str(record), *args], env=dict(os.environ, PYTHONUNBUFFERED="1"))
     assert code == 130, output
     assert "interrupted: all regulators vented" in output and elapsed_s < 10.0
     writes = writes_from_frames([(frame_id, bytes.fromhex(data)) for frame_id, data in json.loads(record.read_text())])
