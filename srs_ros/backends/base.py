@@ -50,6 +50,9 @@ class ActuatorBackend(abc.ABC):
 
     #: The name the backend is chosen by (``backend`` parameter).
     name: str = "abstract"
+    #: True where the backend drives real regulators with real air: the hardware node then commands
+    #: nothing above 0 bar until an operator arms it (``~/arm``). Simulated backends set it False.
+    drives_real_hardware: bool = True
 
     def __init__(self, robot: RobotDescription | None = None, options: Mapping[str, Any] | None = None):
         """Store the robot description and the backend's own options (validated by the subclass)."""

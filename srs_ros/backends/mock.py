@@ -43,6 +43,7 @@ class MockBackend(ActuatorBackend):
     """
 
     name = "mock"
+    drives_real_hardware = False
 
     def __init__(self, robot: RobotDescription | None = None, options: Mapping[str, Any] | None = None,
                  clock: Callable[[], float] = time.monotonic):

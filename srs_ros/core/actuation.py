@@ -21,8 +21,7 @@ def clamp_pressures_bar(pressure_bar, robot: RobotDescription | None = None) -> 
     """
     robot = robot or default_robot()
     pressure = finite_array("pressure_bar", pressure_bar, (robot.joint_count,), "bar")
-    limit = min(robot.max_pressure_bar, ABSOLUTE_MAX_PRESSURE_BAR)
-    return np.clip(pressure, 0.0, limit)
+    return np.clip(pressure, 0.0, pressure_limit_bar(robot))
 
 
 def lengths_to_pressures_bar(lengths_m, robot: RobotDescription | None = None) -> np.ndarray:
@@ -33,10 +32,26 @@ def lengths_to_pressures_bar(lengths_m, robot: RobotDescription | None = None) -
     """
     robot = robot or default_robot()
     lengths = finite_array("lengths_m", lengths_m, (robot.joint_count,), "m")
-    pressure = robot.pressure_per_length_bar_per_m * lengths
+    # Limit the length first: a huge finite length (±1e307 m) must not overflow the map to ±inf.
+    pressure = robot.pressure_per_length_bar_per_m * np.clip(lengths, 0.0, pressure_limited_length_m(robot))
     if robot.deadzone_offset_bar > 0.0:
         pressure = np.where(lengths > 0.0, pressure + robot.deadzone_offset_bar, pressure)
     return clamp_pressures_bar(pressure, robot)
+
+
+def pressure_limit_bar(robot: RobotDescription | None = None) -> float:
+    """The pressure limit every command is clamped to (bar): the robot's, never above 4 bar."""
+    robot = robot or default_robot()
+    return min(robot.max_pressure_bar, ABSOLUTE_MAX_PRESSURE_BAR)
+
+
+def pressure_limited_length_m(robot: RobotDescription | None = None) -> float:
+    """The longest length the pressure map can command within the limit (m): 0.04 m at 4 bar with P = 100 l.
+
+    Longer setpoints (up to the muscles' ``max_extension_m``, 0.065 m) are limited to the pressure limit.
+    """
+    robot = robot or default_robot()
+    return max(pressure_limit_bar(robot) - robot.deadzone_offset_bar, 0.0) / robot.pressure_per_length_bar_per_m
 
 
 def pressures_to_lengths_m(pressure_bar, robot: RobotDescription | None = None) -> np.ndarray:

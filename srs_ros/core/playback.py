@@ -26,6 +26,10 @@ import numpy as np
 
 from srs_ros.core.errors import InvalidInputError
 from srs_ros.core.interpolation import PeriodicTrajectory
+from srs_ros.core.robot import CYCLE_FREQUENCY_RANGE_HZ
+
+#: Default soft start/stop time (s) of the gait player, also the hardware node's ramp from 0 bar.
+DEFAULT_RAMP_TIME_S = 1.0
 
 
 def smoothstep(progress: float) -> float:
@@ -124,7 +128,9 @@ class GaitPlayback:
     'starting'
     """
 
-    def __init__(self, ramp_time_s: float = 1.0, blend_time_s: float = 0.5):
+    def __init__(self, ramp_time_s: float = DEFAULT_RAMP_TIME_S, blend_time_s: float = 0.5,
+                 max_length_m: float = math.inf):
+        self.max_length_m = self._positive("max_length_m", max_length_m) if math.isfinite(max_length_m) else math.inf
         self.ramp_time_s = self._positive("ramp_time_s", ramp_time_s, allow_zero=True)
         self.blend_time_s = self._positive("blend_time_s", blend_time_s, allow_zero=True)
         self._cycle = None
@@ -280,8 +286,9 @@ class GaitPlayback:
                 fade_rate = (self._blend.value - blend_before) / dt_s
                 velocities = velocities + gain * fade_rate * (
                     self._cycle.values(self._phase) - old_cycle.values(self._phase))
-        # Extending muscles: a spline's small undershoot below 0 near a kink of the cycle is not a command.
-        positions = np.maximum(gain * values, 0.0)
+        # Extending muscles within their stroke: the spline's overshoot near a kink of the cycle (below 0,
+        # above the largest extension) is not a command.
+        positions = np.clip(gain * values, 0.0, self.max_length_m)
         return Setpoint(positions, velocities, self._phase, self._cycles_done, gain, frequency_hz, self.state)
 
     def _advance_state(self) -> None:
@@ -295,14 +302,21 @@ class GaitPlayback:
             self._blend = SmoothTransition(1.0)
 
 
+#: The most trajectory points the player takes (the trajectory_server sends at most 1025); a larger
+#: message is refused instead of stalling the real-time stream while it is loaded.
+MAX_TRAJECTORY_POINTS = 4097
+
+
 def cycle_from_points(joint_names, times_s, positions_m, expected_names, max_length_m: float,
                       tolerance_m: float = 1e-6) -> tuple[np.ndarray, float]:
     """One period of trajectory points -> ``(samples (N, D) in expected_names order, frequency_hz)``.
 
-    The points must start at time 0 and be equally spaced in time. If the last point repeats the first,
-    it closes the cycle and its time is the period (what the trajectory_server publishes); otherwise
-    the period is one step longer than the last time. Raises :class:`InvalidInputError` saying what is
-    wrong with the message.
+    The points must start at time 0, strictly increase and be equally spaced in time, hold one finite
+    length per joint within ``[0, max_length_m]``, and last a period whose frequency lies in
+    :data:`~srs_ros.core.robot.CYCLE_FREQUENCY_RANGE_HZ`. If the last point repeats the first (within
+    ``tolerance_m``), it closes the cycle and its time is the period (what the trajectory_server
+    publishes); otherwise the period is one step longer than the last time. Raises
+    :class:`InvalidInputError` saying what is wrong with the message.
     """
     names = list(joint_names)
     missing = [n for n in expected_names if n not in names]
@@ -311,28 +325,40 @@ def cycle_from_points(joint_names, times_s, positions_m, expected_names, max_len
         raise InvalidInputError(
             f"joint_names: expected each of {list(expected_names)} once, got {names} "
             f"(missing {missing}, unknown {unknown}).")
+    count = len(times_s)
+    if not (5 <= count <= MAX_TRAJECTORY_POINTS) or len(positions_m) != count:
+        raise InvalidInputError(f"points: expected 5 to {MAX_TRAJECTORY_POINTS} points over one period, "
+                                f"got {len(positions_m)} (with {count} times).")
+    ragged = next((i for i, row in enumerate(positions_m) if len(row) != len(names)), None)
+    if ragged is not None:
+        raise InvalidInputError(f"points: point {ragged} has {len(positions_m[ragged])} positions; expected "
+                                f"{len(names)}, one per joint name.")
     times = np.asarray(times_s, dtype=np.float64)
     points = np.asarray(positions_m, dtype=np.float64)
-    if points.ndim != 2 or points.shape != (times.size, len(names)):
-        raise InvalidInputError(
-            f"points: expected {times.size} points with {len(names)} positions each, got shape {points.shape}.")
-    if times.size < 5:
-        raise InvalidInputError(f"points: expected at least 5 points over one period, got {times.size}.")
     if not (np.all(np.isfinite(times)) and np.all(np.isfinite(points))):
         raise InvalidInputError("points: every time_from_start and position must be finite.")
     steps = np.diff(times)
+    if np.any(steps <= 0.0):
+        i = int(np.argmax(steps <= 0.0))
+        raise InvalidInputError(f"time_from_start: expected strictly increasing times; point {i + 1} is at "
+                                f"{times[i + 1]:.6f} s after point {i} at {times[i]:.6f} s.")
     step = float(np.mean(steps))
-    if abs(times[0]) > 1e-6 or step <= 0 or np.max(np.abs(steps - step)) > 0.01 * step:
+    if abs(times[0]) > 1e-6 or np.max(np.abs(steps - step)) > 0.01 * step:
         raise InvalidInputError(
             "time_from_start: expected equally spaced times from 0 over one period, "
             f"got {times[0]:.6f} .. {times[-1]:.6f} s with steps {steps.min():.6f} .. {steps.max():.6f} s.")
     low, high = float(points.min()), float(points.max())
-    if low < -tolerance_m - 1e-3 or high > max_length_m + 1e-3:
+    if low < 0.0 or high > max_length_m:
         raise InvalidInputError(
-            f"positions: lengths must lie in [0, {max_length_m}] m, got {low:.4f} .. {high:.4f} m.")
+            f"positions: lengths must lie in [0, {max_length_m}] m (extending muscles, at most their largest "
+            f"extension), got {low:.4f} .. {high:.4f} m.")
     ordered = points[:, [names.index(n) for n in expected_names]]
     if np.all(np.abs(ordered[-1] - ordered[0]) <= tolerance_m):
         samples, period_s = ordered[:-1], float(times[-1])
     else:
         samples, period_s = ordered, float(times[-1] + step)
+    low_hz, high_hz = CYCLE_FREQUENCY_RANGE_HZ
+    if not (low_hz <= 1.0 / period_s <= high_hz):
+        raise InvalidInputError(f"time_from_start: the period is {period_s:.6g} s ({1.0 / period_s:.6g} Hz); "
+                                f"expected a cycle frequency in [{low_hz:g}, {high_hz:g}] Hz.")
     return samples, 1.0 / period_s

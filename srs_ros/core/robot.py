@@ -20,6 +20,9 @@ from srs_ros.core.errors import ConfigurationError
 
 #: Absolute ceiling of any commanded pressure, whatever a config file says (CONVENTIONS.md).
 ABSOLUTE_MAX_PRESSURE_BAR = 4.0
+#: Gait cycle frequencies every tool accepts (Hz): the paper plays 0.25-1 Hz; above 5 Hz the muscles
+#: cannot follow, below 0.01 Hz a "cycle" is a posture held at pressure for minutes.
+CYCLE_FREQUENCY_RANGE_HZ = (0.01, 5.0)
 
 PACKAGE_NAME = "srs_ros"
 
@@ -230,6 +233,10 @@ def config_dir() -> Path:
 def read_yaml(path: str | Path) -> Any:
     """Parse a YAML file, raising :class:`ConfigurationError` with the path on any failure."""
     path = Path(path)
+    # A FIFO or device as a config file would block the reader (and a node's executor) forever.
+    if path.exists() and not path.is_file():
+        raise ConfigurationError(f"{path}: not a regular file (a directory, pipe or device); "
+                                 "expected a YAML file.")
     try:
         with path.open("r", encoding="utf-8") as stream:
             return yaml.safe_load(stream)

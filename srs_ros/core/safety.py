@@ -14,6 +14,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from srs_ros.core.errors import InvalidInputError
+from srs_ros.core.playback import smoothstep
 from srs_ros.core.robot import RobotDescription
 from srs_ros.core.validation import finite_array
 
@@ -55,52 +56,125 @@ class OutputReason(str, enum.Enum):
     """Why the regulators get what they get on a tick."""
 
     COMMANDING = "commanding"
+    RAMPING = "ramping up from 0 bar"
     ESTOP = "e-stop latched"
     INACTIVE = "inactive"
+    NOT_ARMED = "waiting for the operator to arm (~/arm)"
     NO_SETPOINT = "no setpoint yet"
     STALE = "setpoints stale"
 
 
+#: A setpoint stamp this far ahead of the receiver's clock means the two clocks differ (s).
+FUTURE_STAMP_TOLERANCE_S = 0.05
+
+
+class StampCheck(str, enum.Enum):
+    """What a setpoint's stamp says about its age (see :func:`setpoint_age_s`)."""
+
+    OK = "ok"
+    UNSTAMPED = "unstamped"
+    FUTURE = "stamped in the future"
+    STALE = "stale on arrival"
+
+
+def setpoint_age_s(stamp_ns: int, now_ns: int, timeout_s: float) -> tuple[float, StampCheck]:
+    """The age (s) a setpoint counts with at arrival, from its stamp and the receiver's clock (ns).
+
+    An unstamped setpoint (stamp 0) is aged from its arrival (age 0). A stamp from the future by more
+    than :data:`FUTURE_STAMP_TOLERANCE_S` means the sender's clock is ahead: the setpoint is aged from
+    its arrival too, and the caller reports the clock offset. A stamp older than ``timeout_s`` is
+    stale on arrival (a stall, or a sender's clock that lags): the caller rejects and reports it.
+    """
+    if stamp_ns == 0:
+        return 0.0, StampCheck.UNSTAMPED
+    age_s = (now_ns - stamp_ns) * 1e-9
+    if age_s < -FUTURE_STAMP_TOLERANCE_S:
+        return 0.0, StampCheck.FUTURE
+    if age_s > timeout_s:
+        return age_s, StampCheck.STALE
+    return max(age_s, 0.0), StampCheck.OK
+
+
+def min_setpoint_rate_hz(setpoint_timeout_s: float) -> float:
+    """The slowest setpoint or command rate (Hz) that keeps a ``setpoint_timeout_s`` watchdog fed: two per timeout."""
+    return 2.0 / setpoint_timeout_s
+
+
+def ramp_fraction(elapsed_s: float, ramp_time_s: float) -> float:
+    """Raised-cosine ramp 0 -> 1 over ``ramp_time_s`` (0 = no ramp), flat at both ends."""
+    return 1.0 if ramp_time_s <= 0.0 else smoothstep(elapsed_s / ramp_time_s)
+
+
 @dataclass
 class CommandGate:
-    """The latest accepted command and when it came, the active flag and the e-stop latch.
+    """The latest accepted command and how old it is, the active flag, the operator's arm and the e-stop latch.
 
-    :meth:`decide` returns the command only while active, not e-stopped and no older than
-    ``setpoint_timeout_s``; otherwise zeros (vent). Activation, deactivation, the e-stop and its reset
-    all forget the stored command, so output resumes only with a setpoint that arrives afterwards.
+    :meth:`decide` returns the command only while active, armed (where the rig needs an operator's
+    arm), not e-stopped and no older than ``setpoint_timeout_s``; otherwise zeros (vent). Whenever
+    output (re)starts (at activation, after the arm, after an e-stop reset, after a vent for stale
+    setpoints) the command ramps up from 0 bar over ``ramp_time_s``. Activation, deactivation, the
+    e-stop and its reset forget the stored command, so output resumes only with a setpoint that
+    arrives afterwards; deactivation and the e-stop also disarm.
     """
 
     joint_count: int
     setpoint_timeout_s: float
+    ramp_time_s: float = 0.0
+    requires_arm: bool = False
     active: bool = False
+    armed: bool = False
     estop_latched: bool = False
     _pressure_bar: np.ndarray | None = field(default=None, repr=False)
-    _accepted_s: float = math.nan
+    _fresh_s: float = math.nan  # when the stored command was fresh (its arrival less its age at arrival)
+    _output_since_s: float | None = None  # when output last went from 0 bar to commanding
 
-    def accept(self, pressure_bar: np.ndarray, now_s: float) -> None:
-        """Store a validated, clamped command (bar) received at ``now_s`` (s)."""
+    def accept(self, pressure_bar: np.ndarray, now_s: float, age_s: float = 0.0) -> None:
+        """Store a validated, clamped command (bar) that arrives at ``now_s`` (s) already ``age_s`` old (s)."""
         self._pressure_bar = np.array(pressure_bar, dtype=np.float64)
-        self._accepted_s = now_s
+        self._fresh_s = now_s - max(float(age_s), 0.0)
 
     def set_active(self, active: bool) -> None:
-        """Enable or disable output; either way the stored command is forgotten."""
+        """Enable or disable output; either way the stored command is forgotten; disabling disarms."""
         self.active = active
+        if not active:
+            self.armed = False
         self._forget()
 
+    def arm(self) -> str:
+        """The operator's go: '' when armed, else why not (what to do)."""
+        if self.estop_latched:
+            return "e-stop latched: call ~/reset first, then ~/arm"
+        if not self.active:
+            return "not active: configure and activate the hardware node first, then ~/arm"
+        self.armed = True
+        return ""
+
+    def disarm(self) -> bool:
+        """Withdraw the operator's go; return whether it was armed."""
+        was_armed, self.armed = self.armed, False
+        self._forget()
+        return was_armed
+
     def latch_estop(self) -> None:
-        """Vent until :meth:`reset_estop`."""
+        """Vent until :meth:`reset_estop`; disarms."""
         self.estop_latched = True
+        self.armed = False
         self._forget()
 
     def reset_estop(self) -> bool:
-        """Release the latch; return whether it was latched."""
+        """Release the latch; return whether it was latched (a rig that needs an arm stays disarmed)."""
         was_latched, self.estop_latched = self.estop_latched, False
         self._forget()
         return was_latched
 
+    @property
+    def may_command(self) -> bool:
+        """True while a fresh setpoint would reach the valves (active, armed if needed, no e-stop)."""
+        return self.active and not self.estop_latched and (self.armed or not self.requires_arm)
+
     def setpoint_age_s(self, now_s: float) -> float:
-        """Seconds since the last accepted setpoint (``inf`` if none is stored)."""
-        return now_s - self._accepted_s if self._pressure_bar is not None else math.inf
+        """Seconds since the stored setpoint was fresh (``inf`` if none is stored)."""
+        return now_s - self._fresh_s if self._pressure_bar is not None else math.inf
 
     def decide(self, now_s: float) -> tuple[np.ndarray, OutputReason]:
         """The pressures (bar) to send at ``now_s`` and why."""
@@ -108,13 +182,21 @@ class CommandGate:
             reason = OutputReason.ESTOP
         elif not self.active:
             reason = OutputReason.INACTIVE
+        elif self.requires_arm and not self.armed:
+            reason = OutputReason.NOT_ARMED
         elif self._pressure_bar is None:
             reason = OutputReason.NO_SETPOINT
         elif self.setpoint_age_s(now_s) > self.setpoint_timeout_s:
             reason = OutputReason.STALE
         else:
-            return self._pressure_bar.copy(), OutputReason.COMMANDING
+            if self._output_since_s is None:
+                self._output_since_s = now_s
+            fraction = ramp_fraction(now_s - self._output_since_s, self.ramp_time_s)
+            reason = OutputReason.COMMANDING if fraction >= 1.0 else OutputReason.RAMPING
+            return self._pressure_bar * fraction, reason
+        self._output_since_s = None
         return np.zeros(self.joint_count), reason
 
     def _forget(self) -> None:
-        self._pressure_bar, self._accepted_s = None, math.nan
+        self._pressure_bar, self._fresh_s = None, math.nan
+        self._output_since_s = None

@@ -32,7 +32,7 @@ from srs_ros.core.errors import InvalidInputError
 from srs_ros.core.fitting import FitSettings, fit_shapes
 from srs_ros.core.gaits import GaitSpec, gait_curves, gait_spec, gaits_config, list_gaits
 from srs_ros.core.interpolation import PeriodicTrajectory
-from srs_ros.core.robot import RobotDescription, default_robot
+from srs_ros.core.robot import CYCLE_FREQUENCY_RANGE_HZ, RobotDescription, default_robot
 
 __all__ = ["GaitCycle", "GaitSpec", "generate_cycle", "list_gaits", "fit_settings", "MIN_SAMPLES"]
 
@@ -206,15 +206,16 @@ def _plain(value: Any) -> Any:
 def _check_request(gait: str, amplitude_bar: float, frequency_hz: float, samples: int,
                    robot: RobotDescription) -> GaitSpec:
     spec = gait_spec(gait)
+    low_hz, high_hz = CYCLE_FREQUENCY_RANGE_HZ
     if isinstance(amplitude_bar, bool) or not isinstance(amplitude_bar, (int, float, np.number)) or not (
             math.isfinite(amplitude_bar) and robot.deadzone_offset_bar < amplitude_bar <= robot.max_pressure_bar):
         raise InvalidInputError(
             f"amplitude_bar: expected a pressure in ({robot.deadzone_offset_bar:g}, {robot.max_pressure_bar:g}] bar "
             f"(the largest pressure of the cycle), got {amplitude_bar!r}.")
     if isinstance(frequency_hz, bool) or not isinstance(frequency_hz, (int, float, np.number)) or not (
-            math.isfinite(frequency_hz) and frequency_hz > 0):
-        raise InvalidInputError(f"frequency_hz: expected a cycle frequency > 0 Hz (the paper uses 0.25-1.0), "
-                                f"got {frequency_hz!r}.")
+            math.isfinite(frequency_hz) and low_hz <= frequency_hz <= high_hz):
+        raise InvalidInputError(f"frequency_hz: expected a cycle frequency in [{low_hz:g}, {high_hz:g}] Hz (the paper "
+                                f"uses 0.25-1.0), got {frequency_hz!r}.")
     if isinstance(samples, bool) or not isinstance(samples, (int, np.integer)) or samples < MIN_SAMPLES:
         raise InvalidInputError(f"samples: expected an integer >= {MIN_SAMPLES} samples per cycle (default 64), "
                                 f"got {samples!r}.")

@@ -5,6 +5,11 @@ lifecycle ``hardware_node`` (autostart: configured and active) on the chosen rig
 default), plus a small status monitor that prints gait, phase, setpoint and command rates and the
 largest commanded pressure until Ctrl-C (or ``--duration-s``); then the valves are vented.
 
+On a rig with real regulators (``can``, ``daq``) nothing above 0 bar is commanded until the operator
+arms it: ``--arm`` on the command line, or ``ros2 service call /hardware_node/arm std_srvs/srv/Trigger``
+while it runs. A hardware node that cannot start (a bad rig, a missing bus) stops the bringup with
+exit status 2 and the reason. Ctrl-C (once or several times) vents, then exits 0.
+
 Executors: the real-time path (gait_player, hardware_node, status) shares one EventsExecutor, driven
 by a timed spin_once loop in the main thread (its spin() hangs in this rclpy); the trajectory_server
 keeps its own multi-threaded executor in a second thread so that a fit (~0.1 s) never holds up a
@@ -33,16 +38,20 @@ from rclpy.node import Node
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 
+from srs_ros.core.errors import ConfigurationError
 from srs_ros.core.robot import default_robot
+from srs_ros.core.safety import min_setpoint_rate_hz
 from srs_ros.nodes.common import (
     COMMANDED_PRESSURE_TOPIC,
     SETPOINT_TOPIC,
     CleanExit,
+    init_ros,
     setpoint_qos,
     spin_until_shutdown,
+    steady_timer,
 )
 from srs_ros.nodes.gait_player import GaitPlayer
-from srs_ros.nodes.hardware_node import HardwareNode
+from srs_ros.nodes.hardware_node import HardwareNode, release_and_report
 from srs_ros.nodes.trajectory_server import TrajectoryServer
 
 
@@ -60,7 +69,7 @@ class StatusMonitor(Node):
         self._tty = sys.stdout.isatty()
         self.create_subscription(JointState, SETPOINT_TOPIC, self._on_setpoint, setpoint_qos())
         self.create_subscription(Float64MultiArray, COMMANDED_PRESSURE_TOPIC, self._on_command, 10)
-        self.create_timer(period_s, self._print)
+        steady_timer(self, period_s, self._print)
 
     def _on_setpoint(self, _msg: JointState) -> None:
         self._setpoints += 1
@@ -102,6 +111,9 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--rate-hz", type=float, default=200.0, help="setpoint rate, Hz (default 200)")
     parser.add_argument("--rig", default="", help="rig YAML (default: config/rigs/mock.yaml, the mock robot)")
     parser.add_argument("--backend", default="", help="override the rig's backend: mock, can or daq")
+    parser.add_argument("--arm", action="store_true",
+                        help="the operator's go for a rig with real regulators: command pressures at once "
+                             "(without it such a rig stays at 0 bar until ~/arm is called)")
     parser.add_argument("--duration-s", type=float, default=0.0, help="stop after this long; 0 = until Ctrl-C")
     parser.add_argument("--status-period-s", type=float, default=1.0, help="status line period, s (default 1)")
     return parser
@@ -126,7 +138,7 @@ def main(argv: list[str] | None = None) -> int:
     ros_args = argv[argv.index("--ros-args"):] if "--ros-args" in argv else []
     args = build_parser().parse_args(argv[:len(argv) - len(ros_args)])
     ros_args = ros_args or ["--ros-args"]
-    rclpy.init(args=["srs_bringup", *ros_args, "--params-file", _params_file(args)])
+    init_ros(["srs_bringup", *ros_args, "--params-file", _params_file(args)])
     sys.setswitchinterval(0.0005)
     realtime = EventsExecutor()
     fitting = MultiThreadedExecutor(num_threads=2)
@@ -138,6 +150,8 @@ def main(argv: list[str] | None = None) -> int:
         with outcome:
             server, player, hardware = TrajectoryServer(), GaitPlayer(), HardwareNode()
             nodes = [server, player, hardware, StatusMonitor(player, server, hardware, args.status_period_s)]
+            _check_hardware(hardware, args)
+            outcome.started = True
             fitting.add_node(server)
             fitting_thread.start()
             for node in nodes[1:]:
@@ -146,8 +160,7 @@ def main(argv: list[str] | None = None) -> int:
     finally:
         realtime.shutdown()
         if hardware is not None:
-            hardware.release_hardware()
-            print("\nsrs_bringup: stopped; every valve vented to 0 bar", flush=True)
+            release_and_report(hardware, "srs_bringup")
         elif outcome.exit_code == 0:
             outcome.exit_code = 1
         if server is not None:
@@ -159,6 +172,31 @@ def main(argv: list[str] | None = None) -> int:
             node.destroy_node()
         rclpy.try_shutdown()
     return outcome.exit_code
+
+
+def _check_hardware(hardware: HardwareNode, args: argparse.Namespace) -> None:
+    """Refuse to run without a working hardware node or with too slow a stream; arm on ``--arm``."""
+    state = hardware.lifecycle_label()
+    if state != "active":
+        raise ConfigurationError(f"hardware_node could not start (it is {state}): "
+                                 f"{hardware.status.last_error or 'see the log above'}")
+    slowest_hz = min_setpoint_rate_hz(hardware.gate.setpoint_timeout_s)
+    if args.rate_hz < slowest_hz:
+        raise ConfigurationError(f"--rate-hz {args.rate_hz:g} is too slow for the rig's setpoint timeout of "
+                                 f"{hardware.gate.setpoint_timeout_s:g} s (the valves would pulse); expected at "
+                                 f"least {slowest_hz:g} Hz.")
+    if not hardware.gate.requires_arm:
+        return
+    if args.arm:
+        refusal = hardware.gate.arm()
+        if refusal:
+            raise ConfigurationError(f"--arm: {refusal}")
+        hardware.get_logger().warning(f"ARMED by --arm: the {hardware.backend.name} rig commands pressures, "
+                                      f"ramping up from 0 bar over {hardware.gate.ramp_time_s:g} s")
+    else:
+        print(f"srs_bringup: the {hardware.backend.name} rig drives real regulators: holding 0 bar until the "
+              f"operator arms it: ros2 service call {hardware.get_fully_qualified_name()}/arm "
+              "std_srvs/srv/Trigger (or start with --arm)", flush=True)
 
 
 def _spin_quietly(executor) -> None:

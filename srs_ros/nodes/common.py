@@ -13,18 +13,22 @@ from __future__ import annotations
 
 import gc
 import math
+import signal
 import sys
 import time
+import traceback
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
 import rclpy
 from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor, SetParametersResult
+from rclpy.clock import Clock, ClockType
 from rclpy.exceptions import InvalidParameterValueException, ParameterException
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+from rclpy.signals import SignalHandlerOptions
 from std_msgs.msg import Float64MultiArray, MultiArrayDimension
 
 from srs_ros.core.errors import SrsError
@@ -49,8 +53,8 @@ def latched_qos(depth: int = 1) -> QoSProfile:
                       durability=DurabilityPolicy.TRANSIENT_LOCAL)
 
 
-def setpoint_qos(depth: int = 10) -> QoSProfile:
-    """Best effort, volatile: a stream where only the newest sample matters."""
+def setpoint_qos(depth: int = 1) -> QoSProfile:
+    """Best effort, volatile, depth 1: a stream where only the newest sample matters (no backlog after a stall)."""
     return QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=depth, reliability=ReliabilityPolicy.BEST_EFFORT,
                       durability=DurabilityPolicy.VOLATILE)
 
@@ -121,13 +125,60 @@ def labelled_array(labels: Sequence[str], values) -> Float64MultiArray:
     return msg
 
 
+def steady_timer(node: Node, period_s: float, callback: Callable[[], None], callback_group=None):
+    """A timer on the steady (monotonic) clock: it keeps running whatever ROS time does.
+
+    Safety timers (the setpoint watchdog, the keep-alive, the setpoint stream, diagnostics) use it: a
+    timer on the node's ROS clock stops with ``use_sim_time`` and no ``/clock``, or jumps with the
+    system clock, and would leave the last pressure on the valves.
+    """
+    return node.create_timer(period_s, callback, callback_group, clock=Clock(clock_type=ClockType.STEADY_TIME))
+
+
+class ShutdownSignals:
+    """SIGINT and SIGTERM for a node process: the first asks for a clean shutdown; the rest are ignored.
+
+    A terminal's Ctrl-C reaches every process of the group and ``ros2 launch`` sends its own SIGINT a
+    few ms later, so each node gets two. rclpy's own handlers (which raise ``KeyboardInterrupt``
+    anywhere, also inside the vent) are not installed (:func:`init_ros`); this handler only sets a
+    flag that the spin loop polls, so a second signal can never interrupt the clean-up. SIGKILL still
+    ends a process that hangs.
+    """
+
+    def __init__(self) -> None:
+        self.requested = ""  # the name of the first signal, once one came
+
+    def install(self) -> None:
+        """Handle SIGINT and SIGTERM from now on (main thread only)."""
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            signal.signal(sig, self._handle)
+
+    def _handle(self, signum: int, _frame) -> None:
+        name = signal.Signals(signum).name
+        if self.requested:
+            print(f"{name} again: already shutting down (venting first); ignored", file=sys.stderr, flush=True)
+            return
+        self.requested = name
+
+
+#: The process-wide shutdown request (signals reach only the main thread of one process).
+SHUTDOWN = ShutdownSignals()
+
+
+def init_ros(args: list[str] | None) -> None:
+    """``rclpy.init`` for a node process, with :data:`SHUTDOWN` handling SIGINT/SIGTERM instead of rclpy."""
+    rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
+    SHUTDOWN.install()
+
+
 def run_node(node_factory: Callable[[], Node], args: list[str] | None = None, executor_factory=SingleThreadedExecutor,
              on_shutdown: Callable[[Node], None] | None = None) -> int:
     """``main()`` of every node: init, spin until Ctrl-C or shutdown, then clean up in order.
 
-    ``on_shutdown(node)`` runs before the node is destroyed (e.g. to vent the hardware).
+    ``on_shutdown(node)`` runs before the node is destroyed (e.g. to vent the hardware); no signal
+    interrupts it.
     """
-    rclpy.init(args=args if args is not None else sys.argv)
+    init_ros(args if args is not None else sys.argv)
     node = None
     executor = executor_factory()
     outcome = CleanExit()
@@ -135,6 +186,7 @@ def run_node(node_factory: Callable[[], Node], args: list[str] | None = None, ex
         with outcome:
             node = node_factory()
             executor.add_node(node)
+            outcome.started = True
             spin_until_shutdown(executor)
     finally:
         if node is not None and on_shutdown is not None:
@@ -149,27 +201,39 @@ def run_node(node_factory: Callable[[], Node], args: list[str] | None = None, ex
 class CleanExit:
     """Context manager for the end of a node's main loop, holding its exit code.
 
-    Ctrl-C or an external shutdown end it quietly (exit code 0); a start-up error
-    (:data:`STARTUP_ERRORS`) prints the reason and what to do (exit code 2); anything else
-    propagates with its traceback.
+    Ctrl-C or an external shutdown end it quietly (exit code 0). Before ``started`` is set, a start-up
+    error (:data:`STARTUP_ERRORS`) prints the reason and what to do (exit code 2); after it, any
+    exception is a failure while running: its traceback is printed with a line that says so (exit
+    code 1) and the clean-up (vent) still runs.
     """
 
     def __init__(self) -> None:
         self.exit_code = 0
+        self.started = False
 
     def __enter__(self) -> CleanExit:
         return self
 
-    def __exit__(self, kind, exc, _traceback) -> bool:
-        if kind is not None and issubclass(kind, STARTUP_ERRORS):
+    def __exit__(self, kind, exc, tb) -> bool:
+        if kind is None:
+            return False
+        if issubclass(kind, (KeyboardInterrupt, ExternalShutdownException)):
+            return True
+        if not self.started and issubclass(kind, STARTUP_ERRORS):
             print(startup_error_text(exc), file=sys.stderr, flush=True)
             self.exit_code = 2
             return True
-        return kind is not None and issubclass(kind, (KeyboardInterrupt, ExternalShutdownException))
+        if self.started and issubclass(kind, Exception):
+            traceback.print_exception(kind, exc, tb, file=sys.stderr)
+            print(f"stopped by an unexpected error while running: {type(exc).__name__}: {exc}; "
+                  "cleaning up (venting) and exiting with status 1. Please report this.", file=sys.stderr, flush=True)
+            self.exit_code = 1
+            return True
+        return False
 
 
 def spin_until_shutdown(executor, duration_s: float = 0.0) -> None:
-    """Spin until Ctrl-C / shutdown (or ``duration_s`` > 0 seconds), for any executor.
+    """Spin until a shutdown signal, rclpy's shutdown or ``duration_s`` > 0 seconds, for any executor.
 
     A timed spin_once loop, not spin(): this rclpy's EventsExecutor.spin() never runs a callback.
     Objects made at start-up live for the whole run, so the cyclic GC is told to leave them alone
@@ -178,8 +242,8 @@ def spin_until_shutdown(executor, duration_s: float = 0.0) -> None:
     end_s = time.monotonic() + duration_s if duration_s > 0 else math.inf
     gc.collect()
     gc.freeze()
-    while rclpy.ok() and time.monotonic() < end_s:
-        executor.spin_once(timeout_sec=0.1)
+    while rclpy.ok() and not SHUTDOWN.requested and time.monotonic() < end_s:
+        executor.spin_once(timeout_sec=0.05)
 
 
 #: Errors that mean "the node cannot start with this configuration" (exit code 2, no traceback).

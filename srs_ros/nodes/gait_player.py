@@ -39,8 +39,14 @@ from std_srvs.srv import Trigger
 from trajectory_msgs.msg import JointTrajectory
 
 from srs_ros.core.errors import SrsError
-from srs_ros.core.playback import GaitPlayback, PlaybackState, cycle_from_points
-from srs_ros.core.robot import load_robot
+from srs_ros.core.playback import (
+    DEFAULT_RAMP_TIME_S,
+    MAX_TRAJECTORY_POINTS,
+    GaitPlayback,
+    PlaybackState,
+    cycle_from_points,
+)
+from srs_ros.core.robot import CYCLE_FREQUENCY_RANGE_HZ, load_robot
 from srs_ros.nodes.common import (
     SETPOINT_TOPIC,
     TRAJECTORY_TOPIC,
@@ -50,18 +56,22 @@ from srs_ros.nodes.common import (
     latched_qos,
     run_node,
     setpoint_qos,
+    steady_timer,
 )
 
 #: Largest phase step per tick: a stalled process resumes where it was instead of jumping ahead.
 MAX_STEP_S = 0.05
 
 PARAMETERS = (
-    ParameterSpec("rate_hz", 200.0, "setpoint rate in Hz (live)", 1.0, 1000.0),
+    # 10 Hz = two setpoints per 0.2 s, the shipped rigs' setpoint timeout (a slower stream makes the valves pulse).
+    ParameterSpec("rate_hz", 200.0, "setpoint rate in Hz (live); at least two per the hardware's setpoint timeout",
+                  10.0, 1000.0),
     ParameterSpec("cycles", 0, "cycles to play after ~/start, then ramp out; 0 = forever (read at ~/start)",
                   0, 1_000_000),
     ParameterSpec("amplitude_scale", 1.0, "scale of every length, 0..1 (live, reached over ramp_time_s)", 0.0, 1.0),
-    ParameterSpec("frequency_hz", 0.0, "playback frequency in Hz, 0 = the trajectory's own (live)", 0.0, 5.0),
-    ParameterSpec("ramp_time_s", 1.0, "soft start/stop and live-change duration in s", 0.05, 60.0),
+    ParameterSpec("frequency_hz", 0.0, "playback frequency in Hz, 0 = the trajectory's own (live)",
+                  0.0, CYCLE_FREQUENCY_RANGE_HZ[1]),
+    ParameterSpec("ramp_time_s", DEFAULT_RAMP_TIME_S, "soft start/stop and live-change duration in s", 0.05, 60.0),
     ParameterSpec("blend_time_s", 0.5, "cross-fade duration in s when a new trajectory takes over", 0.05, 10.0),
     ParameterSpec("autostart", False, "start as soon as the first trajectory arrives"),
     ParameterSpec("zero_hold_s", 0.5, "zero lengths are published this long after a ramp-out, in s", 0.0, 10.0),
@@ -77,7 +87,8 @@ class GaitPlayer(Node):
         super().__init__("gait_player", **kwargs)
         self._specs = declare_parameters(self, PARAMETERS)
         self._robot = load_robot(self._param("robot_description_file") or None)
-        self._playback = GaitPlayback(self._param("ramp_time_s"), self._param("blend_time_s"))
+        self._playback = GaitPlayback(self._param("ramp_time_s"), self._param("blend_time_s"),
+                                      max_length_m=self._robot.max_extension_m)
         self._playback.set_amplitude_scale(self._param("amplitude_scale"))
         self._playback.set_frequency_override(self._param("frequency_hz"))
         self._zeros_until = 0.0
@@ -92,7 +103,7 @@ class GaitPlayer(Node):
         self.create_subscription(JointTrajectory, TRAJECTORY_TOPIC, self._on_trajectory, latched_qos())
         self.create_service(Trigger, "~/start", self._on_start)
         self.create_service(Trigger, "~/stop", self._on_stop)
-        self._timer = self.create_timer(1.0 / self._param("rate_hz"), self._on_tick)
+        self._timer = steady_timer(self, 1.0 / self._param("rate_hz"), self._on_tick)
         self.get_logger().info(
             f"streaming {SETPOINT_TOPIC} at {self._param('rate_hz'):g} Hz once started; waiting for "
             f"{TRAJECTORY_TOPIC} (autostart={self._param('autostart')})")
@@ -116,14 +127,25 @@ class GaitPlayer(Node):
                 self._playback.set_blend_time(param.value)
             elif param.name == "rate_hz":
                 self.destroy_timer(self._timer)
-                self._timer = self.create_timer(1.0 / float(param.value), self._on_tick)
+                self._timer = steady_timer(self, 1.0 / float(param.value), self._on_tick)
 
     # ------------------------------------------------------------- inputs
     def _on_trajectory(self, msg: JointTrajectory) -> None:
+        try:
+            self._take_trajectory(msg)
+        except Exception as exc:  # a malformed message must never stop the stream
+            self.get_logger().error(f"ignored the trajectory on {TRAJECTORY_TOPIC} (unexpected error, please report): "
+                                    f"{type(exc).__name__}: {exc}. The previous trajectory (if any) keeps playing.")
+
+    def _take_trajectory(self, msg: JointTrajectory) -> None:
+        if not (5 <= len(msg.points) <= MAX_TRAJECTORY_POINTS):  # before any per-point work
+            self.get_logger().error(f"ignored the trajectory on {TRAJECTORY_TOPIC}: {len(msg.points)} points; expected "
+                                    f"5 to {MAX_TRAJECTORY_POINTS}. The previous trajectory (if any) keeps playing.")
+            return
         times = [p.time_from_start.sec + 1e-9 * p.time_from_start.nanosec for p in msg.points]
         try:
             samples, frequency_hz = cycle_from_points(
-                msg.joint_names, times, [list(p.positions) for p in msg.points], self._robot.joint_names,
+                msg.joint_names, times, [p.positions for p in msg.points], self._robot.joint_names,
                 self._robot.max_extension_m)
             was_idle = self._playback.state is PlaybackState.IDLE
             first = not self._playback.has_cycle

@@ -6,28 +6,39 @@ activated; activate enables output; deactivate, cleanup and shutdown vent every 
 A backend failure while commanding (any exception, e.g. ``HardwareError``) vents (best effort) and
 takes the node through ErrorProcessing to unconfigured; configure + activate recover it.
 
+Safety (see docs/safety.md):
+
+- every timer runs on the steady clock, so the watchdog and the keep-alive keep running whatever
+  ROS time does (``use_sim_time`` without ``/clock``, a system clock step);
+- a rig whose backend drives real regulators (``can``, ``daq``) commands nothing above 0 bar until an
+  operator calls ``~/arm`` (``srs_bringup --arm`` does it for you); deactivate, an e-stop or a fault
+  disarm; the simulated backends need no arm;
+- whenever output (re)starts (activation, arm, e-stop reset, after a vent for stale setpoints) it
+  ramps up from 0 bar over ``ramp_time_s``;
+- the backend is written at the command rate only (the newest setpoint wins); a setpoint counts from
+  its stamp (unstamped: from its arrival), so the valves vent at most ``setpoint_timeout_s`` plus one
+  command period after the last fresh setpoint was made.
+
 Interfaces (relative names, remappable):
 
-- subscribes ``joint_setpoints`` (sensor_msgs/JointState, best effort): ``name`` = every actuator
-  (``m1_pma1`` ... ``m3_pma3``) once, in any order; ``position`` = actuator length change (m); age
-  counts from reception. Rejected, never sent, throttled error log: wrong count, names/positions
-  mismatch, unknown or duplicate names, NaN/inf, a stamp older than the timeout (the previous
-  command continues until it is stale).
-  Finite lengths outside ``[0, max_extension_m]`` are accepted and limited by the one pressure clamp
-  (``P = 100 l`` in ``[0, max_pressure_bar]``), with a throttled warning.
-- a fresh accepted setpoint is written through to the backend at once (latency from its stamp is
-  reported in /diagnostics as ``command_latency_p50_ms`` / ``_p99_ms``); the command timer re-sends the
-  latest decision (or 0 bar) at the command rate so the boards never time out.
+- subscribes ``joint_setpoints`` (sensor_msgs/JointState, best effort, depth 1): ``name`` = every actuator
+  (``m1_pma1`` ... ``m3_pma3``) once, in any order; ``position`` = actuator length change (m).
+  Rejected, never sent, throttled error log and counted: wrong count, names/positions mismatch,
+  unknown or duplicate names, NaN/inf, a stamp older than the timeout (stale on arrival). A stamp
+  from the future (a sender whose clock runs ahead) is aged from its arrival and reported on
+  /diagnostics as a clock offset. Finite lengths outside ``[0, max_extension_m]`` or above what the
+  pressure limit allows (0.04 m at 4 bar with ``P = 100 l``) are limited by the one clamp, with a
+  throttled warning and a counter.
 - publishes ``commanded_pressure_bar`` and ``command_voltage_v`` (std_msgs/Float64MultiArray, dim 0
-  labelled with the comma-joined joint names): what the backend was sent, at most at the command
-  rate (and at once when the output reason changes) on each command
-  while configured (zeros when inactive, stale or e-stopped); ``actuator_state`` (sensor_msgs/JointState)
+  labelled with the comma-joined joint names): what the backend was sent, on each command while
+  configured (zeros when inactive, disarmed, stale or e-stopped); ``actuator_state`` (sensor_msgs/JointState)
   at ``state_publish_rate_hz``: ``position`` = measured length (m), ``effort`` = measured pressure (bar),
   empty where the backend cannot measure; ``/diagnostics`` (diagnostic_msgs/DiagnosticArray, 1 Hz, in
-  every state).
+  every state), with counters of setpoints received, rejected, limited and written.
 - services ``~/emergency_stop`` (std_srvs/Trigger: vents at once and latches, in any state; the latch
-  survives deactivate/cleanup/configure) and
-  ``~/reset`` (releases the latch; output resumes with the next fresh setpoint); the lifecycle services.
+  survives deactivate/cleanup/configure), ``~/reset`` (releases the latch; output resumes with the
+  next fresh setpoint, after a new ``~/arm`` on a real rig), ``~/arm`` and ``~/disarm``; the lifecycle
+  services.
 - parameters: :data:`PARAMETERS`; all but ``max_pressure_bar`` take effect at the next configure;
   ``max_pressure_bar`` is read-only (start-up only) and can only lower the robot's limit.
 """
@@ -48,11 +59,19 @@ from std_msgs.msg import Float64MultiArray
 from std_srvs.srv import Trigger
 
 from srs_ros.backends import BACKENDS, ActuatorBackend, create_backend
-from srs_ros.core.actuation import lengths_to_pressures_bar, pressures_to_command_v
+from srs_ros.core.actuation import lengths_to_pressures_bar, pressure_limited_length_m, pressures_to_command_v
 from srs_ros.core.errors import ConfigurationError, InvalidInputError
+from srs_ros.core.playback import DEFAULT_RAMP_TIME_S
 from srs_ros.core.rig import RigConfig, load_rig
 from srs_ros.core.robot import ABSOLUTE_MAX_PRESSURE_BAR, load_robot
-from srs_ros.core.safety import CommandGate, OutputReason, out_of_range_joints, setpoint_lengths_m
+from srs_ros.core.safety import (
+    CommandGate,
+    OutputReason,
+    StampCheck,
+    min_setpoint_rate_hz,
+    setpoint_age_s,
+    setpoint_lengths_m,
+)
 from srs_ros.nodes.common import (
     ACTUATOR_STATE_TOPIC,
     COMMAND_VOLTAGE_TOPIC,
@@ -65,11 +84,13 @@ from srs_ros.nodes.common import (
     labelled_array,
     run_node,
     setpoint_qos,
+    steady_timer,
 )
 
 NODE_NAME = "hardware_node"
 DIAGNOSTICS_PERIOD_S = 1.0
 LOG_THROTTLE_S = 1.0
+VENT_FAILED = "VENT FAILED: shut off the air supply now"
 
 PARAMETERS = (
     ParameterSpec("rig_file", "", "rig YAML (config/rigs/*.yaml); '' = the mock rig"),
@@ -81,10 +102,12 @@ PARAMETERS = (
                   0.0, 1000.0),
     ParameterSpec("state_publish_rate_hz", 50.0, "actuator_state messages per second (at most the command rate)",
                   1.0, 1000.0),
+    ParameterSpec("ramp_time_s", DEFAULT_RAMP_TIME_S,
+                  "output ramps up from 0 bar over this time whenever it (re)starts (s)", 0.0, 60.0),
     ParameterSpec("max_pressure_bar", ABSOLUTE_MAX_PRESSURE_BAR,
                   "pressure limit (bar); only lowers the robot's; read-only: set it at start-up",
                   0.1, ABSOLUTE_MAX_PRESSURE_BAR, read_only=True),
-    ParameterSpec("autostart", False, "configure and activate at start-up"),
+    ParameterSpec("autostart", False, "configure and activate at start-up (a real rig still waits for ~/arm)"),
 )
 
 
@@ -93,13 +116,20 @@ class HardwareStatus:
     """Counters and messages for /diagnostics."""
 
     ticks: int = 0
+    setpoints_received: int = 0
+    setpoints_accepted: int = 0
     rejected_setpoints: int = 0
+    stale_on_arrival: int = 0
+    future_stamped: int = 0
+    limited_setpoints: int = 0  # accepted, but some length needed more than the pressure limit
+    clock_offset_s: float = 0.0  # the latest stamp-vs-clock difference that was out of bounds
     last_error: str = ""
     fault: str = ""  # set by a backend failure, cleared by the next successful configure
     reason: OutputReason = OutputReason.INACTIVE
-    rate_window: tuple[float, int] = (math.nan, 0)  # (time s, ticks) at the previous diagnostics
-    last_command_s: float = -math.inf  # monotonic time of the last write to the backend
+    # (time s, ticks, setpoints received, stamp problems) at the previous diagnostics
+    rate_window: tuple[float, int, int, int] = (math.nan, 0, 0, 0)
     last_publish_s: float = -math.inf  # monotonic time of the last commanded_pressure_bar message
+    pending_stamp_ns: int = 0  # stamp of an accepted setpoint not yet written (for the latency figure)
     latency_ms: collections.deque = dataclasses.field(default_factory=lambda: collections.deque(maxlen=2000))
 
 
@@ -107,7 +137,7 @@ class HardwareNode(LifecycleNode):
     """Lifecycle wiring around a backend and a :class:`~srs_ros.core.safety.CommandGate`."""
 
     def __init__(self, **kwargs):
-        """Declare parameters, diagnostics and the e-stop services; configure+activate if ``autostart``."""
+        """Declare parameters, diagnostics and the e-stop/arm services; configure+activate if ``autostart``."""
         super().__init__(NODE_NAME, **kwargs)
         self.specs = declare_parameters(self, PARAMETERS)
         self.add_on_set_parameters_callback(lambda params: check_parameters(self.specs, params, _check_backend))
@@ -117,10 +147,13 @@ class HardwareNode(LifecycleNode):
         self.status = HardwareStatus()
         self._runtime: dict = {}
         self._state_every_ticks = 1
+        self._limited_names: list[str] = []
         self.diagnostics_publisher = self.create_publisher(DiagnosticArray, DIAGNOSTICS_TOPIC, 10)
         self.create_service(Trigger, "~/emergency_stop", self._on_emergency_stop)
         self.create_service(Trigger, "~/reset", self._on_reset)
-        self.create_timer(DIAGNOSTICS_PERIOD_S, self._publish_diagnostics)
+        self.create_service(Trigger, "~/arm", self._on_arm)
+        self.create_service(Trigger, "~/disarm", self._on_disarm)
+        steady_timer(self, DIAGNOSTICS_PERIOD_S, self._publish_diagnostics)
         if self.get_parameter("autostart").value and self.trigger_configure() == TransitionCallbackReturn.SUCCESS:
             self.trigger_activate()
 
@@ -134,19 +167,22 @@ class HardwareNode(LifecycleNode):
             return TransitionCallbackReturn.FAILURE
         self.status.fault = ""
         self._create_runtime()
-        self.get_logger().info(f"configured: rig {self.rig.name!r}, backend {self.backend.name!r}, "
+        arm = ("real regulators: nothing above 0 bar until an operator calls ~/arm" if self.gate.requires_arm
+               else "simulated: no arm needed")
+        self.get_logger().info(f"configured: rig {self.rig.name!r}, backend {self.backend.name!r} ({arm}), "
                                f"{self._command_rate_hz():g} Hz, setpoint timeout {self.gate.setpoint_timeout_s:g} s, "
                                f"limit {self.rig.robot.max_pressure_bar:g} bar")
         return TransitionCallbackReturn.SUCCESS
 
     def on_activate(self, state: LifecycleState) -> TransitionCallbackReturn:
-        """Enable output: fresh setpoints from now on reach the backend."""
+        """Enable output: fresh setpoints from now on reach the backend (after ~/arm on a real rig)."""
         self.gate.set_active(True)
-        self.get_logger().info("active: commanding fresh setpoints")
+        self.get_logger().info("active: " + ("waiting for ~/arm before commanding" if self.gate.requires_arm
+                                             else "commanding fresh setpoints"))
         return TransitionCallbackReturn.SUCCESS
 
     def on_deactivate(self, state: LifecycleState) -> TransitionCallbackReturn:
-        """Disable output and vent every valve to 0 bar (ERROR after a backend fault)."""
+        """Disable output, disarm and vent every valve to 0 bar (ERROR after a backend fault)."""
         self.gate.set_active(False)
         if self.status.fault:
             return TransitionCallbackReturn.ERROR
@@ -184,14 +220,17 @@ class HardwareNode(LifecycleNode):
                        dataclasses.replace(robot, max_pressure_bar=limit_bar))
         timeout_s = self.get_parameter("setpoint_timeout_s").value or rig.setpoint_timeout_s
         rate_hz = self.get_parameter("command_rate_hz").value or rig.command_rate_hz
-        if 1.0 / rate_hz > 0.5 * timeout_s:
+        if rate_hz < min_setpoint_rate_hz(timeout_s):
             # Staleness is acted on at command ticks: a slow tick would hold a stale pressure too long.
             raise ConfigurationError(f"command_rate_hz is {rate_hz:g} Hz with setpoint_timeout_s {timeout_s:g} s; "
-                                     f"expected at least {2.0 / timeout_s:g} Hz (two commands per timeout).")
+                                     f"expected at least {min_setpoint_rate_hz(timeout_s):g} Hz (two commands per "
+                                     "timeout).")
         backend = create_backend(self.get_parameter("backend").value or rig.backend, rig.robot, rig.backend_options)
         backend.open()
         self.gate.joint_count = rig.robot.joint_count
         self.gate.setpoint_timeout_s = timeout_s
+        self.gate.ramp_time_s = self.get_parameter("ramp_time_s").value
+        self.gate.requires_arm = backend.drives_real_hardware
         return rig, backend
 
     def _command_rate_hz(self) -> float:
@@ -201,13 +240,15 @@ class HardwareNode(LifecycleNode):
         rate_hz = self._command_rate_hz()
         state_rate_hz = min(self.get_parameter("state_publish_rate_hz").value, rate_hz)
         self._state_every_ticks = max(1, round(rate_hz / state_rate_hz))
-        self.status.rate_window = (time.monotonic(), self.status.ticks)
+        status = self.status
+        status.rate_window = (time.monotonic(), status.ticks, status.setpoints_received,
+                              status.stale_on_arrival + status.future_stamped)
         self._runtime = {
             "pressure": self.create_publisher(Float64MultiArray, COMMANDED_PRESSURE_TOPIC, 10),
             "voltage": self.create_publisher(Float64MultiArray, COMMAND_VOLTAGE_TOPIC, 10),
             "state": self.create_publisher(JointState, ACTUATOR_STATE_TOPIC, 10),
             "setpoints": self.create_subscription(JointState, SETPOINT_TOPIC, self._on_setpoint, setpoint_qos()),
-            "timer": self.create_timer(1.0 / rate_hz, self._on_command_tick),
+            "timer": steady_timer(self, 1.0 / rate_hz, self._on_command_tick),
         }
 
     def _release(self) -> None:
@@ -219,14 +260,20 @@ class HardwareNode(LifecycleNode):
             self._destroy(entity)
         self._runtime = {}
 
-    def release_hardware(self) -> None:
-        """Vent and close the backend, logging instead of raising (also used at process exit)."""
+    def release_hardware(self) -> bool:
+        """Vent and close the backend, logging instead of raising (also used at process exit).
+
+        Returns False if the vent failed (then the regulators may still hold pressure).
+        """
         backend, self.backend = self.backend, None
-        if backend is not None:
-            try:
-                backend.close()  # vents first
-            except Exception as exc:  # closing must go on; the failure is reported
-                self._report_error(f"closing the {backend.name} backend: {_describe(exc)}")
+        if backend is None:
+            return True
+        try:
+            backend.close()  # vents first
+        except Exception as exc:  # closing must go on; the failure is reported
+            self._report_error(f"{VENT_FAILED} (closing the {backend.name} backend: {_describe(exc)})")
+            return False
+        return True
 
     def _destroy(self, entity) -> None:
         destroy = {"Publisher": self.destroy_publisher, "Subscription": self.destroy_subscription,
@@ -235,6 +282,15 @@ class HardwareNode(LifecycleNode):
 
     # -- runtime -----------------------------------------------------------------------------
     def _on_setpoint(self, msg: JointState) -> None:
+        self.status.setpoints_received += 1
+        try:
+            self._take_setpoint(msg)
+        except Exception as exc:  # a callback must never kill the node; the setpoint is not used
+            self.status.rejected_setpoints += 1
+            self.get_logger().error(f"rejected setpoint, not sent (unexpected error, please report): "
+                                    f"{_describe(exc)}", throttle_duration_sec=LOG_THROTTLE_S)
+
+    def _take_setpoint(self, msg: JointState) -> None:
         robot = self.rig.robot
         try:
             lengths_m = setpoint_lengths_m(msg.name, msg.position, robot)
@@ -243,56 +299,60 @@ class HardwareNode(LifecycleNode):
             self.get_logger().error(f"rejected setpoint, not sent (the previous command continues until stale): "
                                     f"{exc}", throttle_duration_sec=LOG_THROTTLE_S)
             return
-        outside = out_of_range_joints(lengths_m, robot)
-        if outside:
-            self.get_logger().warning(f"setpoint lengths of {outside} outside [0, {robot.max_extension_m}] m; "
-                                      f"pressures limited to [0, {robot.max_pressure_bar}] bar",
-                                      throttle_duration_sec=LOG_THROTTLE_S)
-        # A stamped setpoint that is already older than the timeout (queued behind a stall) is stale on
-        # arrival; an unstamped one (stamp 0) is aged from its reception.
         stamp_ns = msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
-        age_s = (self.get_clock().now().nanoseconds - stamp_ns) * 1e-9 if stamp_ns else 0.0
-        if age_s > self.gate.setpoint_timeout_s:
+        age_s, check = setpoint_age_s(stamp_ns, self.get_clock().now().nanoseconds, self.gate.setpoint_timeout_s)
+        if check is StampCheck.STALE:
             self.status.rejected_setpoints += 1
+            self.status.stale_on_arrival += 1
+            self.status.clock_offset_s = age_s
             self.get_logger().error(f"rejected setpoint, not sent: its stamp is {age_s:.3f} s old, more than "
-                                    f"setpoint_timeout_s {self.gate.setpoint_timeout_s:g} s",
+                                    f"setpoint_timeout_s {self.gate.setpoint_timeout_s:g} s (a stall, or the "
+                                    "sender's clock lags this host's: sync the clocks)",
                                     throttle_duration_sec=LOG_THROTTLE_S)
             return
-        now_s = time.monotonic()
-        self.gate.accept(lengths_to_pressures_bar(lengths_m, robot), now_s)
-        if self.gate.active and not self.gate.estop_latched:
-            # Write through: a fresh setpoint reaches the valves now, not at the next tick.
-            self._send_command(now_s, stamp_ns)
+        if check is StampCheck.FUTURE:
+            self.status.future_stamped += 1
+            self.status.clock_offset_s = (self.get_clock().now().nanoseconds - stamp_ns) * 1e-9
+            self.get_logger().warning(f"setpoint stamped {-self.status.clock_offset_s:.3f} s in the future: the "
+                                      "sender's clock runs ahead of this host's (sync the clocks); aged from arrival",
+                                      throttle_duration_sec=LOG_THROTTLE_S)
+        self._note_limited(lengths_m)
+        self.gate.accept(lengths_to_pressures_bar(lengths_m, robot), time.monotonic(), age_s)
+        self.status.setpoints_accepted += 1
+        self.status.pending_stamp_ns = stamp_ns
+
+    def _note_limited(self, lengths_m: np.ndarray) -> None:
+        """Say out loud when the clamp changes a setpoint: outside [0, max extension] or above the pressure limit."""
+        robot = self.rig.robot
+        limit_m = pressure_limited_length_m(robot)
+        limited = (lengths_m < 0.0) | (lengths_m > limit_m)
+        if not np.any(limited):
+            return
+        self.status.limited_setpoints += 1
+        names = [name for name, bad in zip(robot.joint_names, limited) if bad]
+        self.get_logger().warning(
+            f"setpoint limited by the clamp: {names} ask {np.round(lengths_m[limited], 4).tolist()} m; lengths are "
+            f"commanded within [0, {limit_m:.4g}] m, i.e. [0, {robot.max_pressure_bar:g}] bar with "
+            f"P = {robot.pressure_per_length_bar_per_m:g} l (the muscles' largest extension is "
+            f"{robot.max_extension_m:g} m); lower the gait amplitude to avoid it", throttle_duration_sec=5.0)
 
     def _on_command_tick(self) -> None:
-        """Keep-alive at the command rate: re-send (or vent) unless a setpoint was just written through."""
-        now_s = time.monotonic()
-        if now_s - self.status.last_command_s < 1.0 / self._command_rate_hz():
-            return
-        self._send_command(now_s)
-
-    def _send_command(self, now_s: float, setpoint_stamp_ns: int = 0) -> None:
-        """Write the gate's decision to the backend; publish what was sent at most at the command rate."""
+        """At the command rate, on the steady clock: write the gate's decision (newest setpoint or 0 bar)."""
         if self.backend is None:  # released (cleanup, shutdown) while a callback was already queued
             return
+        now_s = time.monotonic()
         pressure_bar, reason = self.gate.decide(now_s)
-        self.status.last_command_s = now_s
         try:
             sent_bar = self.backend.write_pressures(pressure_bar)
-            if setpoint_stamp_ns:
-                self.status.latency_ms.append((self.get_clock().now().nanoseconds - setpoint_stamp_ns) * 1e-6)
             state = self.backend.read_state() if self.status.ticks % self._state_every_ticks == 0 else None
         except Exception as exc:  # any backend failure takes the generic fault path
             self._on_backend_fault(exc)
             return
+        if self.status.pending_stamp_ns and reason in (OutputReason.COMMANDING, OutputReason.RAMPING):
+            self.status.latency_ms.append((self.get_clock().now().nanoseconds - self.status.pending_stamp_ns) * 1e-6)
+        self.status.pending_stamp_ns = 0
         self.status.ticks += 1
-        changed = reason is not self.status.reason
         self._note_reason(reason)
-        # Observers get the command at most at the command rate (and at once on a change of reason):
-        # a 1 kHz setpoint stream must not double the DDS load of the real-time path.
-        if not changed and now_s - self.status.last_publish_s < 0.9 / self._command_rate_hz():
-            return
-        self.status.last_publish_s = now_s
         names = self.rig.robot.joint_names
         self._runtime["pressure"].publish(labelled_array(names, sent_bar))
         self._runtime["voltage"].publish(labelled_array(names, pressures_to_command_v(sent_bar, self.rig.robot)))
@@ -310,13 +370,13 @@ class HardwareNode(LifecycleNode):
             self.trigger_cleanup()
 
     def _vent(self) -> Exception | None:
-        """Command 0 bar now; on failure report it and return the exception."""
+        """Command 0 bar now; on failure report it loudly and return the exception."""
         if self.backend is None or not self.backend.is_open:
             return None
         try:
             self.backend.vent()
         except Exception as exc:  # venting is best effort; the failure is reported
-            self._report_error(f"venting failed: {_describe(exc)}")
+            self._report_error(f"{VENT_FAILED} ({_describe(exc)})")
             return exc
         return None
 
@@ -328,8 +388,8 @@ class HardwareNode(LifecycleNode):
             self.get_logger().warning(f"output: {reason.value} (older than {self.gate.setpoint_timeout_s:g} s) "
                                       "-> 0 bar")
         else:
-            self.get_logger().info(f"output: {reason.value}" + ("" if reason is OutputReason.COMMANDING
-                                                                else " -> 0 bar"))
+            self.get_logger().info(f"output: {reason.value}" + (
+                "" if reason in (OutputReason.COMMANDING, OutputReason.RAMPING) else " -> 0 bar"))
 
     def _actuator_state_msg(self, state) -> JointState:
         msg = JointState(name=list(self.rig.robot.joint_names))
@@ -349,70 +409,118 @@ class HardwareNode(LifecycleNode):
         failure = self._vent()
         if failure is not None:
             self._on_backend_fault(failure)
-        response.success = True
+        response.success = failure is None
         response.message = ("e-stop latched: every valve vented to 0 bar" if had_backend and failure is None
                             else "e-stop latched (no backend open, nothing to vent)" if failure is None
-                            else f"e-stop latched; venting failed, node went to the error state: {self.status.fault}")
-        response.message += "; call ~/reset to release."
+                            else f"e-stop latched; {VENT_FAILED}; node went to the error state: {self.status.fault}")
+        response.message += "; call ~/reset to release" + (", then ~/arm." if self.gate.requires_arm else ".")
         return response
 
     def _on_reset(self, request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
         was_latched = self.gate.reset_estop()
+        then = "call ~/arm, then output ramps up with" if self.gate.requires_arm else "output ramps up with"
         if was_latched:
-            self.get_logger().warning("e-stop released: output resumes with the next fresh setpoint")
+            self.get_logger().warning(f"e-stop released: {then} the next fresh setpoint")
         response.success = True
-        response.message = ("e-stop released; output resumes with the next fresh setpoint." if was_latched
+        response.message = (f"e-stop released; {then} the next fresh setpoint." if was_latched
                             else "e-stop was not latched; nothing to reset.")
+        return response
+
+    def _on_arm(self, request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
+        refusal = self.gate.arm()
+        response.success = not refusal
+        if refusal:
+            response.message = f"not armed: {refusal}."
+        elif not self.gate.requires_arm:
+            response.message = f"armed (the {self.backend.name} rig is simulated and needs no arm)."
+        else:
+            response.message = (f"ARMED by the operator: the {self.backend.name} rig now commands fresh setpoints, "
+                                f"ramping up from 0 bar over {self.gate.ramp_time_s:g} s; ~/emergency_stop or "
+                                "~/disarm vents.")
+            self.get_logger().warning(response.message)
+        return response
+
+    def _on_disarm(self, request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
+        was_armed = self.gate.disarm()
+        response.success = True
+        response.message = "disarmed: venting to 0 bar until ~/arm." if was_armed else "was not armed."
+        if was_armed:
+            self.get_logger().warning(response.message)
         return response
 
     # -- diagnostics -------------------------------------------------------------------------
     def _publish_diagnostics(self) -> None:
         now_s = time.monotonic()
-        then_s, then_ticks = self.status.rate_window
-        rate_hz = (self.status.ticks - then_ticks) / (now_s - then_s) if now_s > then_s and self._runtime else 0.0
-        self.status.rate_window = (now_s, self.status.ticks)
-        level, message = self._diagnostic_summary()
+        status = self.status
+        then_s, then_ticks, then_received, then_problems = status.rate_window
+        span_s = now_s - then_s if now_s > then_s and self._runtime else math.inf
+        rate_hz = (status.ticks - then_ticks) / span_s
+        setpoint_rate_hz = (status.setpoints_received - then_received) / span_s
+        problems = status.stale_on_arrival + status.future_stamped
+        status.rate_window = (now_s, status.ticks, status.setpoints_received, problems)
+        level, message = self._diagnostic_summary(setpoint_rate_hz, problems - then_problems)
         values = {
             "backend": self.backend.name if self.backend else "none",
             "backend_open": str(bool(self.backend and self.backend.is_open)),
             "rig": self.rig.name if self.rig else "none",
-            "lifecycle_state": self._lifecycle_label(),
-            "output": self.status.reason.value if self._runtime else "not configured",
+            "lifecycle_state": self.lifecycle_label(),
+            "output": status.reason.value if self._runtime else "not configured",
+            "requires_arm": str(self.gate.requires_arm),
+            "armed": str(self.gate.armed),
             "command_rate_hz": f"{rate_hz:.1f}",
+            "setpoint_rate_hz": f"{setpoint_rate_hz:.1f}",
             "setpoint_age_s": f"{self.gate.setpoint_age_s(now_s):.3f}",
             "setpoint_timeout_s": f"{self.gate.setpoint_timeout_s:g}",
             "estop_latched": str(self.gate.estop_latched),
-            "rejected_setpoints": str(self.status.rejected_setpoints),
+            "setpoints_received": str(status.setpoints_received),
+            "setpoints_accepted": str(status.setpoints_accepted),
+            "rejected_setpoints": str(status.rejected_setpoints),
+            "stale_on_arrival": str(status.stale_on_arrival),
+            "future_stamped": str(status.future_stamped),
+            "clock_offset_s": f"{status.clock_offset_s:.3f}",
+            "limited_setpoints": str(status.limited_setpoints),
+            "backend_writes": str(status.ticks),
             **self._latency_summary(),
-            "last_error": self.status.last_error or "none",
+            "last_error": status.last_error or "none",
         }
-        status = DiagnosticStatus(level=level, name=f"{NODE_NAME}: actuators", message=message,
-                                  hardware_id=self.rig.name if self.rig else "none",
-                                  values=[KeyValue(key=k, value=v) for k, v in values.items()])
-        msg = DiagnosticArray(status=[status])
+        status_msg = DiagnosticStatus(level=level, name=f"{NODE_NAME}: actuators", message=message,
+                                      hardware_id=self.rig.name if self.rig else "none",
+                                      values=[KeyValue(key=k, value=v) for k, v in values.items()])
+        msg = DiagnosticArray(status=[status_msg])
         msg.header.stamp = self.get_clock().now().to_msg()
         self.diagnostics_publisher.publish(msg)
 
     def _latency_summary(self) -> dict[str, str]:
-        """Setpoint stamp -> backend write latency over the last 2000 setpoints (ms)."""
+        """Setpoint stamp -> backend write latency over the last 2000 written setpoints (ms)."""
         if not self.status.latency_ms:
             return {"command_latency_p50_ms": "n/a", "command_latency_p99_ms": "n/a", "command_latency_count": "0"}
         p50, p99 = np.percentile(np.fromiter(self.status.latency_ms, float), [50, 99])
         return {"command_latency_p50_ms": f"{p50:.3f}", "command_latency_p99_ms": f"{p99:.3f}",
                 "command_latency_count": str(len(self.status.latency_ms))}
 
-    def _diagnostic_summary(self) -> tuple[bytes, str]:
+    def _diagnostic_summary(self, setpoint_rate_hz: float, stamp_problems: int) -> tuple[bytes, str]:
         if self.status.fault:
             return DiagnosticStatus.ERROR, f"backend fault: {self.status.fault}; configure and activate to recover"
         if self.gate.estop_latched:
             return DiagnosticStatus.WARN, "e-stop latched: venting until ~/reset"
         if not self._runtime:
             return DiagnosticStatus.OK, "unconfigured: backend closed, nothing sent"
+        timeout_s = self.gate.setpoint_timeout_s
+        if 0.0 < setpoint_rate_hz < min_setpoint_rate_hz(timeout_s):
+            return DiagnosticStatus.WARN, (f"setpoints arrive at {setpoint_rate_hz:.1f} Hz, fewer than two per "
+                                           f"setpoint_timeout_s ({timeout_s:g} s): the valves pulse; raise the "
+                                           f"player's rate_hz to at least {min_setpoint_rate_hz(timeout_s):g} Hz")
+        if stamp_problems:
+            return DiagnosticStatus.WARN, (f"{self.status.reason.value}; {stamp_problems} setpoint stamps in the last "
+                                           f"period were stale on arrival or from the future (latest offset "
+                                           f"{self.status.clock_offset_s:+.3f} s): a stall or a clock offset between "
+                                           "hosts (sync the clocks)")
         if self.status.reason is OutputReason.STALE:
             return DiagnosticStatus.WARN, "setpoints stale: venting to 0 bar"
         return DiagnosticStatus.OK, self.status.reason.value
 
-    def _lifecycle_label(self) -> str:
+    def lifecycle_label(self) -> str:
+        """The lifecycle state label (unconfigured, inactive, active, ...)."""
         # rclpy's LifecycleNode keeps the state only in its state machine; no public getter in Jazzy.
         return self._state_machine.current_state[1]
 
@@ -431,10 +539,17 @@ def _describe(exc: BaseException) -> str:
     return f"{type(exc).__name__}: {exc}"
 
 
+def release_and_report(node: HardwareNode, program: str) -> bool:
+    """Vent and close at process exit and print the outcome (the vent, or VENT FAILED)."""
+    vented = node.release_hardware()
+    print(f"\n{program}: stopped; " + ("every valve vented to 0 bar" if vented else VENT_FAILED), flush=True)
+    return vented
+
+
 def main(args: list[str] | None = None) -> int:
     """``hardware_node``: spin until Ctrl-C, then vent and close the backend."""
     return run_node(HardwareNode, args, executor_factory=EventsExecutor,
-                    on_shutdown=lambda node: node.release_hardware())
+                    on_shutdown=lambda node: release_and_report(node, NODE_NAME))
 
 
 if __name__ == "__main__":

@@ -35,11 +35,12 @@ from rcl_interfaces.msg import SetParametersResult
 from rclpy.callback_groups import ReentrantCallbackGroup
 from rclpy.executors import MultiThreadedExecutor
 from rclpy.node import Node
+from rclpy.qos import QoSProfile, ReliabilityPolicy
 from std_srvs.srv import Trigger
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
 from srs_ros.core.errors import ConfigurationError, SrsError
-from srs_ros.core.robot import load_robot
+from srs_ros.core.robot import CYCLE_FREQUENCY_RANGE_HZ, load_robot
 from srs_ros.core.trajectory import PoorFitWarning, generate_cycle, list_gaits
 from srs_ros.nodes.common import (
     TRAJECTORY_TOPIC,
@@ -59,13 +60,14 @@ ROBOT_FILE = ParameterSpec("robot_description_file", "",
 
 def base_parameters(max_pressure_bar: float, gait_names: list[str]) -> tuple[ParameterSpec, ...]:
     """The request parameters; ``amplitude_bar`` is capped by the robot's pressure limit."""
+    low_hz, high_hz = CYCLE_FREQUENCY_RANGE_HZ
     return (
         ParameterSpec("gait", "inward_rolling" if "inward_rolling" in gait_names else gait_names[0],
                       f"gait to fit, one of {gait_names}", additional_constraints=f"one of {gait_names}"),
         ParameterSpec("amplitude_bar", float(max_pressure_bar),
                       f"largest pressure of the cycle in bar, 0 < A <= {max_pressure_bar:g}",
                       0.0, float(max_pressure_bar)),
-        ParameterSpec("frequency_hz", 1.0, "cycle frequency in Hz, 0 < f <= 5", 0.0, 5.0),
+        ParameterSpec("frequency_hz", 1.0, f"cycle frequency in Hz, {low_hz:g} <= f <= {high_hz:g}", low_hz, high_hz),
         ParameterSpec("samples", 64, "shapes fitted per cycle (>= 8)", 8, 1024),
         ParameterSpec("generate_on_start", True, "fit and publish once at start-up"),
         ParameterSpec("reject_poor_fit", False,
@@ -131,7 +133,10 @@ class TrajectoryServer(Node):
         self._last_good = ""
         self._group = ReentrantCallbackGroup()
         self._publisher = self.create_publisher(JointTrajectory, TRAJECTORY_TOPIC, latched_qos())
-        self.create_service(Trigger, "~/regenerate", self._on_regenerate, callback_group=self._group)
+        # Every call gets an answer ("busy" at once while a fit runs): a deep request queue, so a burst of
+        # calls beyond rclpy's default depth of 10 is not dropped unanswered.
+        self.create_service(Trigger, "~/regenerate", self._on_regenerate, callback_group=self._group,
+                            qos_profile=QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE))
         self._startup_timer = None
         if self.get_parameter("generate_on_start").value:
             self._startup_timer = self.create_timer(0.0, self._on_startup, callback_group=self._group)
@@ -144,7 +149,7 @@ class TrajectoryServer(Node):
     def _extra_check(self, name: str, value: Any) -> str:
         if name == "gait" and value not in self._gaits:
             return f"gait: unknown gait {value!r}; expected one of {sorted(self._gaits)}."
-        if name in ("amplitude_bar", "frequency_hz") and value <= 0.0:
+        if name == "amplitude_bar" and value <= 0.0:
             return f"{name}: must be > 0, got {value}; {self._specs[name].description}."
         gait_name, _, param_name = name.partition(".")
         if param_name and gait_name in self._gaits:

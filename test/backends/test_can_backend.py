@@ -474,6 +474,11 @@ def test_hardware_node_can_fault_goes_to_error_and_recovers(launch_node, ros_cli
         client.spin_until(lambda: client.lifecycle_state("/hardware_node") == "unconfigured", what="node up")
         for transition in ("configure", "activate"):
             assert client.change_state("/hardware_node", transition), node.output()
+        # real regulators: nothing above 0 bar until the operator arms the node
+        sent_before = len(daemon.frames)
+        stream_until(np.full(9, 0.02), lambda: len(daemon.frames) > sent_before + 3 * 25, "0.5 s of frames")
+        assert all(data == bytes(8) for _, data in list(daemon.frames)[sent_before:])
+        assert client.trigger("/hardware_node/arm").success
         stream_until(np.full(9, 0.02), commanding(np.full(9, 2222.0)), "2 bar = 2.222 V on the bus")
         client.spin_until(lambda: states and len(states[-1].effort) == 9 and states[-1].effort[0] == pytest.approx(
             4.5, abs=0.01), what="monitor read-back as effort")
@@ -489,6 +494,7 @@ def test_hardware_node_can_fault_goes_to_error_and_recovers(launch_node, ros_cli
         for transition in ("configure", "activate"):  # the bus is back: recover without restarting the process
             assert client.change_state("/hardware_node", transition), node.output()
         assert daemon.connections == 2
+        assert client.trigger("/hardware_node/arm").success  # the fault disarmed: the operator arms again
         stream_until(np.full(9, 0.03), commanding(np.full(9, 3333.0)), "3 bar = 3.333 V after recovery")
         assert daemon.frames[sent_before][1] == bytes(8)  # a re-opened bus starts vented
         assert client.change_state("/hardware_node", "deactivate")
