@@ -13,6 +13,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from srs_ros.core.actuation import pressure_limited_length_m
 from srs_ros.core.errors import InvalidInputError
 from srs_ros.core.playback import smoothstep
 from srs_ros.core.robot import RobotDescription
@@ -24,7 +25,7 @@ def setpoint_lengths_m(names: Sequence[str], positions: Sequence[float], robot: 
 
     Raises :class:`InvalidInputError` for a wrong count, a names/positions size mismatch, unknown
     or duplicate names, or NaN/inf. Finite values outside ``[0, max_extension_m]`` are returned as
-    they are (the one pressure clamp limits them; see :func:`out_of_range_joints`).
+    they are (the one pressure clamp limits them; see :func:`clamped_joints`).
     """
     names, count = list(names), robot.joint_count
     if len(names) != count:
@@ -46,9 +47,12 @@ def setpoint_lengths_m(names: Sequence[str], positions: Sequence[float], robot: 
     return lengths
 
 
-def out_of_range_joints(lengths_m: np.ndarray, robot: RobotDescription) -> list[str]:
-    """Names of the actuators whose length lies outside ``[0, max_extension_m]``."""
-    outside = (lengths_m < 0.0) | (lengths_m > robot.max_extension_m)
+def clamped_joints(lengths_m: np.ndarray, robot: RobotDescription) -> list[str]:
+    """Names of the actuators whose length the one clamp changes: below 0, or longer than the pressure limit allows.
+
+    With ``P = 100 l`` and 4 bar that is above 0.04 m, although the muscles extend to 0.065 m.
+    """
+    outside = (lengths_m < 0.0) | (lengths_m > pressure_limited_length_m(robot))
     return [name for name, bad in zip(robot.joint_names, outside) if bad]
 
 

@@ -68,6 +68,7 @@ from srs_ros.core.safety import (
     CommandGate,
     OutputReason,
     StampCheck,
+    clamped_joints,
     min_setpoint_rate_hz,
     setpoint_age_s,
     setpoint_lengths_m,
@@ -324,14 +325,14 @@ class HardwareNode(LifecycleNode):
     def _note_limited(self, lengths_m: np.ndarray) -> None:
         """Say out loud when the clamp changes a setpoint: outside [0, max extension] or above the pressure limit."""
         robot = self.rig.robot
-        limit_m = pressure_limited_length_m(robot)
-        limited = (lengths_m < 0.0) | (lengths_m > limit_m)
-        if not np.any(limited):
+        names = clamped_joints(lengths_m, robot)
+        if not names:
             return
         self.status.limited_setpoints += 1
-        names = [name for name, bad in zip(robot.joint_names, limited) if bad]
+        asked = [round(float(lengths_m[robot.joint_index[name]]), 4) for name in names]
+        limit_m = pressure_limited_length_m(robot)
         self.get_logger().warning(
-            f"setpoint limited by the clamp: {names} ask {np.round(lengths_m[limited], 4).tolist()} m; lengths are "
+            f"setpoint limited by the clamp: {names} ask {asked} m; lengths are "
             f"commanded within [0, {limit_m:.4g}] m, i.e. [0, {robot.max_pressure_bar:g}] bar with "
             f"P = {robot.pressure_per_length_bar_per_m:g} l (the muscles' largest extension is "
             f"{robot.max_extension_m:g} m); lower the gait amplitude to avoid it", throttle_duration_sec=5.0)

@@ -192,3 +192,41 @@ def test_spline_undershoot_is_never_a_negative_length():
     player.start()
     positions = np.array([player.step(0.001).positions_m for _ in range(2000)])
     assert positions.min() >= 0.0
+
+
+GOOD_TIMES = np.arange(17) * 0.1
+GOOD = rolling_cycle(17)
+NAN_POINT = GOOD.copy()
+NAN_POINT[3, 4] = np.nan
+
+
+@pytest.mark.parametrize(("names", "times", "points", "match"), [
+    (NAMES, GOOD_TIMES, [list(row) for row in GOOD[:5]] + [[0.01] * 8] + [list(row) for row in GOOD[6:]],
+     "point 5 has 8 positions"),  # ragged
+    (NAMES, GOOD_TIMES, NAN_POINT, "finite"),
+    (NAMES, [], [], "expected 5 to"),  # empty
+    (NAMES, [0.0], GOOD[:1], "expected 5 to"),  # one point
+    (NAMES, np.r_[0.0, 0.2, 0.1, 0.3, 0.4, 0.5], GOOD[:6], "strictly increasing"),  # non-monotonic
+    (NAMES, np.r_[0.0, 0.1, 0.1, 0.2, 0.3, 0.4], GOOD[:6], "strictly increasing"),  # duplicate times
+    (NAMES[:8] + ["m4_pma1"], GOOD_TIMES, GOOD, "unknown"),
+    (NAMES, GOOD_TIMES, GOOD - 0.001, "must lie in"),  # below 0
+    (NAMES, GOOD_TIMES, GOOD + (MAX_M + 0.0009 - GOOD.max()), "must lie in"),  # 0.0659 m: no tolerance any more
+    (NAMES, np.arange(5000) * 0.001, np.full((5000, 9), 0.01), "expected 5 to"),  # very large
+    (NAMES, GOOD_TIMES * 1e-3, GOOD, "cycle frequency"),  # 588 Hz
+    (NAMES, GOOD_TIMES * 1e9, GOOD, "cycle frequency"),  # a 51-year period
+])
+def test_malformed_trajectories_are_refused_with_the_reason(names, times, points, match):
+    with pytest.raises(InvalidInputError, match=match):
+        cycle_from_points(names, times, points, NAMES, MAX_M)
+
+
+def test_setpoints_never_leave_the_stroke_even_where_the_spline_overshoots():
+    # A square wave within [0, 0.065] m: its periodic cubic spline overshoots to about 0.072 m.
+    samples = np.repeat(np.r_[np.zeros(8), np.full(8, MAX_M)], 1)[:, None] * np.ones((1, 9))
+    assert PeriodicTrajectory(samples).values(np.linspace(0, 1, 2000)).max() > MAX_M + 0.005  # the overshoot
+    player = GaitPlayback(ramp_time_s=0.05, max_length_m=MAX_M)
+    player.load(samples, frequency_hz=1.0)
+    player.start()
+    positions = np.array([player.step(0.001).positions_m for _ in range(3000)])
+    assert positions.max() <= MAX_M and positions.min() >= 0.0
+    assert positions.max() == pytest.approx(MAX_M)  # and it does reach the top

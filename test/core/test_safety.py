@@ -5,7 +5,15 @@ import pytest
 
 from srs_ros.core.errors import InvalidInputError
 from srs_ros.core.robot import default_robot
-from srs_ros.core.safety import CommandGate, OutputReason, out_of_range_joints, setpoint_lengths_m
+from srs_ros.core.safety import (
+    CommandGate,
+    OutputReason,
+    StampCheck,
+    clamped_joints,
+    min_setpoint_rate_hz,
+    setpoint_age_s,
+    setpoint_lengths_m,
+)
 
 ROBOT = default_robot()
 NAMES = list(ROBOT.joint_names)
@@ -29,9 +37,10 @@ def test_bad_setpoints_are_rejected_with_the_reason(names, positions, match):
         setpoint_lengths_m(names, positions, ROBOT)
 
 
-def test_out_of_range_lengths_are_named_not_rejected():
-    lengths = setpoint_lengths_m(NAMES, [-0.01, 0.07] + [0.01] * 7, ROBOT)
-    assert out_of_range_joints(lengths, ROBOT) == ["m1_pma1", "m1_pma2"]
+def test_lengths_the_clamp_changes_are_named_not_rejected():
+    lengths = setpoint_lengths_m(NAMES, [-0.01, 0.07, 0.05, 0.04] + [0.01] * 5, ROBOT)
+    # 0.05 m is within the muscles' stroke (0.065 m) but needs 5 bar with P = 100 l: limited to 4 bar
+    assert clamped_joints(lengths, ROBOT) == ["m1_pma1", "m1_pma2", "m1_pma3"]
 
 
 def test_gate_sends_fresh_commands_only_while_active():
@@ -61,3 +70,73 @@ def test_estop_latches_until_reset():
     assert gate.decide(1.0)[1] is OutputReason.NO_SETPOINT
     gate.accept(np.full(9, 2.0), now_s=1.1)
     assert gate.decide(1.1)[1] is OutputReason.COMMANDING
+
+
+def test_output_ramps_up_from_zero_whenever_it_restarts():
+    gate = CommandGate(joint_count=9, setpoint_timeout_s=0.2, ramp_time_s=1.0, active=True)
+    command = np.full(9, 4.0)
+    gate.accept(command, now_s=0.0)
+    pressure, reason = gate.decide(0.0)
+    assert reason is OutputReason.RAMPING and pressure == pytest.approx(np.zeros(9))
+    for t in (0.1, 0.2):
+        gate.accept(command, now_s=t)
+    pressure, reason = gate.decide(0.2)
+    assert reason is OutputReason.RAMPING and 0.0 < pressure[0] < 1.0  # raised cosine: 0.1 * 4 bar at 20 %
+    for t in np.arange(0.3, 1.01, 0.1):
+        gate.accept(command, now_s=t)
+        pressure, reason = gate.decide(t)
+    assert reason is OutputReason.COMMANDING and pressure == pytest.approx(command)
+
+    assert gate.decide(1.5)[1] is OutputReason.STALE  # vented for stale setpoints ...
+    gate.accept(command, now_s=2.0)
+    pressure, reason = gate.decide(2.0)  # ... and a resumed stream ramps up again
+    assert reason is OutputReason.RAMPING and pressure == pytest.approx(np.zeros(9))
+    gate.latch_estop()
+    gate.reset_estop()
+    gate.accept(command, now_s=2.5)
+    assert gate.decide(2.5)[0] == pytest.approx(np.zeros(9))  # after an e-stop reset, too
+
+
+def test_a_rig_with_real_regulators_commands_nothing_until_armed():
+    gate = CommandGate(joint_count=9, setpoint_timeout_s=0.2, requires_arm=True)
+    assert "activate" in gate.arm() and not gate.armed  # inactive: refused with what to do
+    gate.set_active(True)
+    gate.accept(np.full(9, 2.0), now_s=1.0)
+    pressure, reason = gate.decide(1.0)
+    assert reason is OutputReason.NOT_ARMED and pressure == pytest.approx(np.zeros(9))
+    assert gate.arm() == "" and gate.armed
+    gate.accept(np.full(9, 2.0), now_s=1.1)
+    assert gate.decide(1.1)[1] is OutputReason.COMMANDING
+    gate.latch_estop()  # an e-stop disarms; the reset alone does not re-arm
+    assert "reset" in gate.arm()
+    gate.reset_estop()
+    gate.accept(np.full(9, 2.0), now_s=1.2)
+    assert gate.decide(1.2)[1] is OutputReason.NOT_ARMED
+    assert gate.arm() == ""
+    gate.set_active(False)  # deactivation disarms
+    gate.set_active(True)
+    gate.accept(np.full(9, 2.0), now_s=1.3)
+    assert gate.decide(1.3)[1] is OutputReason.NOT_ARMED
+    assert gate.disarm() is False
+
+
+def test_a_setpoint_that_arrives_old_vents_by_its_stamp_not_a_full_timeout_later():
+    gate = CommandGate(joint_count=9, setpoint_timeout_s=0.2, active=True)
+    gate.accept(np.full(9, 2.0), now_s=10.0, age_s=0.19)  # made at 9.81 s
+    assert gate.decide(10.005)[1] is OutputReason.COMMANDING
+    assert gate.decide(10.011)[1] is OutputReason.STALE  # 0.2 s after it was made, not at 10.2 s
+
+
+@pytest.mark.parametrize(("stamp_ns", "now_ns", "age_s", "check"), [
+    (0, 5 * 10**9, 0.0, StampCheck.UNSTAMPED),  # aged from arrival
+    (5 * 10**9, 5 * 10**9 + 50 * 10**6, 0.05, StampCheck.OK),
+    (5 * 10**9 + 10**6, 5 * 10**9, 0.0, StampCheck.OK),  # 1 ms ahead: clock jitter, not an offset
+    (6 * 10**9, 5 * 10**9, 0.0, StampCheck.FUTURE),  # 1 s ahead: the sender's clock runs ahead
+    (4 * 10**9, 5 * 10**9, 1.0, StampCheck.STALE),  # 1 s old: stale on arrival
+])
+def test_setpoint_age_from_the_stamp_or_the_arrival(stamp_ns, now_ns, age_s, check):
+    assert setpoint_age_s(stamp_ns, now_ns, timeout_s=0.2) == (pytest.approx(age_s), check)
+
+
+def test_the_slowest_stream_that_keeps_the_watchdog_fed():
+    assert min_setpoint_rate_hz(0.2) == pytest.approx(10.0)
