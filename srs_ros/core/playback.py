@@ -304,7 +304,7 @@ class GaitPlayback:
 
 #: The most trajectory points the player takes (the trajectory_server sends at most 1025); a larger
 #: message is refused instead of stalling the real-time stream while it is loaded.
-MAX_TRAJECTORY_POINTS = 4097
+MAX_TRAJECTORY_POINTS = 2049
 
 
 def cycle_from_points(joint_names, times_s, positions_m, expected_names, max_length_m: float,

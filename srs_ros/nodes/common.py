@@ -141,8 +141,9 @@ class ShutdownSignals:
     A terminal's Ctrl-C reaches every process of the group and ``ros2 launch`` sends its own SIGINT a
     few ms later, so each node gets two. rclpy's own handlers (which raise ``KeyboardInterrupt``
     anywhere, also inside the vent) are not installed (:func:`init_ros`); this handler only sets a
-    flag that the spin loop polls, so a second signal can never interrupt the clean-up. SIGKILL still
-    ends a process that hangs.
+    flag that the spin loop polls and then ignores both signals for the rest of the process (also
+    during interpreter exit, where Python would otherwise restore the default action and die by the
+    signal). SIGKILL still ends a process that hangs.
     """
 
     def __init__(self) -> None:
@@ -154,11 +155,9 @@ class ShutdownSignals:
             signal.signal(sig, self._handle)
 
     def _handle(self, signum: int, _frame) -> None:
-        name = signal.Signals(signum).name
-        if self.requested:
-            print(f"{name} again: already shutting down (venting first); ignored", file=sys.stderr, flush=True)
-            return
-        self.requested = name
+        self.requested = self.requested or signal.Signals(signum).name
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            signal.signal(sig, signal.SIG_IGN)
 
 
 #: The process-wide shutdown request (signals reach only the main thread of one process).

@@ -34,6 +34,7 @@ from typing import Any
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.experimental import EventsExecutor
 from rclpy.node import Node
+from rclpy.serialization import deserialize_message
 from sensor_msgs.msg import JointState
 from std_srvs.srv import Trigger
 from trajectory_msgs.msg import JointTrajectory
@@ -61,6 +62,10 @@ from srs_ros.nodes.common import (
 
 #: Largest phase step per tick: a stalled process resumes where it was instead of jumping ahead.
 MAX_STEP_S = 0.05
+#: Largest serialized trajectory taken (bytes): MAX_TRAJECTORY_POINTS points of up to four arrays of nine
+#: doubles and a duration each (CDR), plus the header. Checked before deserializing, which for a
+#: 100k-point message would hold the interpreter for 0.7 s and starve the setpoint stream.
+MAX_TRAJECTORY_BYTES = MAX_TRAJECTORY_POINTS * 320 + 4096
 
 PARAMETERS = (
     # 10 Hz = two setpoints per 0.2 s, the shipped rigs' setpoint timeout (a slower stream makes the valves pulse).
@@ -100,7 +105,7 @@ class GaitPlayer(Node):
         self.add_on_set_parameters_callback(self._check_parameters)
         self.add_post_set_parameters_callback(self._apply_parameters)
         self._publisher = self.create_publisher(JointState, SETPOINT_TOPIC, setpoint_qos())
-        self.create_subscription(JointTrajectory, TRAJECTORY_TOPIC, self._on_trajectory, latched_qos())
+        self.create_subscription(JointTrajectory, TRAJECTORY_TOPIC, self._on_trajectory, latched_qos(), raw=True)
         self.create_service(Trigger, "~/start", self._on_start)
         self.create_service(Trigger, "~/stop", self._on_stop)
         self._timer = steady_timer(self, 1.0 / self._param("rate_hz"), self._on_tick)
@@ -130,9 +135,14 @@ class GaitPlayer(Node):
                 self._timer = steady_timer(self, 1.0 / float(param.value), self._on_tick)
 
     # ------------------------------------------------------------- inputs
-    def _on_trajectory(self, msg: JointTrajectory) -> None:
+    def _on_trajectory(self, serialized: bytes) -> None:
+        if len(serialized) > MAX_TRAJECTORY_BYTES:
+            self.get_logger().error(f"ignored the trajectory on {TRAJECTORY_TOPIC}: {len(serialized)} bytes, more than "
+                                    f"{MAX_TRAJECTORY_BYTES} ({MAX_TRAJECTORY_POINTS} points); send one period of at "
+                                    "most that many points. The previous trajectory (if any) keeps playing.")
+            return
         try:
-            self._take_trajectory(msg)
+            self._take_trajectory(deserialize_message(serialized, JointTrajectory))
         except Exception as exc:  # a malformed message must never stop the stream
             self.get_logger().error(f"ignored the trajectory on {TRAJECTORY_TOPIC} (unexpected error, please report): "
                                     f"{type(exc).__name__}: {exc}. The previous trajectory (if any) keeps playing.")

@@ -57,7 +57,7 @@ def player(launch_node, ros_client):
         params_file = ["--ros-args", "--params-file", str(config_dir() / "gait_player.yaml")]
         proc = launch_node("gait_player", params_file + ros_args({"ramp_time_s": 0.3, "zero_hold_s": 0.3, **params}))
         publisher = ros_client.node.create_publisher(JointTrajectory, TRAJECTORY_TOPIC, latched_qos())
-        setpoints = ros_client.subscribe(JointState, SETPOINT_TOPIC, setpoint_qos())
+        setpoints = ros_client.subscribe(JointState, SETPOINT_TOPIC, setpoint_qos(depth=1000))
         return proc, publisher, setpoints
     return _start
 
@@ -124,8 +124,9 @@ def test_live_changes_and_takeover_never_jump_and_bad_parameters_are_rejected(pl
     ros_client.spin_until(settled_on_new_cycle, 10.0, "the new cycle at amplitude_scale 0.4")
     assert largest_excess_step_m(setpoints, 2 * np.pi * 0.0325 * 2.0 * 1.3) < 0.001, "a setpoint jumped"
 
-    bad = {"amplitude_scale": 1.5, "rate_hz": 5000.0, "ramp_time_s": 0.0, "frequency_hz": -1.0}
-    for name, value in bad.items():
+    bad = [("amplitude_scale", 1.5), ("rate_hz", 5000.0), ("ramp_time_s", 0.0), ("frequency_hz", -1.0),
+           ("rate_hz", 5.0)]  # 5 Hz cannot keep a 0.2 s setpoint watchdog fed: the valves would pulse
+    for name, value in bad:
         result: SetParametersResult = ros_client.set_parameters("gait_player", {name: value})[0]
         assert not result.successful and name in result.reason, (name, result.reason)
     wrong_type = ros_client.set_parameters("gait_player", {"cycles": "three"})[0]
@@ -141,3 +142,63 @@ def test_live_changes_and_takeover_never_jump_and_bad_parameters_are_rejected(pl
     ros_client.spin_until(lambda: len(setpoints) >= count + 400, 10.0, "setpoints at 500 Hz")
     assert float(np.median(np.diff(stamps_s(setpoints[count:])))) == pytest.approx(1 / 500.0, rel=0.5)
     assert proc.alive(), proc.output()
+
+
+def malformed_trajectories():
+    good = trajectory(rolling_cycle(), 1.0)
+
+    def variant(edit):
+        msg = trajectory(rolling_cycle(), 1.0)
+        edit(msg)
+        return msg
+
+    def ragged(msg):
+        msg.points[5].positions = msg.points[5].positions[:8]
+
+    def nan(msg):
+        msg.points[3].positions[2] = float("nan")
+
+    def one_point(msg):
+        msg.points = msg.points[:1]
+
+    def empty(msg):
+        msg.points = []
+
+    def backwards(msg):
+        msg.points[2].time_from_start, msg.points[3].time_from_start = (msg.points[3].time_from_start,
+                                                                        msg.points[2].time_from_start)
+
+    def duplicate_time(msg):
+        msg.points[3].time_from_start = msg.points[2].time_from_start
+
+    def unknown_joint(msg):
+        msg.joint_names = NAMES[:8] + ["m4_pma1"]
+
+    def too_long(msg):
+        for point in msg.points:
+            point.positions = [0.07] * 9
+
+    def huge(msg):
+        msg.points = [good.points[i % 64] for i in range(100_000)]
+
+    return [variant(edit) for edit in (ragged, nan, one_point, empty, backwards, duplicate_time, unknown_joint,
+                                       too_long, huge)]
+
+
+def test_malformed_trajectories_are_refused_and_the_last_good_one_keeps_playing(player, ros_client):
+    proc, publisher, setpoints = player(autostart=True)
+    publisher.publish(trajectory(rolling_cycle(), 1.0))
+    ros_client.spin_until(lambda: len(setpoints) >= 100, 10.0, "setpoints from the good trajectory")
+    bad = malformed_trajectories()
+    starts = []
+    for msg in bad:
+        starts.append(len(setpoints))
+        publisher.publish(msg)
+        ros_client.spin_until(lambda start=starts[-1]: len(setpoints) > start + 40, 20.0, "setpoints after a bad one")
+    ros_client.spin_until(lambda: proc.output().count("ignored the trajectory") >= len(bad), 10.0,
+                          "a log line for each refused trajectory")
+    assert proc.alive() and "Traceback" not in proc.output()
+    # the good cycle kept playing at the full amplitude, and no refusal stalled the stream
+    assert 0.06 < np.max(positions(setpoints[-40:])) <= 0.065
+    gaps_s = [float(np.max(np.diff(stamps_s(setpoints[start - 1:start + 40])))) for start in starts]
+    assert max(gaps_s) < 0.1, str([round(g, 3) for g in gaps_s])

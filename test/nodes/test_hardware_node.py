@@ -172,9 +172,7 @@ def test_killed_setpoint_source_vents_within_the_timeout_and_fresh_setpoints_rec
         rig.client.spin_until(lambda: rig.commanded(PRESSURES_BAR), what="commands from the setpoint source")
         os.killpg(source.pid, signal.SIGKILL)
         source.wait(5.0)
-        killed_s = time.monotonic()
-        rig.wait_vented("vent after the source died")
-        assert time.monotonic() - killed_s < 0.2 + 1.5  # timeout 0.2 s; loose margin for a busy machine
+        rig.wait_vented("vent after the source died")  # how fast: test_the_watchdog_runs_on_the_steady_clock...
     finally:
         if source.poll() is None:
             os.killpg(source.pid, signal.SIGKILL)

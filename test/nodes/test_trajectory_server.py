@@ -78,6 +78,11 @@ def test_a_second_regenerate_during_a_fit_is_answered_busy(launch_node, ros_clie
     answered_s = time.monotonic() - sent
     assert not second.result().success and "busy" in second.result().message
     assert not first.done(), "the first fit finished too fast to test the busy path"
+    # A burst beyond the service's default queue depth (10): every call is answered, none waits forever.
+    burst = [client.call_async(Trigger.Request()) for _ in range(30)]
+    ros_client.spin_until(lambda: all(f.done() for f in burst), 20.0, "an answer to each of 30 calls")
+    assert all("busy" in f.result().message for f in burst)
+    assert not first.done(), "the first fit finished too fast to test the burst"
     # Parameter services keep answering during the fit.
     assert ros_client.get_parameters("trajectory_server", ["samples"]) == {"samples": 64}
     ros_client.spin_until(first.done, 120.0, "the first fit")
@@ -87,7 +92,7 @@ def test_a_second_regenerate_during_a_fit_is_answered_busy(launch_node, ros_clie
 def test_gait_player_streams_what_the_server_latched(launch_node, ros_client):
     launch_node("trajectory_server", ros_args({"samples": 16}))  # generate_on_start: default true
     launch_node("gait_player", ros_args({"autostart": True, "ramp_time_s": 0.2}))
-    setpoints = ros_client.subscribe(JointState, SETPOINT_TOPIC, setpoint_qos())
+    setpoints = ros_client.subscribe(JointState, SETPOINT_TOPIC, setpoint_qos(depth=1000))
     trajectory = latest_trajectory(ros_client)
     ros_client.spin_until(lambda: len(setpoints) > 200, 60.0, "setpoints from the latched trajectory")
     cycle = PeriodicTrajectory(np.array([p.positions for p in trajectory.points[:-1]]))
