@@ -290,8 +290,9 @@ class DaqBackend(ActuatorBackend):
         return (f"the NI-DAQmx watchdog of {where} EXPIRED: no write reached the device for longer than "
                 f"watchdog_timeout_s = {self.watchdog_timeout_s:g} s (the process stalled), so the device set every "
                 f"output to 0 V by itself and locks them ({_one_line(exc)}). The regulators are vented; close and "
-                "re-open the backend (configure and activate the hardware node) to clear it. If it recurs, find what "
-                "stalls the command loop or raise watchdog_timeout_s.")
+                "re-open the backend (configure and activate the hardware node) to clear it (still locked after that: "
+                "reset the device in NI MAX). If it recurs, find what stalls the command loop or raise "
+                "watchdog_timeout_s.")
 
     # -- output ---------------------------------------------------------------------------------
     def _output(self, volts: list[float]) -> None:

@@ -680,6 +680,25 @@ class FakeSocketcand:
         return None
 
 
+def socketcand_rig(tmp_path, port: int, rate_hz: float, setpoint_timeout_s: float, **options) -> Path:
+    """A rig file for the hardware node on python-can's socketcand interface, connected to FakeSocketcand."""
+    extra = "".join(f"    {key}: {value}\n" for key, value in options.items())
+    path = tmp_path / "socketcand.yaml"
+    path.write_text(textwrap.dedent(f"""\
+        rig:
+          name: socketcand_dac
+          backend: can
+          regulator_model: ITV3050
+          command_rate_hz: {rate_hz}
+          setpoint_timeout_s: {setpoint_timeout_s}
+          backend_options:
+            interface: socketcand
+            channel: can0
+            bus_options: {{host: 127.0.0.1, port: {port}}}
+        """) + extra)
+    return path
+
+
 @pytest.mark.ros
 @pytest.mark.slow
 def test_hardware_node_can_fault_goes_to_error_and_recovers(launch_node, ros_client, tmp_path):
@@ -691,19 +710,7 @@ def test_hardware_node_can_fault_goes_to_error_and_recovers(launch_node, ros_cli
 
     daemon = FakeSocketcand(monitor_v=3.0)  # 3 V on the ITV monitor output = (3 - 1) / 4 * 9 = 4.5 bar
     try:
-        rig = tmp_path / "socketcand.yaml"
-        rig.write_text(textwrap.dedent(f"""\
-            rig:
-              name: socketcand_dac
-              backend: can
-              regulator_model: ITV3050
-              command_rate_hz: 50.0
-              setpoint_timeout_s: 1.0
-              backend_options:
-                interface: socketcand
-                channel: can0
-                bus_options: {{host: 127.0.0.1, port: {daemon.port}}}
-            """))
+        rig = socketcand_rig(tmp_path, daemon.port, rate_hz=50.0, setpoint_timeout_s=1.0)
         node = launch_node("hardware_node", ros_args({"rig_file": str(rig)}))
         client = ros_client
         publisher = client.node.create_publisher(JointState, SETPOINT_TOPIC, setpoint_qos())
@@ -765,20 +772,7 @@ def test_sigkill_of_the_hardware_node_lets_the_board_vent_by_itself(launch_node,
     ticker = BoardTicker(board)
     daemon = FakeSocketcand(board=board)
     try:
-        rig = tmp_path / "socketcand.yaml"
-        rig.write_text(textwrap.dedent(f"""\
-            rig:
-              name: socketcand_dac
-              backend: can
-              regulator_model: ITV3050
-              command_rate_hz: 100.0
-              setpoint_timeout_s: 5.0
-              backend_options:
-                interface: socketcand
-                channel: can0
-                bus_options: {{host: 127.0.0.1, port: {daemon.port}}}
-                board_timeout_s: {timeout_s}
-            """))
+        rig = socketcand_rig(tmp_path, daemon.port, rate_hz=100.0, setpoint_timeout_s=5.0, board_timeout_s=timeout_s)
         node = launch_node("hardware_node", ros_args({"rig_file": str(rig), "autostart": True}))
         publisher = ros_client.node.create_publisher(JointState, SETPOINT_TOPIC, setpoint_qos())
         setpoint = JointState(name=list(default_robot().joint_names), position=[0.02] * 9)  # 2 bar
