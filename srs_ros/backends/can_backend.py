@@ -5,12 +5,17 @@ or python-can's own config file), so socketcan, PCAN, Kvaser, slcan, virtual ...
 The frame layout lives in a DBC file (default ``config/srs_dac.dbc``) and is encoded and decoded
 with cantools: a board with another layout needs another DBC, not other code.
 
-Conventions (the README's "CAN frame layout"): joint ``i`` drives DAC channel ``channels[i]``;
-its command is the DBC signal ``command_signal.format(channel=...)`` (default ``CMD_CH1..9``) in
-volts; every message holding a command signal is sent on every write. Signals of those messages
-that are not commands are sent at their DBC initial value (or 0). Optional read-back of the
-regulators' monitor outputs: signals ``monitor_signal`` (default ``MON_CH1..9``) in ``V`` (mapped
-through ``monitor_range_v`` to 0..full scale) or in ``bar``.
+Conventions (``docs/can.md``): joint ``i`` drives DAC channel ``channels[i]``; its command is the
+DBC signal ``command_signal.format(channel=...)`` (default ``CMD_CH1..9``) in volts; every message
+holding a command signal is sent on every write, in DBC order. So that a board can vent by itself
+when the host dies (SIGKILL, segfault, cable), each command message may carry an alive counter
+(signal ``alive_signal``, default ``ALIVE``: 0 at open, +1 per write modulo its range, the same in
+every message of one write) and a CRC-8/SAE-J1850 of its other bytes (``checksum_signal``, default
+``CRC8``); a DBC without them sends none. The board must vent when no valid command arrives within
+``board_timeout_s`` (the rig states it; the host only counts its own longer gaps). Other signals of
+a command message are sent at their DBC initial value (or 0). Optional read-back of the regulators'
+monitor outputs: signals ``monitor_signal`` (default ``MON_CH1..9``) in ``V`` (mapped through
+``monitor_range_v`` to 0..full scale) or in ``bar``.
 """
 
 from __future__ import annotations
@@ -33,18 +38,44 @@ DEFAULT_MONITOR_SIGNAL = "MON_CH{channel}"
 #: SMC ITV3000 analog monitor output (voltage type): 1-5 V spans 0..full-scale pressure.
 DEFAULT_MONITOR_RANGE_V = (1.0, 5.0)
 DEFAULT_SEND_TIMEOUT_S = 0.02
+DEFAULT_ALIVE_SIGNAL = "ALIVE"
+DEFAULT_CHECKSUM_SIGNAL = "CRC8"
+#: How long the DAC board may go without a valid command frame before it vents (docs/can.md).
+DEFAULT_BOARD_TIMEOUT_S = 0.1
+BOARD_TIMEOUT_RANGE_S = (0.005, 5.0)
 #: Most read-back frames handled per call, so a flooded bus cannot stall the command loop.
 MAX_FRAMES_PER_DRAIN = 256
 
 _KNOWN_OPTIONS = {
     "interface", "channel", "bitrate", "can_config_file", "can_config_context", "bus_options",
     "dbc_file", "channels", "command_signal", "monitor_signal", "readback", "monitor_range_v",
-    "send_timeout_s",
+    "send_timeout_s", "alive_signal", "checksum_signal", "board_timeout_s",
 }
 
 
 def _fail(key: str, value: Any, expected: str) -> ConfigurationError:
     return ConfigurationError(f"can backend_options: '{key}' is {value!r}; expected {expected}.")
+
+
+def _crc8_table() -> tuple[int, ...]:
+    table = []
+    for byte in range(256):
+        crc = byte
+        for _ in range(8):
+            crc = ((crc << 1) ^ 0x1D) & 0xFF if crc & 0x80 else (crc << 1) & 0xFF
+        table.append(crc)
+    return tuple(table)
+
+
+_CRC8_TABLE = _crc8_table()
+
+
+def crc8_sae_j1850(data: bytes) -> int:
+    """CRC-8/SAE-J1850 (poly 0x1D, init 0xFF, no reflection, xorout 0xFF; check value 0x4B for b"123456789")."""
+    crc = 0xFF
+    for byte in data:
+        crc = _CRC8_TABLE[crc ^ byte]
+    return crc ^ 0xFF
 
 
 def resolve_config_path(path: str | Path) -> Path:
@@ -71,6 +102,14 @@ class CanBackend(ActuatorBackend):
     - ``readback``: decode monitor frames into measured pressures (default true).
     - ``monitor_range_v``: ``[V at 0 bar, V at full scale]`` of a monitor signal in volts (default [1, 5]).
     - ``send_timeout_s``: how long one frame may wait for the bus (default 0.02 s).
+    - ``alive_signal``: name of the alive-counter signal in the command messages (default ``ALIVE``);
+      an unsigned integer signal (factor 1, offset 0) counting 0 .. its DBC maximum (or 2^bits - 1).
+    - ``checksum_signal``: name of the CRC-8/SAE-J1850 signal (default ``CRC8``): 8 bits, byte-aligned,
+      over the message's other bytes in order. Messages without these signals are sent without them;
+      a name set explicitly must exist in at least one command message.
+    - ``board_timeout_s``: how long the board may go without a valid command frame before it vents by
+      itself (default 0.1 s; the board's firmware implements it, see docs/can.md). The host counts its
+      own gaps longer than this (``read_state().details['board_timeout_gaps']``).
     """
 
     name = "can"
@@ -84,10 +123,18 @@ class CanBackend(ActuatorBackend):
                                      f"{sorted(_KNOWN_OPTIONS)}.")
         self._bus_kwargs = self._bus_config()
         self.send_timeout_s = self._positive("send_timeout_s", DEFAULT_SEND_TIMEOUT_S)
+        self.board_timeout_s = self._in_range("board_timeout_s", DEFAULT_BOARD_TIMEOUT_S, *BOARD_TIMEOUT_RANGE_S)
+        #: How long the hardware keeps the last command after the host stops writing (s).
+        self.host_loss_timeout_s = self.board_timeout_s
         self.channels = self._channel_list()
         self.dbc_path = resolve_config_path(self.options.get("dbc_file", DEFAULT_DBC_FILE))
         self.database = self._load_dbc(self.dbc_path)
         self._command_layout = self._command_signals()
+        names = {message.name for message, _ in self._command_layout}
+        self._command_messages = [message for message in self.database.messages if message.name in names]
+        self._alive_layout = self._sequence_signals("alive_signal", DEFAULT_ALIVE_SIGNAL, self._check_alive)
+        self._checksum_layout = self._sequence_signals("checksum_signal", DEFAULT_CHECKSUM_SIGNAL,
+                                                       self._check_checksum)
         self.monitor_range_v = self._monitor_range()
         readback = self.options.get("readback", True)
         if not isinstance(readback, bool):
@@ -97,6 +144,9 @@ class CanBackend(ActuatorBackend):
         self._measured_bar = np.full(self.robot.joint_count, np.nan)
         self._measured_stamp_s = np.full(self.robot.joint_count, np.nan)
         self._decode_errors = 0
+        self._alive = 0
+        self._last_send_s = math.nan
+        self._board_timeout_gaps = 0
 
     # -- option validation ----------------------------------------------------------------
     def _bus_config(self) -> dict[str, Any]:
@@ -140,6 +190,12 @@ class CanBackend(ActuatorBackend):
         value = self.options.get(key, default)
         if isinstance(value, bool) or not isinstance(value, (int, float)) or not (0 < value < math.inf):
             raise _fail(key, value, "a number > 0")
+        return float(value)
+
+    def _in_range(self, key: str, default: float, low: float, high: float) -> float:
+        value = self.options.get(key, default)
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not low <= value <= high:
+            raise _fail(key, value, f"a number of seconds in [{low}, {high}]")
         return float(value)
 
     def _channel_list(self) -> tuple[int, ...]:
@@ -208,6 +264,44 @@ class CanBackend(ActuatorBackend):
                             f"up to the command at the pressure limit (found [{low}, {high}] V)")
         return [found[name] for name in names]
 
+    def _sequence_signals(self, key: str, default: str, check) -> dict[str, tuple[Any, int]]:
+        """Command message name -> (signal, detail from ``check``) for the alive or checksum signal."""
+        name = self.options.get(key, default)
+        if not isinstance(name, str) or not name:
+            raise _fail(key, name, f"a signal name, e.g. {default!r}")
+        layout = {}
+        for message in self._command_messages:
+            signal = next((s for s in message.signals if s.name == name), None)
+            if signal is not None:
+                layout[message.name] = (signal, check(message, signal))
+        if not layout and key in self.options:
+            raise _fail(key, name, f"a signal of the command messages in {self.dbc_path} (none has it)")
+        return layout
+
+    def _check_alive(self, message, signal) -> int:
+        """The counter's modulus: its DBC maximum + 1, else 2^bits."""
+        full = 1 << signal.length
+        top = full - 1 if signal.maximum is None else signal.maximum
+        ok = (not signal.is_signed and not signal.is_float and signal.scale == 1 and signal.offset == 0
+              and signal.length >= 2 and (signal.minimum or 0) == 0 and float(top).is_integer() and 2 <= top < full)
+        if not ok:
+            raise _fail("alive_signal", signal.name, f"an unsigned integer counter of at least 2 bits with factor 1, "
+                        f"offset 0, range [0, max] in {message.name} of {self.dbc_path}")
+        return int(top) + 1
+
+    def _check_checksum(self, message, signal) -> int:
+        """The byte index of the CRC in the frame (it must fill exactly one byte)."""
+        raw = {s.name: 0 for s in message.signals}
+        raw[signal.name] = 0xFF
+        data = message.encode(raw, scaling=False, strict=False)
+        filled = [i for i, byte in enumerate(data) if byte]
+        ok = (not signal.is_signed and not signal.is_float and signal.scale == 1 and signal.offset == 0
+              and signal.length == 8 and len(filled) == 1 and data[filled[0]] == 0xFF)
+        if not ok:
+            raise _fail("checksum_signal", signal.name, f"an unsigned 8-bit byte-aligned signal (factor 1, offset 0) "
+                        f"in {message.name} of {self.dbc_path}")
+        return filled[0]
+
     def _monitor_signals(self) -> dict[tuple[int, bool], tuple[Any, list[tuple[int, str, str]]]]:
         """(frame id, extended) -> (message, [(joint index, signal name, unit)]) of the read-back signals."""
         names = self._signal_names("monitor_signal", DEFAULT_MONITOR_SIGNAL)
@@ -251,6 +345,7 @@ class CanBackend(ActuatorBackend):
             raise HardwareError(f"cannot open CAN bus {description}: {exc}. Check the adapter is connected, "
                                 "the channel name and bitrate, and that the interface is up.") from exc
         self._bus = bus
+        self._alive, self._last_send_s, self._board_timeout_gaps = 0, math.nan, 0
         self._measured_bar[:] = np.nan
         self._measured_stamp_s[:] = np.nan
         try:
@@ -275,30 +370,44 @@ class CanBackend(ActuatorBackend):
                 pass
 
     def _measure(self) -> dict[str, Any]:
+        details: dict[str, Any] = {"board_timeout_gaps": self._board_timeout_gaps}
+        if self._alive_layout and self._alive:
+            _, modulus = next(iter(self._alive_layout.values()))
+            details["alive_counter"] = (self._alive - 1) % modulus  # carried by the last write
         if not self._monitor_layout:
-            return {}
+            return {"details": details}
         self._drain()
-        details = {"readback_decode_errors": self._decode_errors}
+        details["readback_decode_errors"] = self._decode_errors
         if np.all(np.isnan(self._measured_stamp_s)):
             return {"details": details}
         details["readback_age_s"] = (time.monotonic() - self._measured_stamp_s).tolist()
         return {"measured_pressure_bar": self._measured_bar.copy(), "details": details}
 
     # -- frames -------------------------------------------------------------------------------
-    def encode_frames(self, command_v: np.ndarray) -> list[tuple[int, bool, bytes]]:
-        """(arbitration id, extended, data) of every command message for the voltages (V) of one write."""
+    def encode_frames(self, command_v: np.ndarray, alive: int = 0) -> list[tuple[int, bool, bytes]]:
+        """(arbitration id, extended, data) of every command message for the voltages (V) of one write.
+
+        ``alive`` is the write's counter (wrapped to each alive signal's range); the CRC is filled in last.
+        """
         values: dict[str, dict[str, float]] = {}
         for (message, signal), volts in zip(self._command_layout, command_v):
             values.setdefault(message.name, {})[signal.name] = float(volts)
         frames = []
-        for message in self.database.messages:  # in the DBC's order, whatever the channel mapping
-            if message.name not in values:
-                continue
+        for message in self._command_messages:  # in the DBC's order, whatever the channel mapping
             data = values[message.name]
+            if message.name in self._alive_layout:
+                signal, modulus = self._alive_layout[message.name]
+                data[signal.name] = alive % modulus
             for signal in message.signals:
                 if signal.name not in data:
                     data[signal.name] = signal.initial if signal.initial is not None else 0.0
-            frames.append((message.frame_id, message.is_extended_frame, message.encode(data)))
+            payload = message.encode(data)
+            if message.name in self._checksum_layout:
+                _, index = self._checksum_layout[message.name]
+                payload = bytearray(payload)
+                payload[index] = crc8_sae_j1850(payload[:index] + payload[index + 1:])
+                payload = bytes(payload)
+            frames.append((message.frame_id, message.is_extended_frame, payload))
         return frames
 
     def _send_frames(self, command_v: np.ndarray) -> None:
@@ -306,7 +415,13 @@ class CanBackend(ActuatorBackend):
 
         if self._bus is None:
             raise HardwareError("can backend: the bus is not open; configure the hardware node again.")
-        for frame_id, extended, data in self.encode_frames(command_v):
+        now_s = time.monotonic()
+        if now_s - self._last_send_s > self.board_timeout_s:
+            self._board_timeout_gaps += 1  # by its contract the board has vented by itself meanwhile
+        self._last_send_s = now_s
+        frames = self.encode_frames(command_v, self._alive)
+        self._alive += 1  # the write count since open; each message carries it modulo its counter's range
+        for frame_id, extended, data in frames:
             message = can.Message(arbitration_id=frame_id, is_extended_id=extended, data=data)
             try:
                 self._bus.send(message, timeout=self.send_timeout_s)

@@ -12,9 +12,10 @@ import can
 import cantools
 import numpy as np
 import pytest
+from backends.reference_dac_board import BoardTicker, ReferenceDacBoard
 
 from srs_ros.backends import create_backend
-from srs_ros.backends.can_backend import CanBackend
+from srs_ros.backends.can_backend import CanBackend, crc8_sae_j1850
 from srs_ros.core.errors import BackendUnavailableError, ConfigurationError, HardwareError
 from srs_ros.core.rig import load_rig
 from srs_ros.core.robot import config_dir, default_robot
@@ -294,6 +295,13 @@ def test_python_can_config_file_opens_the_bus(board, channel, tmp_path):
     ({"readback": "yes"}, "readback"),
     ({"bus_options": ["fd"]}, "bus_options"),
     ({"can_config_file": "/no/such/can.ini"}, "can_config_file"),
+    ({"board_timeout_s": 0}, "board_timeout_s"),
+    ({"board_timeout_s": "50 ms"}, "board_timeout_s"),
+    ({"alive_signal": ""}, "alive_signal"),
+    ({"alive_signal": "NO_SUCH_COUNTER"}, "alive_signal"),
+    ({"alive_signal": "CMD_CH1"}, "alive_signal"),
+    ({"checksum_signal": "NO_SUCH_CRC"}, "checksum_signal"),
+    ({"checksum_signal": "CMD_CH1"}, "checksum_signal"),
 ])
 def test_invalid_options_fail_with_the_key_named(options, key):
     with pytest.raises(ConfigurationError, match=f"'{key}'"):
@@ -340,6 +348,244 @@ def test_the_shipped_can_rig_is_valid():
     assert backend.channels == tuple(range(1, 10)) and backend.dbc_path.name == "srs_dac.dbc"
     assert backend._bus_kwargs == {"interface": "socketcan", "channel": "can0", "bitrate": 500000}
     assert len(backend.channel_labels()) == default_robot().joint_count
+    assert backend.board_timeout_s == 0.1 == backend.host_loss_timeout_s
+    assert rig.command_rate_hz * backend.board_timeout_s >= 3  # the board tolerates a few late ticks
+
+
+# -- alive counter, CRC, and the board's host-loss timeout (docs/can.md) -------------------------------------
+def alive_and_crc_ok(frames) -> int:
+    """The alive counter of one write's three frames (the same in all three), each frame's CRC checked."""
+    counters = set()
+    for frame in frames:
+        data = bytes(frame.data)
+        assert data[7] == crc8_sae_j1850(data[:7]), f"bad CRC in {frame}"
+        counters.add(DBC.decode_message(frame.arbitration_id, data)["ALIVE"])
+    assert len(counters) == 1, f"the three frames of one write carry different counters {counters}"
+    return counters.pop()
+
+
+def test_crc8_is_sae_j1850():
+    assert crc8_sae_j1850(b"123456789") == 0x4B  # the catalogue check value of CRC-8/SAE-J1850
+    assert crc8_sae_j1850(b"") == 0x00
+
+
+def test_every_write_carries_the_next_alive_counter_in_all_three_frames(board, channel):
+    """0 at open, +1 per write (vents too), wraps after 255; a second decoder on the bus sees the same."""
+    spy = can.Bus(interface="virtual", channel=channel, receive_own_messages=False)
+    try:
+        with backend_on(channel) as backend:
+            writes = 300
+            for k in range(1, writes):
+                if k % 7 == 0:
+                    backend.vent()
+                else:
+                    backend.write_pressures(np.full(9, (k % 40) / 10.0))
+            assert backend.read_state().details["alive_counter"] == (writes - 1) % 256
+        frames = receive(board, 3 * (writes + 1))  # + the vent of close
+        seen_by_spy = receive(spy, 3 * (writes + 1))
+    finally:
+        spy.shutdown()
+    counters = [alive_and_crc_ok(frames[3 * k:3 * k + 3]) for k in range(writes + 1)]
+    assert counters == [k % 256 for k in range(writes + 1)]
+    assert counters[255:258] == [255, 0, 1]
+    assert decode_write(frames[3 * 7:3 * 8]) == pytest.approx(np.zeros(9)) and counters[7] == 7  # a vent counts
+    assert [alive_and_crc_ok(seen_by_spy[3 * k:3 * k + 3]) for k in range(writes + 1)] == counters
+
+
+def test_a_reopened_backend_counts_from_zero_again(board, channel):
+    backend = backend_on(channel)
+    for _ in range(2):
+        backend.open()
+        backend.write_pressures(np.full(9, 1.0))
+        backend.close()
+        assert [alive_and_crc_ok(receive(board, 3)) for _ in range(3)] == [0, 1, 2]  # open, write, close
+
+
+def write_at(backend, rate_hz: float, stop: threading.Event, pressure_bar: float) -> threading.Thread:
+    """The host's command tick in a thread, until `stop` is set (then it just stops: no vent, as on SIGKILL)."""
+    def loop():
+        period_s, next_s = 1.0 / rate_hz, time.monotonic()
+        while not stop.is_set():
+            backend.write_pressures(np.full(9, pressure_bar))
+            next_s += period_s
+            time.sleep(max(next_s - time.monotonic(), 0.0))
+
+    thread = threading.Thread(target=loop, daemon=True)
+    thread.start()
+    return thread
+
+
+def wait_for(predicate, what: str, timeout_s: float = 5.0) -> None:
+    end = time.monotonic() + timeout_s
+    while not predicate():
+        assert time.monotonic() < end, f"timed out waiting for {what}"
+        time.sleep(0.002)
+
+
+def board_applies(board: ReferenceDacBoard, volts: float):
+    return lambda: (s := board.snapshot()) and not s[0] and s[1] == pytest.approx([volts] * 9, abs=0.001)
+
+
+def test_the_board_vents_by_itself_when_the_host_stops_writing(channel):
+    """The host dies mid-command (no vent frames): the reference board vents after its timeout, not before."""
+    timeout_s = 0.1
+    board = ReferenceDacBoard(timeout_s=timeout_s)
+    bus = can.Bus(interface="virtual", channel=channel, receive_own_messages=False)
+    ticker = BoardTicker(board, bus=bus)
+    backend = backend_on(channel, board_timeout_s=timeout_s)
+    try:
+        backend.open()
+        stop = threading.Event()
+        writer = write_at(backend, 100.0, stop, pressure_bar=3.0)
+        wait_for(board_applies(board, 3.0 * V_PER_BAR), "the board to apply 3 bar")
+        stop.set()  # the host dies: frames just stop
+        writer.join(5.0)
+        stopped_s = time.monotonic()
+        wait_for(lambda: board.snapshot()[0], "the board to vent by itself")
+        last_valid_s = board.oldest_valid_s()
+        vented_at_s, reason = board.snapshot()[2][-1]
+        assert reason.startswith("no valid command frame") and board.snapshot()[1] == [0.0] * 9
+        assert last_valid_s <= stopped_s < vented_at_s
+        # vents once its timeout has passed since the last valid frame; the margin is the test thread's polling
+        assert timeout_s <= vented_at_s - last_valid_s < timeout_s + 0.25
+        assert board.invalid == {}  # the host's counter and CRC were right all along
+    finally:
+        ticker.close()
+        backend.close()
+        bus.shutdown()
+
+
+def test_a_frozen_counter_vents_the_board_although_frames_keep_coming(channel):
+    """An adapter that keeps re-sending the last frames after the host died (cyclic transmit) cannot hold pressure."""
+    board = ReferenceDacBoard(timeout_s=0.1)
+    bus = can.Bus(interface="virtual", channel=channel, receive_own_messages=False)
+    spy = can.Bus(interface="virtual", channel=channel, receive_own_messages=False)
+    ticker = BoardTicker(board, bus=bus)
+    backend = backend_on(channel)
+    replays = []
+    try:
+        backend.open()
+        stop = threading.Event()
+        writer = write_at(backend, 100.0, stop, pressure_bar=2.0)
+        wait_for(board_applies(board, 2.0 * V_PER_BAR), "the board to apply 2 bar")
+        stop.set()
+        writer.join(5.0)
+        last_write = []
+        while (message := spy.recv(timeout=0.05)) is not None:
+            last_write = (last_write + [message])[-3:]
+        assert decode_write(last_write) == pytest.approx(expected_mv(np.full(9, 2.0)))
+        replays = [spy.send_periodic(frame, 0.01) for frame in last_write]  # cyclic transmit: same bytes and counter
+        wait_for(lambda: board.snapshot()[0], "the board to vent on a frozen counter")
+        assert board.snapshot()[2][-1][1].startswith("no valid command frame")
+        assert board.invalid.get("repeated", 0) >= 3 and set(board.invalid) == {"repeated"}
+    finally:
+        for replay in replays:
+            replay.stop()
+        ticker.close()
+        backend.close()
+        spy.shutdown()
+        bus.shutdown()
+
+
+def test_a_counter_jump_vents_at_once_and_a_bad_crc_is_ignored(channel):
+    board = ReferenceDacBoard(timeout_s=10.0)  # long: only the counter and CRC checks act here
+    bus = can.Bus(interface="virtual", channel=channel, receive_own_messages=False)
+    intruder = can.Bus(interface="virtual", channel=channel, receive_own_messages=False)
+    ticker = BoardTicker(board, bus=bus)
+    try:
+        with backend_on(channel) as backend:
+            for _ in range(3):
+                backend.write_pressures(np.full(9, 1.0))
+            wait_for(board_applies(board, V_PER_BAR), "the board to apply 1 bar")
+            alive = backend.read_state().details["alive_counter"]
+            full_v = np.full(9, 4.0 * V_PER_BAR)
+            corrupted = bytearray(backend.encode_frames(full_v, alive + 1)[0][2])
+            corrupted[7] ^= 0x01
+            intruder.send(can.Message(arbitration_id=0x100, is_extended_id=False, data=bytes(corrupted)))
+            wait_for(lambda: board.invalid.get("crc") == 1, "the corrupted frame to be rejected")
+            assert board.snapshot()[1] == pytest.approx([V_PER_BAR] * 9, abs=0.001)  # not applied
+            for frame_id, _, data in backend.encode_frames(full_v, alive + 10):  # valid CRC, counter jumps
+                intruder.send(can.Message(arbitration_id=frame_id, is_extended_id=False, data=data))
+            wait_for(lambda: board.snapshot()[0], "the board to vent on the jump")
+            assert "jumped" in board.snapshot()[2][-1][1] and board.snapshot()[1] == [0.0] * 9
+            for _ in range(4):  # the host goes on: one more jump (back), then it resynchronises
+                backend.write_pressures(np.full(9, 1.0))
+            wait_for(board_applies(board, V_PER_BAR), "the board to follow the host again")
+    finally:
+        ticker.close()
+        intruder.shutdown()
+        bus.shutdown()
+
+
+AUTOSAR_STYLE_DBC = """VERSION ""
+NS_ :
+BS_:
+BU_: HOST DAC
+BO_ 528 DAC_1: 8 HOST
+ SG_ OUT_0 : 7|12@0+ (0.002442,0) [0|10] "V" DAC
+ SG_ OUT_1 : 11|12@0+ (0.002442,0) [0|10] "V" DAC
+ SG_ OUT_2 : 31|12@0+ (0.002442,0) [0|10] "V" DAC
+ SG_ OUT_3 : 35|12@0+ (0.002442,0) [0|10] "V" DAC
+ SG_ CNT : 51|4@0+ (1,0) [0|14] "" DAC
+ SG_ CS : 63|8@0+ (1,0) [0|255] "" DAC
+BO_ 529 DAC_2: 8 HOST
+ SG_ OUT_4 : 7|12@0+ (0.002442,0) [0|10] "V" DAC
+ SG_ OUT_5 : 11|12@0+ (0.002442,0) [0|10] "V" DAC
+ SG_ OUT_6 : 31|12@0+ (0.002442,0) [0|10] "V" DAC
+ SG_ OUT_7 : 35|12@0+ (0.002442,0) [0|10] "V" DAC
+ SG_ OUT_8 : 55|12@0+ (0.002442,0) [0|10] "V" DAC
+"""
+
+
+def test_renamed_counter_and_checksum_signals_follow_their_dbc(board, channel, tmp_path):
+    """A 4-bit counter 0..14 (AUTOSAR style) and a big-endian CRC in the first frame only; the second has neither."""
+    path = tmp_path / "autosar_dac.dbc"
+    path.write_text(AUTOSAR_STYLE_DBC)
+    options = {"dbc_file": str(path), "channels": list(range(9)), "command_signal": "OUT_{channel}",
+               "readback": False, "alive_signal": "CNT", "checksum_signal": "CS"}
+    other = cantools.database.load_file(str(path))
+    with backend_on(channel, **options) as backend:
+        for _ in range(20):
+            backend.write_pressures(np.full(9, 1.0))
+        frames = receive(board, 2 * 21)
+    counters = []
+    for k in range(0, len(frames), 2):
+        first, second = bytes(frames[k].data), other.decode_message(0x211, frames[k + 1].data)
+        assert first[7] == crc8_sae_j1850(first[:7])
+        counters.append(other.decode_message(0x210, first)["CNT"])
+        assert second["OUT_8"] == pytest.approx(V_PER_BAR if k else 0.0, abs=0.0025)  # k = 0: the vent of open
+    assert counters == [k % 15 for k in range(21)]  # wraps after its DBC maximum 14
+
+    path.write_text(AUTOSAR_STYLE_DBC.replace(" SG_ CS : 63|8@0+", " SG_ CS : 51|8@0+")  # straddles bytes 6 and 7
+                    .replace(" SG_ CNT : 51|4@0+", " SG_ CNT : 59|4@0+"))
+    with pytest.raises(ConfigurationError, match="'checksum_signal'.*byte-aligned.*DAC_1"):
+        backend_on(channel, **options)
+    path.write_text(AUTOSAR_STYLE_DBC.replace(" SG_ CNT :", " SG_ COUNTER :"))
+    with pytest.raises(ConfigurationError, match="'alive_signal'.*CNT.*none has it"):
+        backend_on(channel, **options)
+
+
+def test_a_dbc_without_counter_or_checksum_sends_neither(board, channel, tmp_path):
+    path = tmp_path / "v1.dbc"
+    source = (config_dir() / "srs_dac.dbc").read_text()
+    path.write_text("\n".join(line for line in source.splitlines() if "ALIVE" not in line and "CRC8" not in line))
+    with backend_on(channel, dbc_file=str(path)) as backend:
+        backend.write_pressures(np.full(9, 2.0))
+        receive(board, 3)
+        frames = receive(board, 3)
+        assert "alive_counter" not in backend.read_state().details
+    assert decode_write(frames) == pytest.approx(expected_mv(np.full(9, 2.0)))
+    assert all(bytes(f.data[6:]) == bytes(2) for f in frames)  # the spare bytes stay at 0
+
+
+def test_gaps_longer_than_the_board_timeout_are_counted(board, channel):
+    with backend_on(channel, board_timeout_s=0.3) as backend:
+        backend.write_pressures(np.full(9, 1.0))
+        assert backend.read_state().details["board_timeout_gaps"] == 0
+        time.sleep(0.35)  # by its contract the board vents meanwhile
+        backend.write_pressures(np.full(9, 1.0))
+        assert backend.read_state().details["board_timeout_gaps"] == 1
+        assert backend.host_loss_timeout_s == 0.3
 
 
 # socketcan on vcan0: defined (and so collected) only where the kernel offers the interface, e.g. after
@@ -363,7 +609,8 @@ class FakeSocketcand:
     with monitor read-back frames, and can drop the connection as a dead bus would.
     """
 
-    def __init__(self, monitor_v: float = 3.0):
+    def __init__(self, monitor_v: float = 3.0, board: ReferenceDacBoard | None = None):
+        self.board = board
         self.server = socket.create_server(("127.0.0.1", 0))
         self.server.settimeout(0.1)
         self.port = self.server.getsockname()[1]
@@ -405,6 +652,8 @@ class FakeSocketcand:
                 chunk = connection.recv(4096).decode()
             except TimeoutError:
                 continue
+            except OSError:  # reset by a killed client
+                return
             if not chunk:
                 return
             buffer += chunk
@@ -414,6 +663,8 @@ class FakeSocketcand:
                 if parts[:1] == ["send"]:
                     frame_id, dlc = int(parts[1], 16), int(parts[2], 16)
                     self.frames.append((frame_id, bytes(int(b, 16) for b in parts[3:3 + dlc])))
+                    if self.board is not None:
+                        self.board.receive(*self.frames[-1], time.monotonic())
             connection.sendall(self.monitor)
         self.drop.clear()  # leaving the with block closes the socket: the node's next sends fail
 
@@ -429,6 +680,25 @@ class FakeSocketcand:
         return None
 
 
+def socketcand_rig(tmp_path, port: int, rate_hz: float, setpoint_timeout_s: float, **options) -> Path:
+    """A rig file for the hardware node on python-can's socketcand interface, connected to FakeSocketcand."""
+    extra = "".join(f"    {key}: {value}\n" for key, value in options.items())
+    path = tmp_path / "socketcand.yaml"
+    path.write_text(textwrap.dedent(f"""\
+        rig:
+          name: socketcand_dac
+          backend: can
+          regulator_model: ITV3050
+          command_rate_hz: {rate_hz}
+          setpoint_timeout_s: {setpoint_timeout_s}
+          backend_options:
+            interface: socketcand
+            channel: can0
+            bus_options: {{host: 127.0.0.1, port: {port}}}
+        """) + extra)
+    return path
+
+
 @pytest.mark.ros
 @pytest.mark.slow
 def test_hardware_node_can_fault_goes_to_error_and_recovers(launch_node, ros_client, tmp_path):
@@ -440,19 +710,7 @@ def test_hardware_node_can_fault_goes_to_error_and_recovers(launch_node, ros_cli
 
     daemon = FakeSocketcand(monitor_v=3.0)  # 3 V on the ITV monitor output = (3 - 1) / 4 * 9 = 4.5 bar
     try:
-        rig = tmp_path / "socketcand.yaml"
-        rig.write_text(textwrap.dedent(f"""\
-            rig:
-              name: socketcand_dac
-              backend: can
-              regulator_model: ITV3050
-              command_rate_hz: 50.0
-              setpoint_timeout_s: 1.0
-              backend_options:
-                interface: socketcand
-                channel: can0
-                bus_options: {{host: 127.0.0.1, port: {daemon.port}}}
-            """))
+        rig = socketcand_rig(tmp_path, daemon.port, rate_hz=50.0, setpoint_timeout_s=1.0)
         node = launch_node("hardware_node", ros_args({"rig_file": str(rig)}))
         client = ros_client
         publisher = client.node.create_publisher(JointState, SETPOINT_TOPIC, setpoint_qos())
@@ -496,9 +754,54 @@ def test_hardware_node_can_fault_goes_to_error_and_recovers(launch_node, ros_cli
         assert daemon.connections == 2
         assert client.trigger("/hardware_node/arm").success  # the fault disarmed: the operator arms again
         stream_until(np.full(9, 0.03), commanding(np.full(9, 3333.0)), "3 bar = 3.333 V after recovery")
-        assert daemon.frames[sent_before][1] == bytes(8)  # a re-opened bus starts vented
+        reopened = DBC.decode_message(*daemon.frames[sent_before])
+        assert reopened == {"CMD_CH1": 0, "CMD_CH2": 0, "CMD_CH3": 0, "ALIVE": 0, "CRC8": reopened["CRC8"]}
+        assert reopened["CRC8"] == crc8_sae_j1850(daemon.frames[sent_before][1][:7])  # re-opened: vented, count 0
         assert client.change_state("/hardware_node", "deactivate")
         client.spin_until(commanding(np.zeros(9)), what="vent frames on deactivate")
         assert node.alive()
     finally:
         daemon.close()
+
+
+@pytest.mark.ros
+@pytest.mark.slow
+def test_sigkill_of_the_hardware_node_lets_the_board_vent_by_itself(launch_node, ros_client, tmp_path):
+    """The node (its own process) commands 2 bar through socketcand; SIGKILL sends no vent: the board vents alone."""
+    from sensor_msgs.msg import JointState
+    from srs_testing import ros_args
+
+    from srs_ros.nodes.common import SETPOINT_TOPIC, setpoint_qos
+
+    timeout_s = 0.1
+    board = ReferenceDacBoard(timeout_s=timeout_s)
+    ticker = BoardTicker(board)
+    daemon = FakeSocketcand(board=board)
+    try:
+        rig = socketcand_rig(tmp_path, daemon.port, rate_hz=100.0, setpoint_timeout_s=5.0, board_timeout_s=timeout_s)
+        node = launch_node("hardware_node", ros_args({"rig_file": str(rig), "autostart": True}))
+        publisher = ros_client.node.create_publisher(JointState, SETPOINT_TOPIC, setpoint_qos())
+        setpoint = JointState(name=list(default_robot().joint_names), position=[0.02] * 9)  # 2 bar
+        applied = board_applies(board, 2.0 * V_PER_BAR)
+        end = time.monotonic() + 20.0
+        while not applied():
+            assert time.monotonic() < end, f"the board never applied 2 bar; node output:\n{node.output()}"
+            publisher.publish(setpoint)
+            ros_client.executor.spin_once(timeout_sec=0.01)
+        ros_client.spin_for(0.3)  # the node keeps commanding 2 bar at 100 Hz without new setpoints
+        assert not board.snapshot()[0]
+
+        node.kill()
+        killed_s = time.monotonic()
+        wait_for(lambda: board.snapshot()[0], "the board to vent after the node died")
+        vented_at_s, reason = board.snapshot()[2][-1]
+        assert reason.startswith("no valid command frame") and board.snapshot()[1] == [0.0] * 9
+        assert [frame_id for frame_id, _ in daemon.frames[-3:]] == COMMAND_IDS
+        assert daemon.last_write_mv() == pytest.approx(np.full(9, 2222.0))  # it died commanding 2 bar: no vent sent
+        assert timeout_s <= vented_at_s - board.oldest_valid_s() < timeout_s + 0.25
+        assert vented_at_s - killed_s < timeout_s + 0.25
+        assert board.invalid == {}  # across processes: every frame's counter and CRC in sequence
+    finally:
+        daemon.close()
+        ticker.close()
+
