@@ -53,6 +53,9 @@ class ActuatorBackend(abc.ABC):
     #: True where the backend drives real regulators with real air: the hardware node then commands
     #: nothing above 0 bar until an operator arms it (``~/arm``). Simulated backends set it False.
     drives_real_hardware: bool = True
+    #: Seconds the hardware holds the last command without a new one before it vents by itself (a CAN
+    #: board's alive-counter timeout, an NI watchdog), or None where it holds it for ever if the host dies.
+    host_loss_timeout_s: float | None = None
 
     def __init__(self, robot: RobotDescription | None = None, options: Mapping[str, Any] | None = None):
         """Store the robot description and the backend's own options (validated by the subclass)."""

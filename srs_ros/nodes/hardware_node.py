@@ -228,11 +228,24 @@ class HardwareNode(LifecycleNode):
                                      "timeout).")
         backend = create_backend(self.get_parameter("backend").value or rig.backend, rig.robot, rig.backend_options)
         backend.open()
+        self._check_host_loss(backend, rate_hz)
         self.gate.joint_count = rig.robot.joint_count
         self.gate.setpoint_timeout_s = timeout_s
         self.gate.ramp_time_s = self.get_parameter("ramp_time_s").value
         self.gate.requires_arm = backend.drives_real_hardware
         return rig, backend
+
+    def _check_host_loss(self, backend: ActuatorBackend, rate_hz: float) -> None:
+        """The hardware's own vent-on-silence must outlast a few command periods, and a missing one is said."""
+        timeout_s = backend.host_loss_timeout_s
+        if timeout_s is not None and timeout_s < 3.0 / rate_hz:
+            backend.close()
+            raise ConfigurationError(f"the {backend.name} hardware vents after {timeout_s:g} s without a command, less "
+                                     f"than three command periods at command_rate_hz {rate_hz:g} Hz: it would vent "
+                                     f"between commands; raise command_rate_hz to at least {3.0 / timeout_s:g} Hz.")
+        if timeout_s is None and backend.drives_real_hardware:
+            self.get_logger().warning(f"the {backend.name} hardware keeps its last command if this host dies (no "
+                                      "watchdog): fit a dump valve or relay on the supply (docs/safety.md)")
 
     def _command_rate_hz(self) -> float:
         return self.get_parameter("command_rate_hz").value or self.rig.command_rate_hz

@@ -735,7 +735,9 @@ def test_hardware_node_can_fault_goes_to_error_and_recovers(launch_node, ros_cli
         # real regulators: nothing above 0 bar until the operator arms the node
         sent_before = len(daemon.frames)
         stream_until(np.full(9, 0.02), lambda: len(daemon.frames) > sent_before + 3 * 25, "0.5 s of frames")
-        assert all(data == bytes(8) for _, data in list(daemon.frames)[sent_before:])
+        assert all(not any(DBC.decode_message(frame_id, data)[f"CMD_CH{i}"] for i in range(1, 10)
+                           if f"CMD_CH{i}" in DBC.decode_message(frame_id, data))
+                   for frame_id, data in list(daemon.frames)[sent_before:] if frame_id in COMMAND_IDS)
         assert client.trigger("/hardware_node/arm").success
         stream_until(np.full(9, 0.02), commanding(np.full(9, 2222.0)), "2 bar = 2.222 V on the bus")
         client.spin_until(lambda: states and len(states[-1].effort) == 9 and states[-1].effort[0] == pytest.approx(
@@ -780,6 +782,7 @@ def test_sigkill_of_the_hardware_node_lets_the_board_vent_by_itself(launch_node,
     try:
         rig = socketcand_rig(tmp_path, daemon.port, rate_hz=100.0, setpoint_timeout_s=5.0, board_timeout_s=timeout_s)
         node = launch_node("hardware_node", ros_args({"rig_file": str(rig), "autostart": True}))
+        assert ros_client.trigger("/hardware_node/arm").success  # real regulators: the operator's go
         publisher = ros_client.node.create_publisher(JointState, SETPOINT_TOPIC, setpoint_qos())
         setpoint = JointState(name=list(default_robot().joint_names), position=[0.02] * 9)  # 2 bar
         applied = board_applies(board, 2.0 * V_PER_BAR)

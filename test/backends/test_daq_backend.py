@@ -393,8 +393,8 @@ def test_hardware_node_takes_an_expired_watchdog_through_its_fault_path_and_reco
     rig.write_text((config_dir() / "rigs" / "daq.yaml").read_text().replace("setpoint_timeout_s: 0.2",
                                                                            "setpoint_timeout_s: 1.0"))
     env = {"PYTHONPATH": os.pathsep.join(filter(None, [str(FAKE_DIR), os.environ.get("PYTHONPATH")])),
-           "FAKE_NIDAQMX_REAL_TIME": "1", "FAKE_NIDAQMX_STALL": "20:0.5"}
-    node = launch_node("hardware_node", ros_args({"rig_file": str(rig)}), env_overrides=env)
+           "FAKE_NIDAQMX_REAL_TIME": "1", "FAKE_NIDAQMX_STALL": "300:0.5"}  # 3 s after configure
+    node = launch_node("hardware_node", ros_args({"rig_file": str(rig), "ramp_time_s": 0.0}), env_overrides=env)
     publisher = ros_client.node.create_publisher(JointState, SETPOINT_TOPIC, setpoint_qos())
     commanded = ros_client.subscribe(Float64MultiArray, COMMANDED_PRESSURE_TOPIC)
     diagnostics = ros_client.subscribe(DiagnosticArray, DIAGNOSTICS_TOPIC)
@@ -410,6 +410,7 @@ def test_hardware_node_takes_an_expired_watchdog_through_its_fault_path_and_reco
     ros_client.spin_until(lambda: ros_client.lifecycle_state("/hardware_node") == "unconfigured", what="node up")
     for transition in ("configure", "activate"):
         assert ros_client.change_state("/hardware_node", transition), node.output()
+    assert ros_client.trigger("/hardware_node/arm").success  # real regulators: the operator's go
     stream_until(lambda: ros_client.lifecycle_state("/hardware_node") == "unconfigured",
                  "the expired watchdog to take the node through ErrorProcessing")
     assert any(max(m.data) == pytest.approx(2.0) for m in commanded)  # it was commanding 2 bar before the stall
@@ -420,6 +421,7 @@ def test_hardware_node_takes_an_expired_watchdog_through_its_fault_path_and_reco
 
     for transition in ("configure", "activate"):  # close cleared the expiration: recover without a restart
         assert ros_client.change_state("/hardware_node", transition), node.output()
+    assert ros_client.trigger("/hardware_node/arm").success
     count = len(commanded)
     stream_until(lambda: len(commanded) > count and max(commanded[-1].data) == pytest.approx(2.0), "2 bar again")
     assert node.alive()

@@ -369,3 +369,13 @@ def test_a_huge_finite_setpoint_is_limited_and_the_node_lives(hardware):
     expected = np.array([4.0, 0.0, 4.0, 2.0, 2.0, 2.0, 2.0, 2.0, 2.0])
     rig.stream(huge, until=lambda: rig.commanded(expected), what="huge lengths limited to 4 bar")
     assert proc.alive() and "Traceback" not in proc.output()
+
+
+def test_hardware_that_would_vent_between_commands_is_refused_at_configure(hardware, tmp_path):
+    rig_file = tmp_path / "fast_board.yaml"  # a CAN board that vents after 20 ms of silence, fed at 100 Hz
+    rig_file.write_text("rig: {name: fast_board, backend: can, command_rate_hz: 100.0, setpoint_timeout_s: 0.2,\n"
+                        "      backend_options: {interface: virtual, channel: srs_fast, board_timeout_s: 0.02}}\n")
+    proc, rig = hardware({"rig_file": str(rig_file)})
+    rig.client.spin_until(lambda: rig.client.lifecycle_state(NODE) == "unconfigured", what="hardware_node up")
+    assert not rig.client.change_state(NODE, "configure")
+    rig.client.spin_until(lambda: "would vent between commands" in proc.output(), what="the reason in the log")
