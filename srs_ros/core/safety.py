@@ -68,6 +68,9 @@ class OutputReason(str, enum.Enum):
     STALE = "setpoints stale"
 
 
+#: What every tool and node says when a vent fails: the regulators may still hold pressure.
+VENT_FAILED = "VENT FAILED: shut off the air supply now"
+
 #: A setpoint stamp this far ahead of the receiver's clock means the two clocks differ (s).
 FUTURE_STAMP_TOLERANCE_S = 0.05
 

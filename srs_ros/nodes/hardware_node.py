@@ -47,6 +47,7 @@ from __future__ import annotations
 
 import collections
 import dataclasses
+import logging
 import math
 import time
 
@@ -65,6 +66,7 @@ from srs_ros.core.playback import DEFAULT_RAMP_TIME_S
 from srs_ros.core.rig import RigConfig, load_rig
 from srs_ros.core.robot import ABSOLUTE_MAX_PRESSURE_BAR, load_robot
 from srs_ros.core.safety import (
+    VENT_FAILED,
     CommandGate,
     OutputReason,
     StampCheck,
@@ -91,7 +93,6 @@ from srs_ros.nodes.common import (
 NODE_NAME = "hardware_node"
 DIAGNOSTICS_PERIOD_S = 1.0
 LOG_THROTTLE_S = 1.0
-VENT_FAILED = "VENT FAILED: shut off the air supply now"
 
 PARAMETERS = (
     ParameterSpec("rig_file", "", "rig YAML (config/rigs/*.yaml); '' = the mock rig"),
@@ -134,6 +135,23 @@ class HardwareStatus:
     latency_ms: collections.deque = dataclasses.field(default_factory=lambda: collections.deque(maxlen=2000))
 
 
+class _NodeLogHandler(logging.Handler):
+    """Forwards the backends' Python log records (e.g. a missing NI watchdog) to the node's logger and /rosout."""
+
+    def __init__(self, node_logger):
+        super().__init__()
+        self._node_logger = node_logger
+
+    def emit(self, record: logging.LogRecord) -> None:
+        text = self.format(record)
+        if record.levelno >= logging.ERROR:  # rclpy fixes a call site's severity, hence one call per level
+            self._node_logger.error(text)
+        elif record.levelno >= logging.WARNING:
+            self._node_logger.warning(text)
+        else:
+            self._node_logger.info(text)
+
+
 class HardwareNode(LifecycleNode):
     """Lifecycle wiring around a backend and a :class:`~srs_ros.core.safety.CommandGate`."""
 
@@ -149,6 +167,10 @@ class HardwareNode(LifecycleNode):
         self._runtime: dict = {}
         self._state_every_ticks = 1
         self._limited_names: list[str] = []
+        backend_log = logging.getLogger("srs_ros.backends")
+        backend_log.addHandler(_NodeLogHandler(self.get_logger()))
+        backend_log.setLevel(logging.INFO)
+        backend_log.propagate = False
         self.diagnostics_publisher = self.create_publisher(DiagnosticArray, DIAGNOSTICS_TOPIC, 10)
         self.create_service(Trigger, "~/emergency_stop", self._on_emergency_stop)
         self.create_service(Trigger, "~/reset", self._on_reset)

@@ -23,6 +23,7 @@ from srs_ros.backends import BACKENDS, ActuatorBackend, create_backend
 from srs_ros.core.errors import ConfigurationError, HardwareError
 from srs_ros.core.rig import RigConfig, default_rig_path, load_rig
 from srs_ros.core.robot import load_robot
+from srs_ros.core.safety import VENT_FAILED
 
 EXIT_OK, EXIT_HARDWARE, EXIT_USAGE, EXIT_INTERRUPTED = 0, 1, 2, 130
 DEFAULT_PRESSURE_BAR = 1.5
@@ -123,12 +124,12 @@ def _vent_and_close(backend: ActuatorBackend) -> bool:
             backend.vent()
             vented = True
         except HardwareError as exc:
-            print(f"error: could not vent: {exc}", file=sys.stderr, flush=True)
+            print(f"error: {VENT_FAILED} ({exc})", file=sys.stderr, flush=True)
             vented = False
         try:
             backend.close()
         except HardwareError as exc:
-            print(f"error: while closing: {exc}", file=sys.stderr, flush=True)
+            print(f"error: {VENT_FAILED} (while closing: {exc})", file=sys.stderr, flush=True)
             vented = False
         return vented
     finally:
@@ -172,7 +173,7 @@ def _open_and_run(backend: ActuatorBackend, rig: RigConfig, joints: list[int], a
     except KeyboardInterrupt:
         vented = _vent_and_close(backend)
         print("interrupted: all regulators vented (0 bar)" if vented else
-              "interrupted: VENTING FAILED - shut off the supply", flush=True)
+              f"interrupted: {VENT_FAILED}", flush=True)
         return EXIT_INTERRUPTED
     except ConfigurationError as exc:
         print(f"srs_wiring_check: error: {exc}", file=sys.stderr, flush=True)
@@ -186,7 +187,7 @@ def _open_and_run(backend: ActuatorBackend, rig: RigConfig, joints: list[int], a
         raise
     vented = _vent_and_close(backend)
     print(f"done: {len(joints)} regulator(s) pulsed, all vented" if vented else
-          "done, but VENTING FAILED - shut off the supply", flush=True)
+          f"done, but {VENT_FAILED}", flush=True)
     return EXIT_OK if vented else EXIT_HARDWARE
 
 if __name__ == "__main__":
