@@ -37,12 +37,14 @@ class BodyConfig:
 
 @dataclass(frozen=True)
 class ServoConfig:
-    """Stiffness and damping of the joint servos, per module (each joint gets ``segments_per_module`` x)."""
+    """Joint servos (the muscles) and the skin's passive stiffness, per module (each joint gets ``n`` x)."""
 
     bend_stiffness_nm_per_rad: float
     bend_damping_nms_per_rad: float
     axial_stiffness_n_per_m: float
     axial_damping_ns_per_m: float
+    skin_bend_stiffness_nm_per_rad: float
+    skin_axial_stiffness_n_per_m: float
     hinge_armature_kg_m2: float
     slide_armature_kg: float
 
@@ -134,7 +136,8 @@ class SimConfig:
             raise ConfigurationError(f"SimConfig.replace: unknown section {section!r}; expected one of "
                                      f"{[s for s in _SPEC if s != 'muscles']}.")
         data[section].update(changes)
-        return _build(data, self.source + " (modified)", robot=None, muscles=self.muscles)
+        source = self.source if self.source.endswith(" (modified)") else self.source + " (modified)"
+        return _build(data, source, robot=None, muscles=self.muscles)
 
 
 # (kind, low, high, expected text); low/high inclusive, None = unbounded.
@@ -150,6 +153,8 @@ _SPEC: dict[str, dict[str, _Spec]] = {
         "bend_damping_nms_per_rad": (float, 0.0, 1e3, "a damping in [0, 1e3] N m s/rad"),
         "axial_stiffness_n_per_m": (float, 1e-2, 1e6, "a stiffness in [0.01, 1e6] N/m"),
         "axial_damping_ns_per_m": (float, 0.0, 1e4, "a damping in [0, 1e4] N s/m"),
+        "skin_bend_stiffness_nm_per_rad": (float, 0.0, 1e4, "a stiffness in [0, 1e4] N m/rad"),
+        "skin_axial_stiffness_n_per_m": (float, 0.0, 1e6, "a stiffness in [0, 1e6] N/m"),
         "hinge_armature_kg_m2": (float, 0.0, 1.0, "an inertia in [0, 1] kg m^2"),
         "slide_armature_kg": (float, 0.0, 100.0, "a mass in [0, 100] kg"),
     },

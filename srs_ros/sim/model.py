@@ -85,8 +85,9 @@ def build_spec(config: SimConfig, robot: RobotDescription) -> mujoco.MjSpec:
     opt.timestep = physics.time_step_s
     opt.gravity = [0.0, 0.0, -physics.gravity_m_s2]
     opt.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
-    opt.cone = mujoco.mjtCone.mjCONE_PYRAMIDAL
+    opt.cone = mujoco.mjtCone.mjCONE_ELLIPTIC
     opt.solver = mujoco.mjtSolver.mjSOL_NEWTON
+    opt.jacobian = mujoco.mjtJacobian.mjJAC_SPARSE   # measured faster than dense for this chain in contact
     opt.iterations = physics.solver_iterations
     # Divergence is reported as an error by the world, never hidden by MuJoCo's automatic reset.
     opt.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_AUTORESET)
@@ -106,7 +107,8 @@ def build_spec(config: SimConfig, robot: RobotDescription) -> mujoco.MjSpec:
             # The servo targets come from the kinematic model's node positions, so the twist sigma and the
             # offset delta between modules are in them (chord directions and slide lengths): no joint twists.
             body = parent.add_body(name=f"segment_{k}", pos=[0.0, 0.0, rest_chord])
-            _add_node_joints(body, k, with_hinges=True, servo=servo, n=n, spec=spec)
+            _add_node_joints(body, k, with_hinges=True, servo=servo, n=n, spec=spec,
+                             smoothing_s=physics.control_period_s)
         geom = body.add_geom(name=f"skin_{k}", type=mujoco.mjtGeom.mjGEOM_CAPSULE,
                              fromto=[0.0, 0.0, 0.0, 0.0, 0.0, geom_chord], size=[radius, 0.0, 0.0],
                              mass=segment_mass, rgba=[0.3, 0.3, 0.32, 1.0])
@@ -119,7 +121,8 @@ def build_spec(config: SimConfig, robot: RobotDescription) -> mujoco.MjSpec:
     head.mass = 0.5 * segment_mass
     head.inertia = [0.4 * head.mass * radius**2] * 3
     head.explicitinertial = True
-    _add_node_joints(head, count, with_hinges=False, servo=servo, n=n, spec=spec)
+    _add_node_joints(head, count, with_hinges=False, servo=servo, n=n, spec=spec,
+                     smoothing_s=physics.control_period_s)
 
     along, across = contact.along_across
     condim = 6 if contact.rolling_friction_m > 0 else (4 if contact.torsional_friction_m > 0 else 3)
@@ -135,18 +138,25 @@ def build_spec(config: SimConfig, robot: RobotDescription) -> mujoco.MjSpec:
     return spec
 
 
-def _add_node_joints(body, k: int, with_hinges: bool, servo, n: int, spec: mujoco.MjSpec) -> None:
-    """Slide along the parent chord, then (optionally) hinges about x and y, each with a position servo."""
+def _add_node_joints(body, k: int, with_hinges: bool, servo, n: int, spec: mujoco.MjSpec, smoothing_s: float) -> None:
+    """Slide along the parent chord, then (optionally) hinges about x and y, each with a position servo.
+
+    The servo follows its set-point through a first-order filter of ``smoothing_s`` (the control period),
+    so set-points that change once per control period move the joints smoothly, not in steps.
+    """
     joints = [(f"slide_{k}", mujoco.mjtJoint.mjJNT_SLIDE, [0.0, 0.0, 1.0], servo.slide_armature_kg,
-               servo.axial_stiffness_n_per_m * n, servo.axial_damping_ns_per_m * n)]
+               servo.axial_stiffness_n_per_m * n, servo.axial_damping_ns_per_m * n,
+               servo.skin_axial_stiffness_n_per_m * n)]
     if with_hinges:
         for axis_name, axis in (("x", [1.0, 0.0, 0.0]), ("y", [0.0, 1.0, 0.0])):
             joints.append((f"bend_{axis_name}_{k}", mujoco.mjtJoint.mjJNT_HINGE, axis, servo.hinge_armature_kg_m2,
-                           servo.bend_stiffness_nm_per_rad * n, servo.bend_damping_nms_per_rad * n))
-    for name, kind, axis, armature, kp, kv in joints:
-        body.add_joint(name=name, type=kind, axis=axis, armature=armature)
+                           servo.bend_stiffness_nm_per_rad * n, servo.bend_damping_nms_per_rad * n,
+                           servo.skin_bend_stiffness_nm_per_rad * n))
+    for name, kind, axis, armature, kp, kv, skin in joints:
+        # The skin is a passive spring toward the straight, unextended module (spring reference 0).
+        body.add_joint(name=name, type=kind, axis=axis, armature=armature, stiffness=skin)
         actuator = spec.add_actuator(name=f"servo_{name}", target=name, trntype=mujoco.mjtTrn.mjTRN_JOINT)
-        actuator.set_to_position(kp=kp, kv=kv)
+        actuator.set_to_position(kp=kp, kv=kv, timeconst=smoothing_s)
 
 
 def build_model(config: SimConfig, robot: RobotDescription) -> tuple[mujoco.MjModel, BodyLayout]:
@@ -182,36 +192,85 @@ def build_model(config: SimConfig, robot: RobotDescription) -> tuple[mujoco.MjMo
     return model, layout
 
 
-def node_positions(lengths_m: np.ndarray, layout: BodyLayout, robot: RobotDescription) -> np.ndarray:
-    """The kinematic model's backbone (paper eq. 2) at the nodes ``xi = k / n``: ``(N + 1, 3)`` m, tail frame.
+class ShapeTargets:
+    """The kinematic model's shape as servo set-points, for one layout (constants precomputed once).
 
-    The same values as :func:`srs_ros.core.kinematics.backbone_points` at ``layout.node_xi`` (a test checks
-    it), written for one configuration and few points: the world calls it every control period.
+    Called every control period, so it is written for one configuration and few points.
     """
-    n_mod, n = robot.module_count, layout.segments_per_module
-    lengths = np.asarray(lengths_m, dtype=np.float64).reshape(n_mod, robot.actuators_per_module)
-    u = bending_vectors(lengths, robot)                                          # (M, 2)
-    arc = robot.unactuated_length_m + lengths.mean(axis=1)                        # (M,)
-    xi = np.arange(n + 1) / n                                                     # local nodes incl. the tip
-    a = xi[None, :, None] * u[:, None, :]                                         # (M, n + 1, 2)
-    f, g = shape_functions(np.einsum("mkc,mkc->mk", a, a))
-    scale = xi[None, :] * arc[:, None]
-    local = np.stack([scale * a[..., 0] * f, scale * a[..., 1] * f, scale * g], axis=-1)   # (M, n + 1, 3)
-    nodes = np.empty((n_mod * n + 1, 3))
-    rot, pos = np.eye(3), np.zeros(3)
-    twist = robot.module_twist_rad
-    mount = np.array([[math.cos(twist), -math.sin(twist), 0.0], [math.sin(twist), math.cos(twist), 0.0],
-                      [0.0, 0.0, 1.0]])
-    for m in range(n_mod):
-        nodes[m * n:(m + 1) * n + 1] = pos + local[m] @ rot.T
-        tip_rot = _swing_by(u[m], f[m, -1], g[m, -1])
-        pos = nodes[(m + 1) * n] + rot @ tip_rot @ np.array([0.0, 0.0, robot.mounting_offset_m])
-        rot = rot @ tip_rot @ mount
-    return nodes
+
+    def __init__(self, layout: BodyLayout, robot: RobotDescription):
+        """Precompute the bending map, the node coordinates and the mounting frame of ``robot``."""
+        self.layout, self.robot = layout, robot
+        n = layout.segments_per_module
+        # u = lengths @ bend_map: the bending vectors of unit lengths (paper eq. 1, srs_ros.core.kinematics).
+        self.bend_map = bending_vectors(np.eye(robot.actuators_per_module), robot)          # (3, 2)
+        self.xi = np.arange(n + 1) / n                                                    # local nodes + tip
+        c, s = math.cos(robot.module_twist_rad), math.sin(robot.module_twist_rad)
+        self.mount = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+        self.offset = np.array([0.0, 0.0, robot.mounting_offset_m])
+
+    def nodes(self, lengths_m: np.ndarray) -> np.ndarray:
+        """The backbone (paper eq. 2) at the nodes ``xi = k / n``: ``(N + 1, 3)`` m, tail module frame.
+
+        The same values as :func:`srs_ros.core.kinematics.backbone_points` at ``layout.node_xi`` (tested).
+        """
+        robot, n, xi = self.robot, self.layout.segments_per_module, self.xi
+        lengths = np.asarray(lengths_m, dtype=np.float64).reshape(robot.module_count, robot.actuators_per_module)
+        u = lengths @ self.bend_map                                                        # (M, 2)
+        arc = robot.unactuated_length_m + lengths.mean(axis=1)                             # (M,)
+        f, g = shape_functions(np.outer(u[:, 0] ** 2 + u[:, 1] ** 2, xi * xi))             # (M, n + 1)
+        scale = np.outer(arc, xi * xi)                                                     # xi L * xi (a = xi u)
+        local = np.empty(f.shape + (3,))
+        local[..., 0] = scale * u[:, 0:1] * f
+        local[..., 1] = scale * u[:, 1:2] * f
+        local[..., 2] = np.outer(arc, xi) * g
+        nodes = np.empty((robot.module_count * n + 1, 3))
+        rot, pos = np.eye(3), np.zeros(3)
+        for m in range(robot.module_count):
+            nodes[m * n:(m + 1) * n + 1] = pos + local[m] @ rot.T
+            tip_rot = _swing_by(u[m], f[m, -1], g[m, -1])
+            rot = rot @ tip_rot
+            pos = nodes[(m + 1) * n] + rot @ self.offset
+            rot = rot @ self.mount
+        return nodes
+
+    def joint_targets(self, lengths_m: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Servo set-points for muscle lengths ``(9,)``: hinge angles ``(N - 1, 2)`` (rad), slides ``(N,)`` (m).
+
+        The nodes (:meth:`nodes`) give the chords. A slide is its chord's length minus the rest chord.
+        The hinges are found tail to head: with the chain's frame ``R`` of chord ``k`` (built from the
+        hinge angles already chosen, so the universal joints' small twist never accumulates), the next
+        chord's direction in that frame ``t = R^T d`` gives the x then y rotation ``Rx(a) Ry(b) e_z = t``:
+        ``b = asin(t_x)``, ``a = atan2(-t_y, t_z)``.
+        """
+        chords = np.diff(self.nodes(lengths_m), axis=0)
+        length = np.sqrt(np.einsum("ij,ij->i", chords, chords))
+        slides = length - self.layout.rest_chord_m
+        direction = (chords / length[:, None]).tolist()
+        # Frame of the first chord: the swing taking +Z onto it (the arc's own frame at the chord's middle).
+        r00, r01, r02, r10, r11, r12, r20, r21, r22 = _swing(direction[0]).ravel().tolist()
+        angles = []
+        asin, atan2, cos, sin = math.asin, math.atan2, math.cos, math.sin
+        for dx, dy, dz in direction[1:]:
+            tx = r00 * dx + r10 * dy + r20 * dz           # t = R^T d
+            ty = r01 * dx + r11 * dy + r21 * dz
+            tz = r02 * dx + r12 * dy + r22 * dz
+            b = asin(min(1.0, max(-1.0, tx)))
+            a = atan2(-ty, tz)
+            angles.append((a, b))
+            ca, sa, cb, sb = cos(a), sin(a), cos(b), sin(b)
+            # R <- R Rx(a) Ry(b), with Rx(a) Ry(b) = [[cb, 0, sb], [sa sb, ca, -sa cb], [-ca sb, sa, ca cb]]
+            r00, r01, r02 = (r00 * cb + r01 * sa * sb - r02 * ca * sb, r01 * ca + r02 * sa,
+                             r00 * sb - r01 * sa * cb + r02 * ca * cb)
+            r10, r11, r12 = (r10 * cb + r11 * sa * sb - r12 * ca * sb, r11 * ca + r12 * sa,
+                             r10 * sb - r11 * sa * cb + r12 * ca * cb)
+            r20, r21, r22 = (r20 * cb + r21 * sa * sb - r22 * ca * sb, r21 * ca + r22 * sa,
+                             r20 * sb - r21 * sa * cb + r22 * ca * cb)
+        return np.array(angles).reshape(-1, 2), slides
 
 
 def _swing_by(u: np.ndarray, f: float, g: float) -> np.ndarray:
-    """The module's tip rotation ``I + g A + f A^2``, ``A = skew(-uy, ux, 0)`` (kinematics._module_pose)."""
+    """The module's tip rotation ``I + g A + f A^2``, ``A = skew(-uy, ux, 0)`` (as kinematics._module_pose)."""
     ax, ay = u
     s = ax * ax + ay * ay
     return np.array([[1.0 - f * ax * ax, -f * ax * ay, g * ax],
@@ -219,42 +278,7 @@ def _swing_by(u: np.ndarray, f: float, g: float) -> np.ndarray:
                      [-g * ax, -g * ay, 1.0 - f * s]])
 
 
-def joint_targets(lengths_m: np.ndarray, layout: BodyLayout, robot: RobotDescription) -> tuple[np.ndarray, np.ndarray]:
-    """Servo set-points for muscle lengths ``(9,)``: hinge angles ``(N - 1, 2)`` (rad) and slides ``(N,)`` (m).
-
-    The nodes of the kinematic model's backbone (:func:`node_positions`) give the chords. A slide is its
-    chord's length minus the rest chord. The hinges are found tail to head: with the chain's frame ``R``
-    of chord ``k`` (built from the hinge angles already chosen, so the universal joints' small twist never
-    accumulates), the next chord's direction in that frame ``t = R^T d`` gives the x then y rotation
-    ``Rx(a) Ry(b) e_z = t``: ``b = asin(t_x)``, ``a = atan2(-t_y, t_z)``.
-    """
-    chords = np.diff(node_positions(lengths_m, layout, robot), axis=0)
-    length = np.sqrt(np.einsum("ij,ij->i", chords, chords))
-    slides = length - layout.rest_chord_m
-    direction = (chords / length[:, None]).tolist()
-    # Frame of the first chord: the swing taking +Z onto it (the arc's own frame at the chord's middle).
-    r00, r01, r02, r10, r11, r12, r20, r21, r22 = _swing(np.array(direction[0])).ravel().tolist()
-    angles = []
-    asin, atan2, cos, sin = math.asin, math.atan2, math.cos, math.sin
-    for dx, dy, dz in direction[1:]:
-        tx = r00 * dx + r10 * dy + r20 * dz           # t = R^T d
-        ty = r01 * dx + r11 * dy + r21 * dz
-        tz = r02 * dx + r12 * dy + r22 * dz
-        b = asin(min(1.0, max(-1.0, tx)))
-        a = atan2(-ty, tz)
-        angles.append((a, b))
-        ca, sa, cb, sb = cos(a), sin(a), cos(b), sin(b)
-        # R <- R @ Rx(a) Ry(b), Rx(a) Ry(b) = [[cb, 0, sb], [sa sb, ca, -sa cb], [-ca sb, sa, ca cb]]
-        r00, r01, r02 = r00 * cb + r01 * sa * sb - r02 * ca * sb, r01 * ca + r02 * sa, \
-            r00 * sb - r01 * sa * cb + r02 * ca * cb
-        r10, r11, r12 = r10 * cb + r11 * sa * sb - r12 * ca * sb, r11 * ca + r12 * sa, \
-            r10 * sb - r11 * sa * cb + r12 * ca * cb
-        r20, r21, r22 = r20 * cb + r21 * sa * sb - r22 * ca * sb, r21 * ca + r22 * sa, \
-            r20 * sb - r21 * sa * cb + r22 * ca * cb
-    return np.array(angles).reshape(-1, 2), slides
-
-
-def _swing(direction: np.ndarray) -> np.ndarray:
+def _swing(direction) -> np.ndarray:
     """Rotation about an axis in the xy plane that takes +Z onto the unit vector ``direction``."""
     x, y, z = direction
     if z < -1.0 + 1e-12:

@@ -26,7 +26,7 @@ from srs_ros.core.kinematics import lengths_to_bend
 from srs_ros.core.muscle_model import MuscleModel
 from srs_ros.core.robot import RobotDescription, default_robot
 from srs_ros.sim.config import SimConfig, load_sim_config
-from srs_ros.sim.model import BodyLayout, build_model, joint_targets
+from srs_ros.sim.model import BodyLayout, ShapeTargets, build_model
 
 
 @dataclass(frozen=True)
@@ -101,11 +101,15 @@ class SimWorld:
         self.robot = robot or default_robot()
         self.config = config or load_sim_config(robot=self.robot)
         self.model, self.layout = build_model(self.config, self.robot)
+        self.shape = ShapeTargets(self.layout, self.robot)
         self.data = mujoco.MjData(self.model)
         physics = self.config.physics
         self._dt_s = physics.time_step_s
         self._steps_per_control = physics.steps_per_control
         self._body_ids = self.layout.node_body
+        # No body point is farther from the tree's centre of mass than the longest body the muscles make.
+        robot = self.robot
+        self._body_span_m = robot.module_count * (robot.unactuated_length_m + self.config.muscles.max_extension_m)
         self._root_id = int(self.model.body_rootid[self.layout.segment_body[0]])
         self.reset()
 
@@ -182,7 +186,7 @@ class SimWorld:
 
     def _set_servo_targets(self) -> None:
         _, length_m = self.muscles.state(self.time_s)
-        angles, slides = joint_targets(length_m, self.layout, self.robot)
+        angles, slides = self.shape.joint_targets(length_m)
         ctrl = self.data.ctrl
         ctrl[self.layout.hinge_actuator.ravel()] = angles.ravel()
         ctrl[self.layout.slide_actuator] = slides
@@ -199,8 +203,13 @@ class SimWorld:
         elif bad_qacc > self._bad_qacc:
             reason = "MuJoCo reported a bad acceleration (NaN, inf or huge)"
         else:
-            speed = float(np.sqrt(np.max(np.einsum("ij,ij->i", *(2 * [self._body_speeds()])))))
-            if speed > self.config.physics.divergence_speed_m_s:
+            # Cheap bound first (|v| <= |v_c| + |w| * body length, per component); exact speeds only above it.
+            cvel = data.cvel
+            limit = self.config.physics.divergence_speed_m_s
+            bound = 1.7321 * (np.abs(cvel[:, 3:]).max() + np.abs(cvel[:, :3]).max() * self._body_span_m)
+            speed = bound if bound <= limit else float(np.sqrt(np.max(np.einsum(
+                "ij,ij->i", *(2 * [self._body_speeds()])))))
+            if speed > limit:
                 reason = (f"a body point moves at about {speed:.3g} m/s, above divergence_speed_m_s = "
                           f"{self.config.physics.divergence_speed_m_s:g} m/s")
         if reason:
