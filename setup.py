@@ -38,7 +38,8 @@ setup(
         (f"share/{PACKAGE}/launch", sorted(glob("launch/*.launch.py"))),
     ],
     python_requires=">=3.10",
-    install_requires=["setuptools", "numpy>=1.24", "scipy>=1.10", "PyYAML>=6", "matplotlib>=3.6"],
+    # MuJoCo runs the simulated robot (srs_ros/sim); tested with 4.0 (MjSpec model building, split wheels).
+    install_requires=["setuptools", "numpy>=1.24", "scipy>=1.10", "PyYAML>=6", "matplotlib>=3.6", "mujoco>=4.0"],
     extras_require={
         "wheels": ROS_WHEELS + HARDWARE + VISION,
         "hardware": HARDWARE,
@@ -62,6 +63,7 @@ setup(
             "srs_track = srs_ros.tools.track_cli:main",
             "srs_calibrate_camera = srs_ros.tools.calibrate_camera:main",
             "srs_wiring_check = srs_ros.tools.wiring_check:main",
+            "srs_sim = srs_ros.tools.sim_cli:main",
         ],
     },
 )

@@ -2,8 +2,9 @@
 
 Options (``backend_options`` of a rig file, each validated with the key named on error):
 
-- ``pressure_time_constant_s`` (default 0.08): first-order lag of regulator + muscle, in [0, 10] s;
-- ``transport_delay_s`` (default 0.03): supply-line delay, in [0, 2] s;
+- ``pressure_time_constant_s``: first-order lag of regulator + muscle, in [0, 10] s;
+- ``transport_delay_s``: supply-line delay, in [0, 2] s (defaults of both:
+  :data:`srs_ros.core.muscle_model.MUSCLE_OPTION_DEFAULTS`);
 - ``deadzone_bar`` (default: the robot's ``deadzone_bar``): no extension below this pressure;
 - ``max_extension_m`` (default: the robot's ``max_extension_m``): extension reached at the robot's
   ``max_pressure_bar`` and never exceeded;
@@ -22,18 +23,10 @@ import numpy as np
 
 from srs_ros.backends.base import ActuatorBackend
 from srs_ros.core.errors import ConfigurationError, HardwareError
-from srs_ros.core.muscle_model import MuscleModel, MuscleParameters
-from srs_ros.core.robot import ABSOLUTE_MAX_PRESSURE_BAR, RobotDescription
+from srs_ros.core.muscle_model import MuscleModel, muscle_parameters_from_options
+from srs_ros.core.robot import RobotDescription
 
-#: option -> (lowest, highest) for the numeric options.
-_RANGES: dict[str, tuple[float, float]] = {
-    "pressure_time_constant_s": (0.0, 10.0),
-    "transport_delay_s": (0.0, 2.0),
-    "deadzone_bar": (0.0, ABSOLUTE_MAX_PRESSURE_BAR),
-    "max_extension_m": (1e-4, 1.0),
-}
 _FAULT_OPTIONS = ("fail_after_writes", "fail_on_open")
-_DEFAULTS = {"pressure_time_constant_s": 0.08, "transport_delay_s": 0.03}
 
 
 class MockBackend(ActuatorBackend):
@@ -50,7 +43,8 @@ class MockBackend(ActuatorBackend):
         """Validate the options (``ConfigurationError`` naming the key); the simulation starts at ``open()``."""
         super().__init__(robot, options)
         self.clock = clock
-        self.params = _muscle_parameters(self.options, self.robot)
+        self.params = muscle_parameters_from_options(self.options, self.robot, "mock backend_options",
+                                                     extra_keys=_FAULT_OPTIONS)
         self.fail_after_writes = _fault_count(self.options.get("fail_after_writes"))
         self.fail_on_open = _flag(self.options, "fail_on_open")
         self.write_count = 0
@@ -76,27 +70,6 @@ class MockBackend(ActuatorBackend):
         pressure_bar, length_m = self.model.state(self.clock())
         return {"measured_pressure_bar": pressure_bar, "measured_length_m": length_m,
                 "details": {"simulated": True, "writes": self.write_count}}
-
-
-def _muscle_parameters(options: Mapping[str, Any], robot: RobotDescription) -> MuscleParameters:
-    unknown = sorted(set(options) - set(_RANGES) - set(_FAULT_OPTIONS))
-    if unknown:
-        raise ConfigurationError(f"mock backend_options: unknown key {unknown[0]!r}; expected some of "
-                                 f"{sorted(_RANGES) + list(_FAULT_OPTIONS)}.")
-    defaults = dict(_DEFAULTS, deadzone_bar=robot.deadzone_bar, max_extension_m=robot.max_extension_m)
-    values = {key: _number(options, key, defaults[key]) for key in _RANGES}
-    if values["deadzone_bar"] >= robot.max_pressure_bar:
-        raise ConfigurationError(f"mock backend_options: 'deadzone_bar' is {values['deadzone_bar']}; expected "
-                                 f"less than the robot's max_pressure_bar ({robot.max_pressure_bar} bar).")
-    return MuscleParameters(full_extension_pressure_bar=robot.max_pressure_bar, **values)
-
-
-def _number(options: Mapping[str, Any], key: str, default: float) -> float:
-    value = options.get(key, default)
-    low, high = _RANGES[key]
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not (low <= value <= high):
-        raise ConfigurationError(f"mock backend_options: '{key}' is {value!r}; expected a number in [{low}, {high}].")
-    return float(value)
 
 
 def _fault_count(value: Any) -> int | None:

@@ -23,3 +23,7 @@ class HardwareError(SrsError, RuntimeError):
 
 class BackendUnavailableError(HardwareError):
     """A backend's driver or library is not installed on this machine."""
+
+
+class SimulationError(SrsError, RuntimeError):
+    """The simulated world diverged (non-finite or exploding state) and cannot give a pose."""

@@ -15,18 +15,34 @@ from __future__ import annotations
 
 import math
 from collections import deque
+from collections.abc import Mapping
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
+from srs_ros.core.errors import ConfigurationError
+from srs_ros.core.robot import ABSOLUTE_MAX_PRESSURE_BAR, RobotDescription
 from srs_ros.core.validation import finite_array
+
+#: Muscle option -> (lowest, highest) accepted value.
+MUSCLE_OPTION_RANGES: dict[str, tuple[float, float]] = {
+    "pressure_time_constant_s": (0.0, 10.0),
+    "transport_delay_s": (0.0, 2.0),
+    "deadzone_bar": (0.0, ABSOLUTE_MAX_PRESSURE_BAR),
+    "max_extension_m": (1e-4, 1.0),
+}
+#: Defaults of the options the robot description does not give: first-order lag of regulator + muscle
+#: and supply-line transport delay (deadzone and largest extension default to the robot's).
+MUSCLE_OPTION_DEFAULTS: dict[str, float] = {"pressure_time_constant_s": 0.08, "transport_delay_s": 0.03}
 
 
 @dataclass(frozen=True)
 class MuscleParameters:
     """Constants of the simulated muscles (all >= 0; ``full_extension_pressure_bar > deadzone_bar``).
 
-    No defaults: the mock backend fills them from the robot description and the rig's options.
+    Built by :func:`muscle_parameters_from_options` from the robot description and a mapping of options
+    (a rig's ``backend_options``, the ``muscles:`` section of ``config/sim.yaml``).
     """
 
     deadzone_bar: float
@@ -34,6 +50,34 @@ class MuscleParameters:
     transport_delay_s: float
     max_extension_m: float
     full_extension_pressure_bar: float
+
+
+def muscle_parameters_from_options(options: Mapping[str, Any], robot: RobotDescription, where: str,
+                                   extra_keys: tuple[str, ...] = ()) -> MuscleParameters:
+    """Validated :class:`MuscleParameters` from ``options`` (keys of :data:`MUSCLE_OPTION_RANGES`).
+
+    Missing keys take :data:`MUSCLE_OPTION_DEFAULTS` or the robot's ``deadzone_bar`` / ``max_extension_m``;
+    full extension is reached at the robot's ``max_pressure_bar``. ``extra_keys`` are other options the
+    caller handles itself (not refused as unknown). Raises :class:`ConfigurationError` starting with
+    ``where`` and naming the key, the value and what is expected.
+    """
+    if not isinstance(options, Mapping):
+        raise ConfigurationError(f"{where}: expected a mapping of option: value, got {options!r}.")
+    unknown = sorted(set(options) - set(MUSCLE_OPTION_RANGES) - set(extra_keys))
+    if unknown:
+        raise ConfigurationError(f"{where}: unknown key {unknown[0]!r}; expected some of "
+                                 f"{sorted(MUSCLE_OPTION_RANGES) + list(extra_keys)}.")
+    defaults = dict(MUSCLE_OPTION_DEFAULTS, deadzone_bar=robot.deadzone_bar, max_extension_m=robot.max_extension_m)
+    values = {}
+    for key, (low, high) in MUSCLE_OPTION_RANGES.items():
+        value = options.get(key, defaults[key])
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not (low <= value <= high):
+            raise ConfigurationError(f"{where}: '{key}' is {value!r}; expected a number in [{low}, {high}].")
+        values[key] = float(value)
+    if values["deadzone_bar"] >= robot.max_pressure_bar:
+        raise ConfigurationError(f"{where}: 'deadzone_bar' is {values['deadzone_bar']}; expected "
+                                 f"less than the robot's max_pressure_bar ({robot.max_pressure_bar} bar).")
+    return MuscleParameters(full_extension_pressure_bar=robot.max_pressure_bar, **values)
 
 
 def extension_m(pressure_bar, params: MuscleParameters) -> np.ndarray:

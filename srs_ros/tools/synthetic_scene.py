@@ -25,6 +25,30 @@ from srs_ros.core.camera_calibration import CameraCalibration, apply_homography,
 from srs_ros.core.tracking import DEFAULT_ARUCO_DICTIONARY, aruco_dictionary
 
 
+def floor_texture_bgr(homography_floor_to_image: np.ndarray, size_px: tuple[int, int], seed: int) -> np.ndarray:
+    """A concrete-like floor (noise plus tile joints every 0.3 m, 4 m square) seen through a floor -> image homography.
+
+    ``size_px`` is (width, height) of the returned BGR image; the same ``seed`` gives the same floor.
+    """
+    rng = np.random.default_rng(seed)
+    mm_per_px = 2.0
+    extent_m = 4.0
+    n = int(extent_m * 1000 / mm_per_px)
+    coarse = rng.normal(0.0, 1.0, (n // 16, n // 16)).astype(np.float32)
+    fine = rng.normal(0.0, 1.0, (n, n)).astype(np.float32)
+    tex = 150.0 + 18.0 * cv2.resize(coarse, (n, n), interpolation=cv2.INTER_CUBIC) + 10.0 * cv2.GaussianBlur(
+        fine, (0, 0), 1.2)
+    joints = (np.arange(n) * mm_per_px) % 300.0 < 4.0
+    tex[joints, :] -= 45.0
+    tex[:, joints] -= 45.0
+    tex = np.clip(tex, 0, 255).astype(np.uint8)
+    tex = cv2.merge([tex, (tex * 0.95).astype(np.uint8), (tex * 0.9).astype(np.uint8)])
+    m = mm_per_px / 1000.0
+    canvas_to_floor = np.array([[m, 0.0, -0.5 * extent_m], [0.0, -m, 0.5 * extent_m], [0.0, 0.0, 1.0]])
+    return cv2.warpPerspective(tex, homography_floor_to_image @ canvas_to_floor, tuple(size_px),
+                               flags=cv2.INTER_LINEAR, borderMode=cv2.BORDER_REFLECT)
+
+
 @dataclass(frozen=True)
 class SyntheticCamera:
     """A pinhole camera at ``height_m`` above the floor point ``(x_m, y_m)``, tilted by ``tilt_rad``.
@@ -127,25 +151,9 @@ class SyntheticScene:
         return self.camera.width_px * self.supersample, self.camera.height_px * self.supersample
 
     def _floor_image(self) -> np.ndarray:
-        """The floor texture (concrete-like noise plus tile joints) as seen by the camera, supersampled."""
+        """The floor texture as seen by the camera, supersampled."""
         if self._floor is None:
-            rng = np.random.default_rng(self.floor_seed)
-            mm_per_px = 2.0
-            extent_m = 4.0
-            n = int(extent_m * 1000 / mm_per_px)
-            coarse = rng.normal(0.0, 1.0, (n // 16, n // 16)).astype(np.float32)
-            fine = rng.normal(0.0, 1.0, (n, n)).astype(np.float32)
-            tex = 150.0 + 18.0 * cv2.resize(coarse, (n, n), interpolation=cv2.INTER_CUBIC) + 10.0 * cv2.GaussianBlur(
-                fine, (0, 0), 1.2)
-            joints = (np.arange(n) * mm_per_px) % 300.0 < 4.0
-            tex[joints, :] -= 45.0
-            tex[:, joints] -= 45.0
-            tex = np.clip(tex, 0, 255).astype(np.uint8)
-            tex = cv2.merge([tex, (tex * 0.95).astype(np.uint8), (tex * 0.9).astype(np.uint8)])
-            m = mm_per_px / 1000.0
-            canvas_to_floor = np.array([[m, 0.0, -0.5 * extent_m], [0.0, -m, 0.5 * extent_m], [0.0, 0.0, 1.0]])
-            self._floor = cv2.warpPerspective(tex, self._h_floor_to_big @ canvas_to_floor, self._big_size(),
-                                              flags=cv2.INTER_LINEAR, borderMode=cv2.BORDER_REFLECT)
+            self._floor = floor_texture_bgr(self._h_floor_to_big, self._big_size(), self.floor_seed)
         return self._floor.copy()
 
     def _marker_texture(self, marker_id: int) -> np.ndarray:

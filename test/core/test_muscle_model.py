@@ -5,7 +5,16 @@ import math
 import numpy as np
 import pytest
 
-from srs_ros.core.muscle_model import MuscleModel, MuscleParameters, extension_m, lag_step
+from srs_ros.core.errors import ConfigurationError
+from srs_ros.core.muscle_model import (
+    MUSCLE_OPTION_DEFAULTS,
+    MuscleModel,
+    MuscleParameters,
+    extension_m,
+    lag_step,
+    muscle_parameters_from_options,
+)
+from srs_ros.core.robot import default_robot
 
 PARAMS = MuscleParameters(deadzone_bar=1.0, pressure_time_constant_s=0.1, transport_delay_s=0.05,
                           max_extension_m=0.065, full_extension_pressure_bar=4.0)
@@ -50,3 +59,24 @@ def test_vent_brings_muscles_back_to_rest():
     model.command(np.zeros(9), 1.0)
     pressure, length = model.state(3.0)
     assert np.all(pressure < 1e-3) and np.all(length == 0.0)
+
+
+def test_parameters_from_options_fill_defaults_from_the_robot_and_the_shared_defaults():
+    robot = default_robot()
+    params = muscle_parameters_from_options({}, robot, "test")
+    assert params.deadzone_bar == robot.deadzone_bar and params.max_extension_m == robot.max_extension_m
+    assert params.full_extension_pressure_bar == robot.max_pressure_bar
+    assert params.pressure_time_constant_s == MUSCLE_OPTION_DEFAULTS["pressure_time_constant_s"]
+    assert params.transport_delay_s == MUSCLE_OPTION_DEFAULTS["transport_delay_s"]
+    assert muscle_parameters_from_options({"transport_delay_s": 0.1}, robot, "test").transport_delay_s == 0.1
+
+
+@pytest.mark.parametrize(("options", "key"), [
+    ({"pressure_time_constant_s": -0.1}, "pressure_time_constant_s"),
+    ({"transport_delay_s": True}, "transport_delay_s"),
+    ({"deadzone_bar": 4.0}, "deadzone_bar"),
+    ({"lag_s": 0.1}, "lag_s"),
+])
+def test_bad_muscle_options_name_where_the_key_and_the_value(options, key):
+    with pytest.raises(ConfigurationError, match=f"^sim.yaml \\[muscles\\]: .*'{key}'"):
+        muscle_parameters_from_options(options, default_robot(), "sim.yaml [muscles]")

@@ -1,0 +1,137 @@
+"""One offline experiment on the simulated robot, measured like the paper's Table I (Sec. IV).
+
+:func:`run_experiment` fits the gait's joint-space cycle (:func:`srs_ros.core.trajectory.generate_cycle`),
+samples its pressures ``P = 100 l`` at the command rate, sends them to a fresh :class:`SimWorld` and
+records the tracked reference point at the camera's frame rate. The traveling velocity is the paper's:
+X and Y displacement of the reference point divided by the run time, in cm/s, floor frame
+(:func:`srs_ros.core.tracking.traveling_velocity`). The run starts from rest with the cycle at phase 0
+and is deterministic for a given configuration. A sweep calls this function once per run.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from srs_ros.core.actuation import lengths_to_pressures_bar
+from srs_ros.core.errors import InvalidInputError
+from srs_ros.core.rig import load_rig
+from srs_ros.core.robot import RobotDescription, default_robot
+from srs_ros.core.tracking import TravelingVelocity, traveling_velocity
+from srs_ros.core.trajectory import GaitCycle, generate_cycle
+from srs_ros.sim.config import SimConfig, load_sim_config
+from srs_ros.sim.world import SimState, SimWorld
+
+#: Frame rate of the recorded track (the overhead camera's, Hz).
+DEFAULT_RECORD_RATE_HZ = 30.0
+
+
+@dataclass(frozen=True)
+class ExperimentResult:
+    """One run: the track of the reference point, its traveling velocity and how the run went.
+
+    ``track`` is ``(n, 4)``: ``time_s, x_m, y_m, yaw_rad`` (floor frame), one row per recorded frame.
+    ``peak_target_bend_rad`` / ``peak_body_bend_rad``: the largest total bending angle (sum over the
+    modules) that the kinematic model gave for the muscles' lengths / that the simulated body reached.
+    """
+
+    gait: str
+    amplitude_bar: float
+    frequency_hz: float
+    duration_s: float
+    friction: str
+    track: np.ndarray
+    velocity: TravelingVelocity
+    wall_time_s: float
+    peak_target_bend_rad: float
+    peak_body_bend_rad: float
+    final_state: SimState
+
+    @property
+    def realtime_factor(self) -> float:
+        """Simulated seconds per wall-clock second."""
+        return self.duration_s / self.wall_time_s if self.wall_time_s > 0 else math.inf
+
+    def summary(self) -> str:
+        """Lines for people: velocity as Table I prints it, signed displacement, bend, speed of the run."""
+        v = self.velocity
+        return (f"{self.gait}, {self.amplitude_bar:g} bar, {self.frequency_hz:g} Hz, {self.duration_s:g} s, "
+                f"{self.friction}\n"
+                f"traveling velocity v_x / v_y: {v.vx_cm_s:+.2f} / {v.vy_cm_s:+.2f} cm/s "
+                f"(Table I magnitudes {v.table_text()}, net {v.speed_cm_s:.2f} cm/s)\n"
+                f"displacement: x {100 * v.displacement_x_m:+.2f} cm, y {100 * v.displacement_y_m:+.2f} cm "
+                f"over {v.duration_s:.2f} s\n"
+                f"largest bend (sum of the modules): commanded {math.degrees(self.peak_target_bend_rad):.0f} deg, "
+                f"simulated body {math.degrees(self.peak_body_bend_rad):.0f} deg\n"
+                f"real-time factor: {self.realtime_factor:.1f}x ({self.wall_time_s:.2f} s wall clock)")
+
+
+def command_pressures_bar(cycle: GaitCycle, times_s: np.ndarray) -> np.ndarray:
+    """The cycle's commanded pressures ``(n, 9)`` (bar, through the one clamp) at ``times_s`` (phase ``f t``)."""
+    return lengths_to_pressures_bar(cycle.lengths_at(np.asarray(times_s) * cycle.frequency_hz), cycle.robot)
+
+
+def run_experiment(gait: str, amplitude_bar: float, frequency_hz: float, duration_s: float,
+                   config: SimConfig | None = None, robot: RobotDescription | None = None,
+                   command_rate_hz: float | None = None, record_rate_hz: float = DEFAULT_RECORD_RATE_HZ,
+                   samples: int = 64, gait_params: Mapping[str, Any] | None = None, end_window_s: float = 0.0,
+                   on_frame: Callable[[SimState], None] | None = None,
+                   progress: Callable[[float, float], None] | None = None,
+                   cycle: GaitCycle | None = None) -> ExperimentResult:
+    """Run ``gait`` at ``amplitude_bar`` and ``frequency_hz`` for ``duration_s`` on a fresh simulated robot.
+
+    ``command_rate_hz`` defaults to the default rig's (``config/rigs/mock.yaml``); ``on_frame(state)`` is
+    called at every recorded frame (e.g. to render video); ``progress(sim_s, duration_s)`` about once a
+    simulated second. ``cycle`` skips the fit (it must match the gait, amplitude and frequency). Raises
+    :class:`InvalidInputError` for bad arguments and :class:`~srs_ros.core.errors.SimulationError` if
+    the physics diverges.
+    """
+    robot = robot or default_robot()
+    config = config or load_sim_config(robot=robot)
+    for name, value in (("duration_s", duration_s), ("record_rate_hz", record_rate_hz)):
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not (math.isfinite(value) and value > 0):
+            raise InvalidInputError(f"{name}: expected a number > 0, got {value!r}.")
+    rate = float(command_rate_hz) if command_rate_hz is not None else load_rig(robot=robot).command_rate_hz
+    if not (math.isfinite(rate) and rate > 0):
+        raise InvalidInputError(f"command_rate_hz: expected a rate > 0 Hz, got {command_rate_hz!r}.")
+    cycle = cycle or generate_cycle(gait, amplitude_bar, frequency_hz, samples, robot, gait_params)
+
+    started = time.perf_counter()
+    world = SimWorld(config, robot)
+    command_count = int(math.floor(duration_s * rate + 1e-9)) + 1
+    pressures = command_pressures_bar(cycle, np.arange(command_count) / rate)
+    record_count = int(math.floor(duration_s * record_rate_hz + 1e-9)) + 1
+    rows = np.empty((record_count, 4))
+    peak_target = peak_body = 0.0
+    next_command = next_record = 0
+    next_progress_s = 1.0
+    while next_record < record_count:
+        t_command = next_command / rate if next_command < command_count else math.inf
+        t_record = next_record / record_rate_hz
+        now = min(t_command, t_record)
+        world.advance_to(now)
+        if t_command <= now:
+            world.command_pressures(pressures[next_command])
+            next_command += 1
+        if t_record <= now:
+            state = world.state()
+            rows[next_record] = (state.time_s, *state.pose)
+            peak_target = max(peak_target, float(state.target_bend_rad.sum()))
+            peak_body = max(peak_body, float(np.nansum(state.body_bend_rad)))
+            if on_frame is not None:
+                on_frame(state)
+            next_record += 1
+        if progress is not None and now >= next_progress_s:
+            progress(now, float(duration_s))
+            next_progress_s += 1.0
+    wall = time.perf_counter() - started
+    velocity = traveling_velocity(rows[:, 0], rows[:, 1], rows[:, 2], end_window_s)
+    return ExperimentResult(gait=cycle.gait, amplitude_bar=float(amplitude_bar), frequency_hz=float(frequency_hz),
+                            duration_s=float(duration_s), friction=config.contact.describe(), track=rows,
+                            velocity=velocity, wall_time_s=wall, peak_target_bend_rad=peak_target,
+                            peak_body_bend_rad=peak_body, final_state=state)
