@@ -52,7 +52,8 @@ def clamped_joints(lengths_m: np.ndarray, robot: RobotDescription) -> list[str]:
 
     With ``P = 100 l`` and 4 bar that is above 0.04 m, although the muscles extend to 0.065 m.
     """
-    outside = (lengths_m < 0.0) | (lengths_m > pressure_limited_length_m(robot))
+    # 1 nm of slack: a cycle scaled to exactly the limit (0.04 m at 4 bar) lands a rounding error above it.
+    outside = (lengths_m < -1e-9) | (lengths_m > pressure_limited_length_m(robot) + 1e-9)
     return [name for name, bad in zip(robot.joint_names, outside) if bad]
 
 
