@@ -15,6 +15,7 @@ BACKENDS: dict[str, str] = {
     "mock": "srs_ros.backends.mock:MockBackend",
     "can": "srs_ros.backends.can_backend:CanBackend",
     "daq": "srs_ros.backends.daq_backend:DaqBackend",
+    "sim": "srs_ros.backends.sim_backend:SimBackend",
 }
 
 

@@ -11,6 +11,7 @@ marker is missing publishes nothing; ``/diagnostics`` says which marker is missi
 
 from __future__ import annotations
 
+import dataclasses
 import sys
 import time
 from pathlib import Path
@@ -61,6 +62,9 @@ PARAMETERS = (
     ParameterSpec("head_color_hsv_low", [170, 120, 70], "colour detector: head HSV lower bound (H wraps)",
                   read_only=True),
     ParameterSpec("head_color_hsv_high", [10, 255, 255], "colour detector: head HSV upper bound", read_only=True),
+    ParameterSpec("color_preset", "", "'' or 'sim_bands': the colour detector set for the simulated robot's head "
+                  "and tail bands (config/sim.yaml), replacing detector and the HSV bounds", read_only=True,
+                  additional_constraints="'' or 'sim_bands'"),
     ParameterSpec("min_blob_area_px", 20.0, "colour detector: smallest blob, px^2", 1.0, 1e7, read_only=True),
     ParameterSpec("position_ratio", 0.5, "pose point between tail (0) and head (1)", 0.0, 1.0, read_only=True),
     ParameterSpec("velocity_window_s", 0.5, "velocity smoothing window, s", 0.01, 60.0, read_only=True),
@@ -129,6 +133,21 @@ def seconds_to_stamp(seconds: float) -> Time:
     return Time(sec=sec, nanosec=min(int(round((seconds - sec) * 1e9)), 999_999_999))
 
 
+def tracker_config(params: dict[str, Any]) -> TrackerConfig:
+    """The tracker settings from the node's parameters, with the ``color_preset`` applied."""
+    config = TrackerConfig.from_dict(params)
+    preset = params.get("color_preset", "")
+    if not preset:
+        return config
+    if preset != "sim_bands":
+        raise ConfigurationError(f"color_preset is {preset!r}; expected '' or 'sim_bands'.")
+    from srs_ros.sim.camera import band_tracker_config
+    from srs_ros.sim.config import load_sim_config
+
+    bands = band_tracker_config(load_sim_config().camera)
+    return dataclasses.replace(config, detector="color", tail_color=bands.tail_color, head_color=bands.head_color)
+
+
 # ------------------------------------------------------------------------------------------
 # The node
 # ------------------------------------------------------------------------------------------
@@ -142,7 +161,7 @@ class CameraTrackerNode(Node):
         p = {spec.name: self.get_parameter(spec.name).value for spec in PARAMETERS}
         calibration_file = p["calibration_file"] or None
         self.calibration = load_calibration(calibration_file)
-        self.tracker = Tracker(self.calibration, TrackerConfig.from_dict(p))
+        self.tracker = Tracker(self.calibration, tracker_config(p))
         self.frame_id = p["frame_id"] or self.calibration.frame_id
         self.path_max_poses = int(p["path_max_poses"])
         self.path_min_step_m = float(p["path_min_step_m"])

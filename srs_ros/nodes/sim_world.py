@@ -1,0 +1,235 @@
+"""sim_world: the simulated robot (MuJoCo, :mod:`srs_ros.sim`) stepped in real time and driven like the real one.
+
+The ``sim`` backend of ``hardware_node`` sends the regulators' commands here the way the ``can`` backend
+sends frames to a DAC board; this node answers with the regulators' read-back and shows the world as a
+lab would see it: ground truth, an overhead camera and markers for RViz or Foxglove.
+
+Interface (relative names, remappable)::
+
+    subscribes  sim/regulator_command   sensor_msgs/JointState  reliable, depth 1: effort = pressure (bar)
+    publishes   sim/regulator_monitor   sensor_msgs/JointState  every control period: effort = pressure (bar),
+                                                                position = muscle length (m)
+                sim/ground_truth_pose   geometry_msgs/PoseStamped  frame ``floor``: the tracked reference point
+                                                                (midpoint of head and tail bands) and heading
+                sim/body_markers        visualization_msgs/MarkerArray  the simulated backbone as a tube (id 0)
+                                                                and the commanded shape (id 1), frame ``floor``
+                image_raw               sensor_msgs/Image (bgr8)  the overhead camera, ``camera_rate_hz``
+                /diagnostics            diagnostic_msgs/DiagnosticArray  real-time factor, divergence
+    services    ~/reset                 std_srvs/Trigger  the robot back to its start pose (also after a divergence)
+
+The world follows the steady clock: each control tick advances the physics to the wall time since the
+start. A diverged simulation (non-finite state, exploding speed) stops the world: no pose, no image, no
+read-back (so the hardware node faults and vents, as on a dead board), an ERROR on /diagnostics, until
+``~/reset``. Parameters: :data:`PARAMETERS`.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from geometry_msgs.msg import Point, PoseStamped
+from rclpy.node import Node
+from sensor_msgs.msg import Image, JointState
+from std_srvs.srv import Trigger
+from visualization_msgs.msg import Marker, MarkerArray
+
+from srs_ros.backends.sim_backend import SIM_COMMAND_TOPIC, SIM_MONITOR_TOPIC, bus_qos
+from srs_ros.core.actuation import pressures_to_lengths_m
+from srs_ros.core.errors import InvalidInputError, SrsError
+from srs_ros.core.kinematics import backbone_points
+from srs_ros.core.robot import load_robot
+from srs_ros.core.tracking import yaw_to_quaternion
+from srs_ros.nodes.camera_tracker import IMAGE_TOPIC, array_to_image_msg
+from srs_ros.nodes.common import DIAGNOSTICS_TOPIC, ParameterSpec, declare_parameters, run_node, steady_timer
+from srs_ros.sim.camera import OverheadCamera
+from srs_ros.sim.config import load_sim_config
+from srs_ros.sim.world import SimWorld
+
+NODE_NAME = "sim_world"
+GROUND_TRUTH_TOPIC = "sim/ground_truth_pose"
+BODY_MARKERS_TOPIC = "sim/body_markers"
+FLOOR_FRAME = "floor"
+LOG_THROTTLE_S = 1.0
+
+PARAMETERS = (
+    ParameterSpec("sim_config_file", "", "simulation YAML; '' = the package's config/sim.yaml", read_only=True),
+    ParameterSpec("robot_description_file", "", "robot YAML; '' = the package's config/robot.yaml", read_only=True),
+    ParameterSpec("camera_rate_hz", 30.0, "overhead camera frames per second on image_raw (0 = no camera)",
+                  0.0, 120.0, read_only=True),
+    ParameterSpec("pose_rate_hz", 50.0, "sim/ground_truth_pose messages per second", 1.0, 500.0, read_only=True),
+    ParameterSpec("markers_rate_hz", 10.0, "sim/body_markers messages per second (0 = none)", 0.0, 100.0,
+                  read_only=True),
+)
+
+
+class SimWorldNode(Node):
+    """ROS wiring of a :class:`~srs_ros.sim.world.SimWorld` and an :class:`~srs_ros.sim.camera.OverheadCamera`."""
+
+    def __init__(self, **kwargs):
+        """Build the world and the camera, then step in real time on the steady clock."""
+        super().__init__(NODE_NAME, **kwargs)
+        self._specs = declare_parameters(self, PARAMETERS)
+        p = {name: self.get_parameter(name).value for name in self._specs}
+        self.robot = load_robot(p["robot_description_file"] or None)
+        self.config = load_sim_config(p["sim_config_file"] or None, robot=self.robot)
+        self.world = SimWorld(self.config, self.robot)
+        self.camera = OverheadCamera(self.config) if p["camera_rate_hz"] > 0 else None
+        self.failure = ""  # why the world stopped (a divergence), until ~/reset
+        self.commands = 0
+        self._start_s = time.monotonic()
+        self._step_wall_s = 0.0  # wall time spent stepping, for the real-time figure
+        self._window = (self._start_s, 0.0, 0.0)  # (wall s, world s, stepping s) at the last diagnostics
+        self._state = None  # the world's state at its current time, computed once for every output
+
+        self._monitor = JointState(name=list(self.robot.joint_names))
+        self._monitor_pub = self.create_publisher(JointState, SIM_MONITOR_TOPIC, bus_qos())
+        self._pose_pub = self.create_publisher(PoseStamped, GROUND_TRUTH_TOPIC, 10)
+        self._markers_pub = self.create_publisher(MarkerArray, BODY_MARKERS_TOPIC, 1)
+        self._image_pub = self.create_publisher(Image, IMAGE_TOPIC, 1)
+        self._diag_pub = self.create_publisher(DiagnosticArray, DIAGNOSTICS_TOPIC, 10)
+        self.create_subscription(JointState, SIM_COMMAND_TOPIC, self._on_command, bus_qos())
+        self.create_service(Trigger, "~/reset", self._on_reset)
+        steady_timer(self, self.config.physics.control_period_s, self._on_control_tick)
+        steady_timer(self, 1.0 / p["pose_rate_hz"], self._publish_pose)
+        if p["markers_rate_hz"] > 0:
+            steady_timer(self, 1.0 / p["markers_rate_hz"], self._publish_markers)
+        if self.camera is not None:
+            steady_timer(self, 1.0 / p["camera_rate_hz"], self._publish_image)
+        steady_timer(self, 1.0, self._publish_diagnostics)
+        self.get_logger().info(
+            f"simulated robot: {self.config.body.segments_per_module} segments per module, "
+            f"{self.config.contact.describe()}, time step {self.world.time_step_s * 1e3:g} ms; "
+            f"commands on {self.resolve_topic_name(SIM_COMMAND_TOPIC)}, camera "
+            + (f"{p['camera_rate_hz']:g} fps on {self.resolve_topic_name(IMAGE_TOPIC)}" if self.camera else "off"))
+
+    # -- time --------------------------------------------------------------------------------
+    def state(self):
+        """The world's state now (computed once per world time step for all outputs)."""
+        if self._state is None or self._state.time_s != self.world.time_s:
+            self._state = self.world.state()
+        return self._state
+
+    def _world_time_s(self) -> float:
+        return time.monotonic() - self._start_s
+
+    def _advance(self) -> bool:
+        """Step the physics up to the wall clock; False (and the world stopped) on a divergence."""
+        if self.failure:
+            return False
+        started = time.monotonic()
+        try:
+            self.world.advance_to(self._world_time_s())
+        except SrsError as exc:
+            self.failure = str(exc)
+            self.get_logger().error(f"the simulation diverged and stopped (no pose, no images, no read-back: the "
+                                    f"hardware node will fault and vent): {exc}; call ~/reset to restart it")
+            return False
+        finally:
+            self._step_wall_s += time.monotonic() - started
+        return True
+
+    def _on_control_tick(self) -> None:
+        if not self._advance():
+            return
+        state = self.state()
+        msg = self._monitor
+        msg.header.stamp = self.get_clock().now().to_msg()
+        msg.effort = state.pressure_bar.tolist()
+        msg.position = state.length_m.tolist()
+        self._monitor_pub.publish(msg)
+
+    # -- inputs ------------------------------------------------------------------------------
+    def _on_command(self, msg: JointState) -> None:
+        if self.failure or not self._advance():
+            return
+        try:
+            if list(msg.name) != list(self.robot.joint_names):
+                raise InvalidInputError(f"names {list(msg.name)}; expected {list(self.robot.joint_names)} in order.")
+            self.world.command_pressures(msg.effort, self.world.time_s)
+            self.commands += 1
+        except SrsError as exc:  # the regulators ignore a frame they cannot read; the last command stays
+            self.get_logger().error(f"ignored a regulator command: {exc}", throttle_duration_sec=LOG_THROTTLE_S)
+
+    def _on_reset(self, _request, response):
+        self.world.reset()
+        self._start_s = time.monotonic()
+        self._window = (self._start_s, 0.0, self._step_wall_s)
+        was = self.failure
+        self.failure = ""
+        response.success = True
+        response.message = "the simulated robot is back at its start pose, vented" + (
+            f" (it had stopped: {was})" if was else "")
+        self.get_logger().info(response.message)
+        return response
+
+    # -- outputs -----------------------------------------------------------------------------
+    def _publish_pose(self) -> None:
+        if self.failure:
+            return
+        state = self.state()
+        msg = PoseStamped()
+        msg.header.stamp = self.get_clock().now().to_msg()
+        msg.header.frame_id = FLOOR_FRAME
+        msg.pose.position.x, msg.pose.position.y = (float(v) for v in state.reference_xy_m)
+        qx, qy, qz, qw = (float(v) for v in yaw_to_quaternion(state.heading_rad))
+        msg.pose.orientation.x, msg.pose.orientation.y = qx, qy
+        msg.pose.orientation.z, msg.pose.orientation.w = qz, qw
+        self._pose_pub.publish(msg)
+
+    def _publish_image(self) -> None:
+        if self.failure:
+            return
+        image = self.camera.render(self.state().nodes_m)
+        self._image_pub.publish(array_to_image_msg(image, self.get_clock().now().to_msg(), "camera"))
+
+    def _publish_markers(self) -> None:
+        if self.failure:
+            return
+        state = self.state()
+        stamp = self.get_clock().now().to_msg()
+        commanded_m = pressures_to_lengths_m(state.commanded_pressure_bar, self.robot)
+        commanded_shape = backbone_points(commanded_m, robot=self.robot, base=state.base_pose)
+        diameter_m = 2.0 * self.config.body.skin_radius_m
+        self._markers_pub.publish(MarkerArray(markers=[
+            _line_strip(0, "simulated", state.backbone_m, diameter_m, (0.25, 0.25, 0.28, 1.0), stamp),
+            _line_strip(1, "commanded", commanded_shape, 0.004, (0.1, 0.8, 0.2, 0.9), stamp),
+        ]))
+
+    def _publish_diagnostics(self) -> None:
+        now_s, world_s, stepping_s = time.monotonic(), self.world.time_s, self._step_wall_s
+        then_s, then_world_s, then_stepping_s = self._window
+        self._window = (now_s, world_s, stepping_s)
+        span_s = max(now_s - then_s, 1e-9)
+        values = {"world_time_s": f"{world_s:.3f}", "lag_s": f"{self._world_time_s() - world_s:.3f}",
+                  "stepping_share": f"{(stepping_s - then_stepping_s) / span_s:.3f}",
+                  "world_rate": f"{(world_s - then_world_s) / span_s:.3f}",
+                  "commands": str(self.commands), "failure": self.failure or "none"}
+        level = DiagnosticStatus.ERROR if self.failure else DiagnosticStatus.OK
+        message = f"stopped: {self.failure}; call ~/reset" if self.failure else "stepping in real time"
+        status = DiagnosticStatus(level=level, name=f"{NODE_NAME}: simulated robot", message=message,
+                                  hardware_id="mujoco", values=[KeyValue(key=k, value=v) for k, v in values.items()])
+        msg = DiagnosticArray(status=[status])
+        msg.header.stamp = self.get_clock().now().to_msg()
+        self._diag_pub.publish(msg)
+
+
+def _line_strip(marker_id: int, namespace: str, points_m: np.ndarray, width_m: float, rgba, stamp) -> Marker:
+    marker = Marker(id=marker_id, ns=namespace, type=Marker.LINE_STRIP, action=Marker.ADD)
+    marker.header.stamp = stamp
+    marker.header.frame_id = FLOOR_FRAME
+    marker.pose.orientation.w = 1.0
+    marker.scale.x = float(width_m)
+    marker.color.r, marker.color.g, marker.color.b, marker.color.a = (float(c) for c in rgba)
+    marker.points = [Point(x=float(x), y=float(y), z=float(z)) for x, y, z in np.asarray(points_m)]
+    return marker
+
+
+def main(args: list[str] | None = None) -> int:
+    """Console script ``sim_world``."""
+    return run_node(SimWorldNode, args)
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

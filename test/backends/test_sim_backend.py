@@ -1,0 +1,80 @@
+"""The sim backend: commands over a DDS topic to a stand-in world in this process, read-back, silence = fault."""
+
+import time
+
+import numpy as np
+import pytest
+import rclpy
+from rclpy.executors import SingleThreadedExecutor
+from sensor_msgs.msg import JointState
+
+from srs_ros.backends import create_backend
+from srs_ros.backends.sim_backend import SIM_COMMAND_TOPIC, SIM_MONITOR_TOPIC, bus_qos
+from srs_ros.core.errors import ConfigurationError, HardwareError
+from srs_ros.core.robot import default_robot
+
+NAMES = list(default_robot().joint_names)
+
+
+@pytest.fixture
+def ros(ros_domain):
+    rclpy.init(domain_id=ros_domain)
+    node = rclpy.create_node("stand_in_world")
+    executor = SingleThreadedExecutor()
+    executor.add_node(node)
+    yield node, executor
+    executor.shutdown()
+    node.destroy_node()
+    rclpy.shutdown()
+
+
+def spin_until(executor, predicate, timeout_s=10.0, what="condition"):
+    end = time.monotonic() + timeout_s
+    while not predicate():
+        assert time.monotonic() < end, f"timed out waiting for {what}"
+        executor.spin_once(timeout_sec=0.01)
+
+
+@pytest.mark.parametrize(("options", "match"), [
+    ({"readback_timeout": 0.2}, "unknown key 'readback_timeout'"),
+    ({"readback_timeout_s": 0.0}, "'readback_timeout_s' is 0.0; expected a number in"),
+    ({"startup_timeout_s": "soon"}, "'startup_timeout_s' is 'soon'"),
+    ({"command_topic": ""}, "'command_topic'"),
+])
+def test_bad_options_are_refused_with_the_key(options, match):
+    with pytest.raises(ConfigurationError, match=match):
+        create_backend("sim", options=options)
+
+
+def test_commands_reach_the_world_and_its_silence_is_a_hardware_error(ros):
+    node, executor = ros
+    commands = []
+    node.create_subscription(JointState, SIM_COMMAND_TOPIC, commands.append, bus_qos())
+    monitor = node.create_publisher(JointState, SIM_MONITOR_TOPIC, bus_qos())
+    backend = create_backend("sim", options={"readback_timeout_s": 0.3, "startup_timeout_s": 0.5})
+    assert backend.drives_real_hardware is False
+    with backend:
+        backend.write_pressures(np.full(9, 2.0))  # the world has not answered yet: allowed during start-up
+        spin_until(executor, lambda: commands, what="the command on the bus")
+        readback = JointState(name=NAMES, effort=[1.5] * 9, position=[0.01] * 9)
+        spin_until(executor, lambda: monitor.publish(readback) or backend.monitor_count > 0, what="the read-back")
+        assert list(commands[-1].effort) == [2.0] * 9 and list(commands[-1].name) == NAMES
+        state = backend.read_state()
+        assert state.measured_pressure_bar == pytest.approx(np.full(9, 1.5))
+        assert state.measured_length_m == pytest.approx(np.full(9, 0.01))
+        backend.write_pressures(np.full(9, 9.0))
+        spin_until(executor, lambda: list(commands[-1].effort) == [4.0] * 9, what="the clamped command")
+
+        time.sleep(0.4)  # the world falls silent
+        with pytest.raises(HardwareError, match="sim_world silent"):
+            backend.write_pressures(np.full(9, 2.0))
+        backend.vent()  # a vent still goes out on the bus and does not raise
+        spin_until(executor, lambda: not any(commands[-1].effort), what="the vent on the bus")
+
+
+def test_a_world_that_never_answers_fails_after_the_startup_timeout(ros):
+    with create_backend("sim", options={"startup_timeout_s": 0.2}) as backend:
+        backend.write_pressures(np.full(9, 1.0))
+        time.sleep(0.3)
+        with pytest.raises(HardwareError, match="no read-back from sim_world"):
+            backend.write_pressures(np.full(9, 1.0))

@@ -1,0 +1,63 @@
+"""The simulated robot driven like the real one: hardware_node (sim rig) -> sim_world over DDS, separate processes."""
+
+import time
+
+import numpy as np
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
+from geometry_msgs.msg import PoseStamped
+from sensor_msgs.msg import Image, JointState
+from srs_testing import ros_args
+from visualization_msgs.msg import MarkerArray
+
+from srs_ros.backends.sim_backend import SIM_COMMAND_TOPIC, bus_qos
+from srs_ros.core.robot import config_dir
+
+SIM_RIG = str(config_dir() / "rigs" / "sim.yaml")
+
+
+def test_the_gait_moves_the_simulated_robot_and_killing_sim_world_vents_the_hardware(launch_node, ros_client):
+    world = launch_node("sim_world", ros_args({"camera_rate_hz": 10.0}))
+    launch_node("hardware_node", ros_args({"autostart": True, "rig_file": SIM_RIG, "ramp_time_s": 0.2}))
+    launch_node("trajectory_server", ros_args({"samples": 32}))
+    launch_node("gait_player", ros_args({"autostart": True, "ramp_time_s": 0.2}))
+    truth = ros_client.subscribe(PoseStamped, "sim/ground_truth_pose")
+    lengths = ros_client.subscribe(JointState, "actuator_state")
+    bus = ros_client.subscribe(JointState, SIM_COMMAND_TOPIC, bus_qos())
+    markers = ros_client.subscribe(MarkerArray, "sim/body_markers")
+    images = ros_client.subscribe(Image, "image_raw", 1)
+    diagnostics = ros_client.subscribe(DiagnosticArray, "/diagnostics")
+    ros_client.spin_until(lambda: lengths and max(lengths[-1].position, default=0.0) > 0.02, 60.0,
+                          "the simulated muscles extending (read back through the sim backend)")
+    ros_client.spin_until(lambda: len(truth) > 100 and images and markers, 30.0, "pose, camera and markers")
+
+    start = truth[-1].pose.position
+    ros_client.spin_for(3.0)
+    end = truth[-1].pose.position
+    assert np.hypot(end.x - start.x, end.y - start.y) > 0.05  # inward rolling at 4 bar, 1 Hz moves
+    assert truth[-1].header.frame_id == "floor"
+    assert (images[-1].width, images[-1].height, images[-1].encoding) == (640, 480, "bgr8")
+    assert [m.ns for m in markers[-1].markers] == ["simulated", "commanded"]
+    assert len(markers[-1].markers[0].points) == 31 and len(markers[-1].markers[1].points) == 31
+    assert max(max(m.effort) for m in bus) <= 4.0 and max(max(m.effort) for m in bus[-100:]) > 2.0
+
+    world.kill()  # the simulated robot dies, as a DAC board losing power: its read-back stops
+    killed_s = time.monotonic()
+    ros_client.spin_until(lambda: not any(bus[-1].effort), 5.0, "the vent command on the bus")
+    vented_after_s = time.monotonic() - killed_s
+    assert vented_after_s < 0.2 + 0.005 + 0.15, vented_after_s  # readback_timeout_s + a command period + DDS
+
+    def hardware_error():
+        statuses = [s for m in diagnostics[-5:] for s in m.status if s.name.startswith("hardware_node")]
+        return statuses and statuses[-1].level == DiagnosticStatus.ERROR and "sim_world silent" in statuses[-1].message
+
+    ros_client.spin_until(hardware_error, 10.0, "the hardware error on /diagnostics")
+    assert ros_client.lifecycle_state("/hardware_node") == "unconfigured"
+
+
+def test_a_bad_sim_config_is_refused_with_the_key_and_what_is_expected(launch_node, tmp_path):
+    bad = tmp_path / "sim.yaml"
+    bad.write_text((config_dir() / "sim.yaml").read_text().replace("segments_per_module: 5",
+                                                                   "segments_per_module: -2"))
+    proc = launch_node("sim_world", ros_args({"sim_config_file": str(bad)}))
+    assert proc.process.wait(30) == 2, proc.output()
+    assert "segments_per_module" in proc.output() and "-2" in proc.output()
