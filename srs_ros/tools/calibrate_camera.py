@@ -11,7 +11,8 @@ Two ways in:
   faces floor +Y).
 
 The result goes to ``--out`` (default ``config/camera_calibration.yaml``) with the reprojection error
-(mm) of every point; ``--max-rms-mm`` makes a poor fit exit with status 1.
+(mm) of every point; with ``--max-rms-mm`` a poorer fit is rejected: nothing is written (the old file
+stays) and the exit status is 1.
 """
 
 from __future__ import annotations
@@ -131,13 +132,13 @@ def main(argv: list[str] | None = None) -> int:
         print(f"warning: markers not found in the image: {missing}", file=sys.stderr)
     print(report(calibration))
     out = Path(args.out) if args.out else config_dir() / DEFAULT_CALIBRATION_FILE
+    if args.max_rms_mm is not None and calibration.rms_error_mm > args.max_rms_mm:
+        print(f"rms error {calibration.rms_error_mm:.3f} mm is above --max-rms-mm {args.max_rms_mm}: not saved, "
+              f"{out} is unchanged; re-measure the points or re-take the image.", file=sys.stderr)
+        return 1
     save_calibration(calibration, out, f"srs_calibrate_camera from {source}\n"
                                        "homography_image_to_floor maps pixels (u, v, 1) to floor metres (x, y, 1).")
     print(f"saved {out}")
-    if args.max_rms_mm is not None and calibration.rms_error_mm > args.max_rms_mm:
-        print(f"rms error {calibration.rms_error_mm:.3f} mm is above --max-rms-mm {args.max_rms_mm}; "
-              "re-measure the points or re-take the image.", file=sys.stderr)
-        return 1
     return 0
 
 

@@ -46,8 +46,17 @@ def test_calibration_from_csv_pairs_and_threshold(tmp_path, capsys):
     out = tmp_path / "cal.yaml"
     code = calibrate_camera.main(["--pairs", str(tmp_path / "pairs.csv"), "--out", str(out), "--max-rms-mm", "0.5"])
     captured = capsys.readouterr()
-    assert code == 1 and "above --max-rms-mm" in captured.err
-    assert out.exists() and load_calibration(out).rms_error_mm > 0.5
+    assert code == 1 and "above --max-rms-mm" in captured.err and "not saved" in captured.err
+    assert not out.exists()  # a rejected calibration is never written
+    # ... nor does it overwrite the good calibration already there.
+    out.write_text("camera_calibration: {homography_image_to_floor: [[1, 0, 0], [0, 1, 0], [0, 0, 1]]}\n")
+    before = out.read_text()
+    assert calibrate_camera.main(["--pairs", str(tmp_path / "pairs.csv"), "--out", str(out), "--max-rms-mm",
+                                  "0.5"]) == 1
+    assert out.read_text() == before
+    # Without the threshold the same fit is saved, with its error.
+    assert calibrate_camera.main(["--pairs", str(tmp_path / "pairs.csv"), "--out", str(out)]) == 0
+    assert load_calibration(out).rms_error_mm > 0.5
 
 
 def test_too_few_pairs_is_refused(tmp_path, capsys):
