@@ -58,6 +58,90 @@ def test_package_xml_is_format_3_with_runtime_dependencies():
             "python3-numpy", "python3-scipy", "python3-yaml"} <= deps
 
 
+# ------------------------------------------------------------------------------------------
+# package.xml against rosdep: every key resolves on Jazzy, every import is declared, nothing more
+# ------------------------------------------------------------------------------------------
+#: Keys that rosdep resolves on Jazzy (a snapshot of ros/rosdistro, kept in the repo).
+ROSDEP_KEYS = ROOT / "test" / "data" / "rosdep-keys-jazzy.txt"
+#: Top-level Python module -> rosdep key, for every third-party import of the package, its tests, launch
+#: files, benchmarks and setup.py. None: no rosdep key exists (documented in package.xml instead).
+IMPORT_KEYS = {
+    "numpy": "python3-numpy", "scipy": "python3-scipy", "yaml": "python3-yaml",
+    "matplotlib": "python3-matplotlib", "cv2": "python3-opencv", "can": "python3-can",
+    "cantools": "python3-cantools-pip", "mujoco": "python3-mujoco-pip", "rosbags": "python3-rosbags-pip",
+    "nidaqmx": None, "pytest": "python3-pytest", "hypothesis": "python3-hypothesis",
+    "setuptools": "python3-setuptools", "ament_index_python": "ament_index_python", "rclpy": "rclpy",
+    "launch": "launch", "launch_ros": "launch_ros", "rcl_interfaces": "rcl_interfaces",
+    "builtin_interfaces": "builtin_interfaces",
+}
+#: Tools the tests run rather than import: pytest-timeout (setup.cfg ``timeout``), ruff, colcon.
+TOOL_KEYS = {"python3-pytest-timeout", "python3-ruff-pip", "python3-colcon-common-extensions"}
+#: The package's own modules and test helpers (not dependencies).
+OWN_MODULES = {"srs_ros", "srs_testing", "conftest"}
+
+
+def _declared_keys():
+    root = ET.parse(ROOT / "package.xml").getroot()
+    kinds = ("depend", "exec_depend", "build_depend", "buildtool_depend", "test_depend", "build_export_depend")
+    return {e.text.strip() for kind in kinds for e in root.findall(kind)}
+
+
+def _third_party_imports():
+    """Top-level module -> files importing it, over every Python file of the repo (not .venv, build trees)."""
+    folders = ("srs_ros", "test", "launch", "benchmarks")
+    files = [ROOT / "setup.py"] + [p for d in folders for p in (ROOT / d).rglob("*.py")
+                                   if "fakes" not in p.parts]  # stand-ins for packages that cannot be installed here
+    local = {p.stem for p in files}
+    found: dict[str, set[str]] = {}
+    for path in files:
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.Import):
+                names = [a.name for a in node.names]
+            elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
+                names = [node.module]
+            else:
+                continue
+            for name in names:
+                top = name.split(".")[0]
+                if top not in sys.stdlib_module_names and top not in OWN_MODULES and top not in local:
+                    found.setdefault(top, set()).add(str(path.relative_to(ROOT)))
+    return found
+
+
+def _key_of(module):
+    if module.endswith(("_msgs", "_srvs")):
+        return module
+    return IMPORT_KEYS[module]
+
+
+def test_every_package_xml_key_resolves_with_rosdep_on_jazzy():
+    known = set(ROSDEP_KEYS.read_text().split())
+    unknown = sorted(_declared_keys() - known)
+    assert unknown == [], (f"package.xml keys that rosdep cannot resolve on Jazzy: {unknown}; pick keys from "
+                           f"{ROSDEP_KEYS.relative_to(ROOT)} (e.g. python3-<name>-pip for PyPI packages)")
+
+
+def test_every_third_party_import_is_declared_in_package_xml():
+    imports = _third_party_imports()
+    unmapped = sorted(m for m in imports if not m.endswith(("_msgs", "_srvs")) and m not in IMPORT_KEYS)
+    assert unmapped == [], f"imports with no rosdep key in IMPORT_KEYS (add one): {unmapped}"
+    declared = _declared_keys()
+    missing = {m: _key_of(m) for m in imports if _key_of(m) and _key_of(m) not in declared}
+    assert missing == {}, f"imported but not declared in package.xml (module: key): {missing}"
+
+
+def test_package_xml_declares_nothing_the_code_and_tests_do_not_use():
+    used = {_key_of(m) for m in _third_party_imports()} | TOOL_KEYS
+    extra = sorted(_declared_keys() - used)
+    assert extra == [], f"package.xml declares keys that nothing imports or runs: {extra}"
+
+
+def test_rosdep_key_list_is_the_shared_snapshot_when_present():
+    shared = ROOT.parent / "shared" / "ref" / "rosdep-keys-jazzy.txt"
+    if shared.is_file():  # only on the development machines; users of the package have the repo copy
+        assert ROSDEP_KEYS.read_text() == shared.read_text()
+
+
 def test_setup_cfg_puts_scripts_under_lib():
     cfg = configparser.ConfigParser()
     cfg.read(ROOT / "setup.cfg")
