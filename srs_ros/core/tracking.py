@@ -22,6 +22,8 @@ from typing import Any
 import cv2
 import numpy as np
 
+from srs_ros.core import aruco
+from srs_ros.core.aruco import dictionary as aruco_dictionary  # noqa: F401 (public name)
 from srs_ros.core.camera_calibration import CameraCalibration
 from srs_ros.core.errors import ConfigurationError, InvalidInputError
 
@@ -73,15 +75,6 @@ class MarkerDetection:
     corners_px: np.ndarray
 
 
-def aruco_dictionary(name: str):
-    """The predefined ``cv2.aruco`` dictionary called ``name`` (e.g. ``DICT_4X4_50``)."""
-    value = getattr(cv2.aruco, name, None) if name.startswith("DICT_") else None
-    if not isinstance(value, int):
-        known = sorted(n for n in dir(cv2.aruco) if n.startswith("DICT_"))
-        raise ConfigurationError(f"unknown ArUco dictionary {name!r}; expected one of {', '.join(known)}.")
-    return cv2.aruco.getPredefinedDictionary(value)
-
-
 def quad_centre(corners_px: np.ndarray) -> np.ndarray:
     """Intersection of a quadrilateral's diagonals (..., 4, 2) -> (..., 2).
 
@@ -106,29 +99,24 @@ class ArucoMarkerDetector:
         self.marker_ids = dict(marker_ids or {"tail": 0, "head": 1})
         if len(set(self.marker_ids.values())) != len(self.marker_ids):
             raise ConfigurationError(f"marker ids {self.marker_ids} repeat; every marker needs its own id.")
-        params = cv2.aruco.DetectorParameters()
-        params.cornerRefinementMethod = cv2.aruco.CORNER_REFINE_SUBPIX
-        params.cornerRefinementWinSize = 3
         # One threshold window pair (not the default three) keeps 640x480 above 100 fps on one core.
-        params.adaptiveThreshWinSizeMin = 7
-        params.adaptiveThreshWinSizeMax = 17
-        params.adaptiveThreshWinSizeStep = 10
-        params.minMarkerPerimeterRate = 0.02
-        self._detector = cv2.aruco.ArucoDetector(aruco_dictionary(dictionary), params)
+        params = aruco.detector_parameters(
+            cornerRefinementMethod=cv2.aruco.CORNER_REFINE_SUBPIX, cornerRefinementWinSize=3,
+            adaptiveThreshWinSizeMin=7, adaptiveThreshWinSizeMax=17, adaptiveThreshWinSizeStep=10,
+            minMarkerPerimeterRate=0.02)
+        self._detector = aruco.MarkerDetector(dictionary, params)
         self._id_to_key = {v: k for k, v in self.marker_ids.items()}
         self.roi_margin_px = int(roi_margin_px)
         self._last_box: tuple[int, int, int, int] | None = None
 
     def _detect(self, gray: np.ndarray, offset: tuple[int, int]) -> dict[str, MarkerDetection]:
-        corners, ids, _ = self._detector.detectMarkers(gray)
+        corners, ids = self._detector.detect(gray)
         found: dict[str, MarkerDetection] = {}
-        if ids is None:
-            return found
-        for quad, marker_id in zip(corners, ids.ravel()):
+        for quad, marker_id in zip(corners, ids):
             key = self._id_to_key.get(int(marker_id))
             if key is None or key in found:
                 continue
-            quad = quad.reshape(4, 2).astype(np.float64) + offset
+            quad = quad + offset
             found[key] = MarkerDetection(key, quad_centre(quad), quad)
         return found
 

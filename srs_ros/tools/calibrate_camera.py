@@ -27,6 +27,7 @@ from typing import Any
 import cv2
 import numpy as np
 
+from srs_ros.core import aruco
 from srs_ros.core.camera_calibration import (
     DEFAULT_CALIBRATION_FILE,
     CameraCalibration,
@@ -36,7 +37,7 @@ from srs_ros.core.camera_calibration import (
 )
 from srs_ros.core.errors import ConfigurationError, SrsError
 from srs_ros.core.robot import config_dir, read_yaml
-from srs_ros.core.tracking import DEFAULT_ARUCO_DICTIONARY, aruco_dictionary, quad_centre
+from srs_ros.core.tracking import DEFAULT_ARUCO_DICTIONARY, quad_centre
 
 
 def marker_corners_floor_m(x_m: float, y_m: float, yaw_rad: float, size_m: float) -> np.ndarray:
@@ -63,13 +64,11 @@ def pairs_from_marker_image(image: np.ndarray, layout: Mapping[str, Any], source
         raise ConfigurationError(
             f"{source}: each marker needs id, x_m, y_m numbers (and optional yaw_rad) ({exc!r})."
         ) from exc
-    params = cv2.aruco.DetectorParameters()
-    params.cornerRefinementMethod = cv2.aruco.CORNER_REFINE_SUBPIX
-    detector = cv2.aruco.ArucoDetector(aruco_dictionary(str(layout.get("aruco_dictionary", DEFAULT_ARUCO_DICTIONARY))),
-                                       params)
+    detector = aruco.MarkerDetector(str(layout.get("aruco_dictionary", DEFAULT_ARUCO_DICTIONARY)),
+                                    aruco.detector_parameters(cornerRefinementMethod=cv2.aruco.CORNER_REFINE_SUBPIX))
     gray = image if image.ndim == 2 else cv2.cvtColor(image, cv2.COLOR_BGR2GRAY)
-    corners, ids, _ = detector.detectMarkers(gray)
-    found = {} if ids is None else {int(i): q.reshape(4, 2).astype(np.float64) for q, i in zip(corners, ids.ravel())}
+    corners, ids = detector.detect(gray)
+    found = {int(i): q for q, i in zip(corners, ids)}
     image_px, floor_m = [], []
     for marker_id, (x, y, yaw) in known.items():
         if marker_id not in found:

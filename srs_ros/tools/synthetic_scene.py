@@ -21,6 +21,7 @@ from typing import Any
 import cv2
 import numpy as np
 
+from srs_ros.core.aruco import marker_image
 from srs_ros.core.camera_calibration import CameraCalibration, apply_homography, calibration_from_pairs
 from srs_ros.core.tracking import DEFAULT_ARUCO_DICTIONARY, aruco_dictionary
 
@@ -154,7 +155,7 @@ class SyntheticScene:
             dictionary = aruco_dictionary(self.robot.aruco_dictionary)
             cells = dictionary.markerSize + 2
             cell_px = 24
-            marker = cv2.aruco.generateImageMarker(dictionary, marker_id, cells * cell_px)
+            marker = marker_image(self.robot.aruco_dictionary, marker_id, cells * cell_px)
             self._markers[marker_id] = cv2.copyMakeBorder(marker, cell_px, cell_px, cell_px, cell_px,
                                                           cv2.BORDER_CONSTANT, value=255)
         return self._markers[marker_id]
