@@ -13,7 +13,7 @@ from __future__ import annotations
 import argparse
 import math
 import sys
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -255,8 +255,11 @@ def constant_velocity_poses(duration_s: float, fps: float, start_pose: Sequence[
 
 
 def write_video(path: str | Path, scene: SyntheticScene, poses: np.ndarray, fps: float, seed: int = 0,
-                fourcc: str = "MJPG") -> Path:
-    """Render ``poses`` (n, 3) into a video file at ``fps`` (MJPG .avi by default); returns the path."""
+                fourcc: str = "MJPG", occluders_by_frame: Mapping[int, Sequence[Any]] | None = None) -> Path:
+    """Render ``poses`` (n, 3) into a video file at ``fps`` (MJPG .avi by default); returns the path.
+
+    ``occluders_by_frame`` maps frame indices to the floor polygons drawn over that frame (see :meth:`render`).
+    """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     size = (scene.camera.width_px, scene.camera.height_px)
@@ -265,8 +268,8 @@ def write_video(path: str | Path, scene: SyntheticScene, poses: np.ndarray, fps:
         raise OSError(f"cannot open a {fourcc} video writer for {path}; try an .avi path with MJPG.")
     rng = np.random.default_rng(seed)
     try:
-        for pose in poses:
-            writer.write(scene.render(pose, rng))
+        for index, pose in enumerate(poses):
+            writer.write(scene.render(pose, rng, (occluders_by_frame or {}).get(index, ())))
     finally:
         writer.release()
     return path
