@@ -3,7 +3,8 @@
 The paper tracked the SRS with a fixed camera and perspective projection onto the floor (Sec. IV) and
 reports a traveling velocity = X and Y displacement / experiment time, in cm/s (Table I). Here a head
 and a tail marker (ArUco by default, or coloured blobs) are found in each frame, mapped to the floor
-through the calibration homography (:mod:`srs_ros.core.camera_calibration`), and give the pose
+through the calibration (:mod:`srs_ros.core.camera_calibration`: lens distortion removed when the
+file has the camera's intrinsics, then the homography), and give the pose
 ``(x_m, y_m, yaw_rad)``: position at a configurable point between tail and head, heading from tail to
 head. A frame where either marker is missing gives no pose, never a guess. OpenCV and NumPy only.
 
@@ -24,7 +25,7 @@ import numpy as np
 
 from srs_ros.core import aruco
 from srs_ros.core.aruco import dictionary as aruco_dictionary  # noqa: F401 (public name)
-from srs_ros.core.camera_calibration import CameraCalibration
+from srs_ros.core.camera_calibration import CameraCalibration, apply_homography
 from srs_ros.core.errors import ConfigurationError, InvalidInputError
 
 #: Default ArUco dictionary: 4 x 4 bits survive the small image size of a 4 cm marker seen from 1 m.
@@ -461,6 +462,17 @@ class Tracker:
             return f"ArUco {cfg.aruco_dictionary} tail id {cfg.tail_marker_id}, head id {cfg.head_marker_id}"
         return f"colour blobs tail {cfg.tail_color}, head {cfg.head_color}"
 
+    def _floor_centre(self, detection: MarkerDetection) -> np.ndarray:
+        """Floor position of a marker's centre; with lens distortion, from its undistorted corners.
+
+        The centre of a square is projectively exact only in an undistorted image (:func:`quad_centre`).
+        """
+        calibration = self.calibration
+        if calibration.intrinsics is None or not isinstance(self.detector, ArucoMarkerDetector):
+            return calibration.image_to_floor(detection.centre_px)
+        centre = quad_centre(calibration.undistort_px(detection.corners_px))
+        return apply_homography(calibration.homography_image_to_floor, centre)
+
     def process(self, image: np.ndarray, time_s: float) -> TrackResult:
         """Track one frame (BGR or mono uint8) taken at ``time_s``; no pose unless both markers are seen."""
         if image.dtype != np.uint8:
@@ -470,7 +482,7 @@ class Tracker:
         else:
             found = self.detector.detect(image)
         markers_px = {k: d.centre_px for k, d in found.items()}
-        markers_m = {k: self.calibration.image_to_floor(d.centre_px) for k, d in found.items()}
+        markers_m = {k: self._floor_centre(d) for k, d in found.items()}
         missing = [k for k in ("tail", "head") if k not in found]
         if missing:
             self.velocity_filter.reset()

@@ -10,6 +10,11 @@ Two ways in:
   ``markers: [{id, x_m, y_m, yaw_rad}]`` (marker centre on the floor; yaw 0 = the marker's top edge
   faces floor +Y).
 
+``--intrinsics camera.yaml`` adds a wide-angle camera's lens model: the YAML that ROS's
+``camera_calibration`` tool saves (``camera_matrix``, ``distortion_model``, ``distortion_coefficients``),
+CameraInfo fields (``k``, ``d``, ``distortion_model``) or another calibration file with an ``intrinsics:``
+section. Pixels are then undistorted before the fit, and the intrinsics are saved with the homography.
+
 The result goes to ``--out`` (default ``config/camera_calibration.yaml``) with the reprojection error
 (mm) of every point; with ``--max-rms-mm`` a poorer fit is rejected: nothing is written (the old file
 stays) and the exit status is 1.
@@ -32,6 +37,7 @@ from srs_ros.core.camera_calibration import (
     DEFAULT_CALIBRATION_FILE,
     CameraCalibration,
     calibration_from_pairs,
+    load_intrinsics,
     read_point_pairs,
     save_calibration,
 )
@@ -106,6 +112,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--image-size", type=int, nargs=2, metavar=("W", "H"), help="image size, px (with --pairs)")
     parser.add_argument("--frame-id", default="floor", help="frame of the floor coordinates (default floor)")
     parser.add_argument("--out", help=f"output YAML (default config/{DEFAULT_CALIBRATION_FILE})")
+    parser.add_argument("--intrinsics", help="camera intrinsics YAML (K, D; ROS camera_calibration format)")
     parser.add_argument("--max-rms-mm", type=float, help="exit with status 1 if the rms error is above this, mm")
     args = parser.parse_args(argv)
     try:
@@ -123,7 +130,8 @@ def main(argv: list[str] | None = None) -> int:
             image_px, floor_m, missing = pairs_from_marker_image(image, read_yaml(args.markers), args.markers)
             size = (image.shape[1], image.shape[0])
             source = f"{args.image} + {args.markers}"
-        calibration = calibration_from_pairs(image_px, floor_m, size, args.frame_id)
+        intrinsics = load_intrinsics(args.intrinsics) if args.intrinsics else None
+        calibration = calibration_from_pairs(image_px, floor_m, size, args.frame_id, intrinsics)
     except SrsError as exc:
         print(f"srs_calibrate_camera: {exc}", file=sys.stderr)
         return 2

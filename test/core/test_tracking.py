@@ -251,3 +251,37 @@ def test_tracker_config_rejects_bad_choices():
         TrackerConfig(tail_marker_id=3, head_marker_id=3)
     with pytest.raises(ConfigurationError, match="unknown ArUco dictionary"):
         Tracker(load_calibration(), TrackerConfig(aruco_dictionary="DICT_NOPE"))
+
+
+# -- lens distortion ----------------------------------------------------------------------------
+WIDE_ANGLE = SyntheticCamera(horizontal_fov_rad=math.radians(70.0), distortion=(-0.25, 0.06, 0.0005, -0.0005, 0.0),
+                             tilt_rad=0.0, pan_rad=0.0)
+
+
+def test_intrinsics_match_opencv_and_invert_exactly():
+    lens = WIDE_ANGLE.lens
+    ideal = np.random.default_rng(4).uniform([0, 0], [640, 480], (40, 2))
+    normalised = np.column_stack([ideal, np.ones(len(ideal))]) @ np.linalg.inv(lens.camera_matrix).T
+    expected, _ = cv2.projectPoints(normalised.reshape(-1, 1, 3), np.zeros(3), np.zeros(3), lens.camera_matrix,
+                                    lens.distortion[:5])
+    np.testing.assert_allclose(lens.distort_px(ideal), expected.reshape(-1, 2), atol=1e-9)
+    np.testing.assert_allclose(lens.undistort_px(lens.distort_px(ideal)), ideal, atol=1e-9)
+
+
+def test_wide_angle_lens_distortion_is_removed_when_the_calibration_has_intrinsics(tmp_path):
+    scene = SyntheticScene(camera=WIDE_ANGLE)
+    with_lens = load_calibration(save_calibration(WIDE_ANGLE.calibration(), tmp_path / "wide.yaml"))
+    assert with_lens.intrinsics is not None and with_lens.rms_error_mm < 0.01
+    plain = calibration_from_pairs(with_lens.image_px, with_lens.floor_m)  # the same pairs, homography only
+    assert plain.rms_error_mm > 5.0
+    rng = np.random.default_rng(8)
+    poses = [(-0.45, 0.3, 0.2), (0.45, -0.3, 2.8), (0.4, 0.3, -1.0), (-0.4, -0.32, 1.6), (0.0, 0.0, 0.7)]
+    errors = {}
+    for name, calibration in (("intrinsics", with_lens), ("homography only", plain)):
+        tracker = Tracker(calibration, TrackerConfig(roi_margin_px=0))
+        results = [tracker.process(scene.render(pose, rng), float(i)) for i, pose in enumerate(poses)]
+        assert all(r.tracked for r in results), [r.message for r in results]
+        errors[name] = max(np.linalg.norm(r.pose[:2] - np.array(p[:2])) for r, p in zip(results, poses))
+    print(f"largest position error near the image edges: {errors}")
+    assert errors["intrinsics"] < 0.002, errors
+    assert errors["homography only"] > 0.01, errors
