@@ -3,7 +3,7 @@
 A gait is one shape function here, registered with ``@gait("name")``, plus one block of typed
 parameters with defaults and ranges in ``config/gaits.yaml``. A shape function maps phases ``(N,)``
 in ``[0, 1)`` and arc lengths ``s_m`` ``(M,)`` to the target curve in the robot frame ``(N, M, 3)``:
-the curve starts at the robot origin, leaves it along +Z (the unbent body's axis, CONVENTIONS.md),
+the curve starts at the robot origin, leaves it along +Z (the unbent body's axis, docs/conventions.md),
 and is parameterised by arc length (metres).
 
 Body frame of a curve that lives in the world (serpentine, sidewinding): at the robot origin on the
@@ -338,7 +338,7 @@ def rolling_arc_lengths(phase, radius_m: float, robot: RobotDescription, turns_p
 
     Every module is one piece of the arc (constant curvature ``1 / radius_m``) bent in the arc's
     plane; module ``i`` (0-based) sees that plane at ``psi - i * sigma`` (the inter-module twist), with
-    ``psi = 2 pi turns_per_cycle phase``. With the least-extension lengths of CONVENTIONS.md,
+    ``psi = 2 pi turns_per_cycle phase``. With the least-extension lengths of docs/conventions.md,
     ``l_j = r phi (m - cos(theta_j - plane))``, ``m = max_j cos(theta_j - plane)``, and the bend
     ``phi = L / radius`` of the arc length ``L = L0 + r phi m``: ``phi = L0 / (radius - r m)``.
     """

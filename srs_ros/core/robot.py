@@ -18,7 +18,7 @@ import yaml
 
 from srs_ros.core.errors import ConfigurationError
 
-#: Absolute ceiling of any commanded pressure, whatever a config file says (CONVENTIONS.md).
+#: Absolute ceiling of any commanded pressure, whatever a config file says (docs/conventions.md).
 ABSOLUTE_MAX_PRESSURE_BAR = 4.0
 
 PACKAGE_NAME = "srs_ros"
@@ -36,7 +36,7 @@ class RegulatorModel:
 
 @dataclass(frozen=True)
 class RobotDescription:
-    """Geometry, limits and actuation map of the SRS (CONVENTIONS.md, paper Sec. II-A and IV-B)."""
+    """Geometry, limits and actuation map of the SRS (docs/conventions.md, paper Sec. II-A and IV-B)."""
 
     name: str
     module_count: int
