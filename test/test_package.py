@@ -138,6 +138,39 @@ def test_package_xml_declares_nothing_the_code_and_tests_do_not_use():
 
 
 
+def test_setup_cfg_puts_scripts_under_lib():
+    cfg = configparser.ConfigParser()
+    cfg.read(ROOT / "setup.cfg")
+    assert cfg["develop"]["script_dir"] == "$base/lib/srs_ros"
+    assert cfg["install"]["install_scripts"] == "$base/lib/srs_ros"
+
+
+@pytest.mark.parametrize("script", sorted(SCRIPTS))
+def test_every_console_script_has_a_main(script):
+    module_name, func = SCRIPTS[script].split(":")
+    assert callable(getattr(importlib.import_module(module_name), func))
+
+
+def test_colcon_build_installs_scripts_config_and_launch(tmp_path):
+    colcon = _venv_tool("colcon")
+    assert colcon, "colcon is not installed (pip install -e '.[test]')"
+    result = subprocess.run(
+        [colcon, "--log-base", str(tmp_path / "log"), "build", "--base-paths", str(ROOT),
+         "--build-base", str(tmp_path / "build"), "--install-base", str(tmp_path / "install")],
+        cwd=tmp_path, capture_output=True, text=True, timeout=300,
+    )
+    assert result.returncode == 0, result.stdout + result.stderr
+    prefix = tmp_path / "install" / "srs_ros"
+    for script in SCRIPTS:
+        assert (prefix / "lib" / "srs_ros" / script).is_file(), script
+    share = prefix / "share" / "srs_ros"
+    assert (share / "package.xml").is_file()
+    assert (share / "config" / "robot.yaml").is_file()
+    assert (share / "config" / "rigs" / "mock.yaml").is_file()
+    assert sorted(p.name for p in (share / "launch").glob("*.launch.py")) == ["srs.launch.py"]
+    assert (prefix / "share" / "ament_index" / "resource_index" / "packages" / "srs_ros").is_file()
+
+
 # ------------------------------------------------------------------------------------------
 # Documents that belong to the package
 # ------------------------------------------------------------------------------------------
