@@ -1,8 +1,16 @@
 """Launch the SRS system as separate processes on a stock ROS 2 install (params from config/).
 
 - ``ros2 launch srs_ros srs.launch.py``: mock rig, inward rolling at 4 bar, 1 Hz;
-- ``ros2 launch srs_ros srs.launch.py rig_file:=/path/to/rigs/can.yaml gait:=serpentine``;
-- ``ros2 launch srs_ros srs.launch.py camera:=true``: also the overhead camera tracker.
+- ``ros2 launch srs_ros srs.launch.py rig_file:=/path/to/rigs/can.yaml gait:=serpentine amplitude_bar:=3``;
+- ``ros2 launch srs_ros srs.launch.py camera:=true``: also the overhead camera tracker;
+- ``ros2 launch srs_ros srs.launch.py namespace:=snake1 use_sim_time:=true``: every node under
+  ``/snake1`` (topics ``/snake1/joint_setpoints`` ..., services ``/snake1/hardware_node/...``), on
+  ``/clock`` time.
+
+``hardware_node`` is started with launch_ros's ``LifecycleNode`` action, so launch can drive its
+transitions (``ChangeState`` events); with ``autostart:=true`` it configures and activates itself.
+Numbers are handed to the nodes as doubles whether written ``3`` or ``3.0``; ``ros2 launch srs_ros
+srs.launch.py --show-args`` lists the arguments.
 """
 
 import os
@@ -12,41 +20,56 @@ from launch import LaunchDescription
 from launch.actions import DeclareLaunchArgument
 from launch.conditions import IfCondition
 from launch.substitutions import LaunchConfiguration
-from launch_ros.actions import Node
+from launch_ros.actions import LifecycleNode, Node
+from launch_ros.parameter_descriptions import ParameterValue
+
+
+def _typed(name: str, value_type: type) -> ParameterValue:
+    """The launch argument ``name`` as a typed parameter value (``3`` becomes 3.0 for a float)."""
+    return ParameterValue(LaunchConfiguration(name), value_type=value_type)
 
 
 def generate_launch_description():
     config = os.path.join(get_package_share_directory("srs_ros"), "config")
     args = [
         DeclareLaunchArgument("gait", default_value="inward_rolling", description="gait to stream"),
-        DeclareLaunchArgument("amplitude_bar", default_value="4.0", description="largest pressure (bar)"),
-        DeclareLaunchArgument("frequency_hz", default_value="1.0", description="gait frequency (Hz)"),
+        DeclareLaunchArgument("amplitude_bar", default_value="4.0",
+                              description="largest pressure of the cycle, bar (3 or 3.0)"),
+        DeclareLaunchArgument("frequency_hz", default_value="1.0", description="gait frequency, Hz (1 or 1.0)"),
         DeclareLaunchArgument("rig_file", default_value=os.path.join(config, "rigs", "mock.yaml"),
                               description="rig YAML (backend, channels, rates)"),
-        DeclareLaunchArgument("autostart", default_value="true", description="configure, activate and play"),
-        DeclareLaunchArgument("camera", default_value="false", description="start the camera tracker"),
+        DeclareLaunchArgument("autostart", default_value="true", choices=["true", "false"],
+                              description="configure and activate the hardware node, play the gait"),
+        DeclareLaunchArgument("camera", default_value="false", choices=["true", "false"],
+                              description="start the camera tracker"),
+        DeclareLaunchArgument("namespace", default_value="", description="ROS namespace of every node"),
+        DeclareLaunchArgument("use_sim_time", default_value="false", choices=["true", "false"],
+                              description="use /clock (simulation) time"),
     ]
+    namespace = LaunchConfiguration("namespace")
+    common = {"use_sim_time": _typed("use_sim_time", bool)}
+    autostart = {"autostart": _typed("autostart", bool)}
     trajectory_server = Node(
-        package="srs_ros", executable="trajectory_server", name="trajectory_server", output="screen",
-        parameters=[os.path.join(config, "trajectory_server.yaml"), {
+        package="srs_ros", executable="trajectory_server", name="trajectory_server", namespace=namespace,
+        output="screen",
+        parameters=[os.path.join(config, "trajectory_server.yaml"), common, {
             "gait": LaunchConfiguration("gait"),
-            "amplitude_bar": LaunchConfiguration("amplitude_bar"),
-            "frequency_hz": LaunchConfiguration("frequency_hz"),
+            "amplitude_bar": _typed("amplitude_bar", float),
+            "frequency_hz": _typed("frequency_hz", float),
         }],
     )
     gait_player = Node(
-        package="srs_ros", executable="gait_player", name="gait_player", output="screen",
-        parameters=[os.path.join(config, "gait_player.yaml"), {"autostart": LaunchConfiguration("autostart")}],
+        package="srs_ros", executable="gait_player", name="gait_player", namespace=namespace, output="screen",
+        parameters=[os.path.join(config, "gait_player.yaml"), common, autostart],
     )
-    hardware_node = Node(
-        package="srs_ros", executable="hardware_node", name="hardware_node", output="screen",
-        parameters=[os.path.join(config, "hardware_node.yaml"), {
-            "rig_file": LaunchConfiguration("rig_file"),
-            "autostart": LaunchConfiguration("autostart"),
-        }],
+    hardware_node = LifecycleNode(
+        package="srs_ros", executable="hardware_node", name="hardware_node", namespace=namespace, output="screen",
+        parameters=[os.path.join(config, "hardware_node.yaml"), common, autostart,
+                    {"rig_file": LaunchConfiguration("rig_file")}],
     )
     camera_tracker = Node(
-        package="srs_ros", executable="camera_tracker", name="camera_tracker", output="screen",
-        parameters=[os.path.join(config, "camera_tracker.yaml")], condition=IfCondition(LaunchConfiguration("camera")),
+        package="srs_ros", executable="camera_tracker", name="camera_tracker", namespace=namespace, output="screen",
+        parameters=[os.path.join(config, "camera_tracker.yaml"), common],
+        condition=IfCondition(LaunchConfiguration("camera")),
     )
     return LaunchDescription(args + [trajectory_server, gait_player, hardware_node, camera_tracker])

@@ -5,6 +5,12 @@ by a pinhole camera maps to the image by a homography ``H`` (3 x 3, defined up t
 known floor points and their pixels fix it. This module fits ``H`` (normalised DLT, then Levenberg-Marquardt
 on the floor-side error), applies it to batches of points, reports the reprojection error in millimetres,
 and reads and writes the calibration YAML (``config/camera_calibration.yaml``). No ROS imports.
+
+Lens distortion (wide-angle cameras): the file may hold the camera's intrinsics as ``sensor_msgs/CameraInfo``
+names them (``distortion_model``, ``k`` the 3 x 3 camera matrix row by row, ``d`` the coefficients; what
+the ROS ``camera_calibration`` tool writes). When present, pixels are undistorted first and the homography
+maps *undistorted* pixels to the floor. Models: ``plumb_bob`` (k1, k2, p1, p2[, k3]), ``rational_polynomial``
+(k1, k2, p1, p2, k3, k4, k5, k6) and ``equidistant`` (fisheye, k1..k4), as in OpenCV.
 """
 
 from __future__ import annotations
@@ -122,9 +128,133 @@ def reprojection_errors_mm(homography: np.ndarray, image_px: Any, floor_m: Any) 
     return 1000.0 * np.linalg.norm(mapped - _points("floor_m", floor_m), axis=-1)
 
 
+#: Distortion models (sensor_msgs/CameraInfo names) -> allowed numbers of coefficients.
+DISTORTION_MODELS = {"plumb_bob": (4, 5), "rational_polynomial": (8,), "equidistant": (4,)}
+
+
+@dataclass(frozen=True, eq=False)
+class CameraIntrinsics:
+    """Camera matrix K (3 x 3, pixels) and lens distortion ``distortion`` of ``model`` (CameraInfo ``k``, ``d``).
+
+    :meth:`distort_px` maps ideal (pinhole) pixels to the pixels a real lens gives, :meth:`undistort_px`
+    the reverse; both batched over ``(..., 2)`` and equal to OpenCV's ``projectPoints`` / ``fisheye``
+    (which assume zero skew, as camera calibrations give).
+    """
+
+    camera_matrix: np.ndarray
+    distortion: np.ndarray
+    model: str = "plumb_bob"
+
+    def __post_init__(self):
+        k = np.asarray(self.camera_matrix, dtype=np.float64).reshape(-1)
+        d = np.asarray(self.distortion, dtype=np.float64).reshape(-1)
+        if self.model not in DISTORTION_MODELS:
+            raise ConfigurationError(f"distortion_model {self.model!r}; expected one of {sorted(DISTORTION_MODELS)}.")
+        if k.size != 9 or not np.all(np.isfinite(k)) or k[0] <= 0 or k[4] <= 0:
+            raise ConfigurationError(f"camera matrix k {k.tolist()}; expected 9 finite numbers: fx 0 cx 0 fy cy 0 0 1.")
+        if d.size not in DISTORTION_MODELS[self.model] or not np.all(np.isfinite(d)):
+            raise ConfigurationError(f"distortion d {d.tolist()}: {self.model} takes "
+                                     f"{' or '.join(map(str, DISTORTION_MODELS[self.model]))} finite coefficients.")
+        object.__setattr__(self, "camera_matrix", k.reshape(3, 3))
+        object.__setattr__(self, "distortion", np.pad(d, (0, 8 - d.size)) if self.model != "equidistant" else d)
+
+    def _to_normalised(self, pixels: np.ndarray) -> np.ndarray:
+        k = self.camera_matrix
+        return np.stack([(pixels[..., 0] - k[0, 2] - k[0, 1] * (pixels[..., 1] - k[1, 2]) / k[1, 1]) / k[0, 0],
+                         (pixels[..., 1] - k[1, 2]) / k[1, 1]], axis=-1)
+
+    def _to_pixels(self, normalised: np.ndarray) -> np.ndarray:
+        k = self.camera_matrix
+        x, y = normalised[..., 0], normalised[..., 1]
+        return np.stack([k[0, 0] * x + k[0, 1] * y + k[0, 2], k[1, 1] * y + k[1, 2]], axis=-1)
+
+    def _distort(self, xy: np.ndarray) -> np.ndarray:
+        """Normalised ideal -> normalised distorted coordinates."""
+        x, y = xy[..., 0], xy[..., 1]
+        r2 = x * x + y * y
+        if self.model == "equidistant":
+            r = np.sqrt(r2)
+            theta = np.arctan(r)
+            t2 = theta * theta
+            k1, k2, k3, k4 = self.distortion
+            theta_d = theta * (1 + t2 * (k1 + t2 * (k2 + t2 * (k3 + t2 * k4))))
+            ratio = np.where(r > 1e-12, theta_d / np.where(r > 1e-12, r, 1.0), 1.0)
+            return xy * ratio[..., None]
+        k1, k2, p1, p2, k3, k4, k5, k6 = self.distortion
+        radial = (1 + r2 * (k1 + r2 * (k2 + r2 * k3))) / (1 + r2 * (k4 + r2 * (k5 + r2 * k6)))
+        return np.stack([x * radial + 2 * p1 * x * y + p2 * (r2 + 2 * x * x),
+                         y * radial + p1 * (r2 + 2 * y * y) + 2 * p2 * x * y], axis=-1)
+
+    def distort_px(self, points_px: Any) -> np.ndarray:
+        """Ideal pinhole pixels (..., 2) -> the pixels where the lens puts them."""
+        return self._to_pixels(self._distort(self._to_normalised(_points("points_px", points_px))))
+
+    def undistort_px(self, points_px: Any, iterations: int = 100) -> np.ndarray:
+        """Observed pixels (..., 2) -> ideal pinhole pixels (Gauss-Newton on :meth:`distort_px`, to 1e-12)."""
+        target = self._to_normalised(_points("points_px", points_px))
+        xy = target.copy()
+        step = 1e-7
+        for _ in range(iterations):
+            residual = self._distort(xy) - target
+            if np.max(np.abs(residual), initial=0.0) < 1e-12:
+                break
+            # 2 x 2 Jacobian by central differences (the maps are smooth), solved per point.
+            jx = (self._distort(xy + [step, 0.0]) - self._distort(xy - [step, 0.0])) / (2 * step)
+            jy = (self._distort(xy + [0.0, step]) - self._distort(xy - [0.0, step])) / (2 * step)
+            det = jx[..., 0] * jy[..., 1] - jy[..., 0] * jx[..., 1]
+            det = np.where(np.abs(det) > 1e-15, det, 1e-15)
+            dx = (jy[..., 1] * residual[..., 0] - jy[..., 0] * residual[..., 1]) / det
+            dy = (jx[..., 0] * residual[..., 1] - jx[..., 1] * residual[..., 0]) / det
+            xy = xy - np.stack([dx, dy], axis=-1)
+        return self._to_pixels(xy)
+
+    def to_dict(self) -> dict[str, Any]:
+        """The ``intrinsics:`` mapping of the calibration file (CameraInfo names)."""
+        d = self.distortion if self.model == "equidistant" else self.distortion[:8 if self.model != "plumb_bob" else 5]
+        return {"distortion_model": self.model, "k": [float(v) for v in self.camera_matrix.ravel()],
+                "d": [float(v) for v in d]}
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any], source: str = "<intrinsics>") -> CameraIntrinsics:
+        """From CameraInfo names (``k``, ``d``, ``distortion_model``) or the ROS camera_calibration YAML.
+
+        The latter (``camera_matrix: {data: [...]}``, ``distortion_coefficients: {data: [...]}``,
+        ``distortion_model``) is what ``ros2 run camera_calibration cameracalibrator`` saves.
+        """
+        if not isinstance(data, Mapping):
+            raise ConfigurationError(f"{source}: intrinsics must be a mapping with k, d and distortion_model.")
+        def numbers(key: str, block: str) -> Any:
+            nested = data.get(block)
+            return data[key] if key in data else nested.get("data") if isinstance(nested, Mapping) else None
+
+        k, d = numbers("k", "camera_matrix"), numbers("d", "distortion_coefficients")
+        if k is None or d is None:
+            raise ConfigurationError(f"{source}: intrinsics need the camera matrix (k, or camera_matrix.data) and the "
+                                     "distortion coefficients (d, or distortion_coefficients.data).")
+        try:
+            return cls(np.asarray(k, dtype=np.float64), np.asarray(d, dtype=np.float64),
+                       str(data.get("distortion_model", "plumb_bob")))
+        except (TypeError, ValueError) as exc:
+            raise ConfigurationError(f"{source}: intrinsics k and d must be lists of numbers ({exc}).") from None
+        except ConfigurationError as exc:
+            raise ConfigurationError(f"{source}: {exc}") from None
+
+
+def load_intrinsics(path: str | Path) -> CameraIntrinsics:
+    """Intrinsics from a YAML file: a ROS camera_calibration file, CameraInfo fields, or a calibration file."""
+    data = read_yaml(path)
+    if isinstance(data, Mapping) and isinstance(data.get(CALIBRATION_KEY), Mapping):
+        data = data[CALIBRATION_KEY].get("intrinsics")
+    return CameraIntrinsics.from_dict(data, str(path))
+
+
 @dataclass(frozen=True)
 class CameraCalibration:
-    """Image -> floor homography of one camera, with the point pairs it came from and their error."""
+    """Image -> floor homography of one camera, with the point pairs it came from and their error.
+
+    With ``intrinsics`` the homography maps undistorted pixels; :meth:`image_to_floor` and
+    :meth:`floor_to_image` take and give the camera's real (distorted) pixels either way.
+    """
 
     homography_image_to_floor: np.ndarray
     image_px: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
@@ -132,6 +262,7 @@ class CameraCalibration:
     image_size_px: tuple[int, int] | None = None
     frame_id: str = "floor"
     source: str = field(default="<memory>", compare=False)
+    intrinsics: CameraIntrinsics | None = field(default=None, compare=False)
 
     @property
     def homography_floor_to_image(self) -> np.ndarray:
@@ -144,7 +275,7 @@ class CameraCalibration:
         """Per-pair floor-side error (mm) of the stored point pairs."""
         if len(self.image_px) == 0:
             return np.zeros(0)
-        return reprojection_errors_mm(self.homography_image_to_floor, self.image_px, self.floor_m)
+        return 1000.0 * np.linalg.norm(self.image_to_floor(self.image_px) - self.floor_m, axis=-1)
 
     @property
     def rms_error_mm(self) -> float:
@@ -158,22 +289,27 @@ class CameraCalibration:
         errors = self.reprojection_errors_mm
         return float(errors.max()) if len(errors) else 0.0
 
+    def undistort_px(self, points_px: Any) -> np.ndarray:
+        """The camera's pixels (..., 2) -> ideal pinhole pixels (unchanged without intrinsics)."""
+        return self.intrinsics.undistort_px(points_px) if self.intrinsics else _points("points_px", points_px)
+
     def image_to_floor(self, points_px: Any) -> np.ndarray:
         """Pixels (..., 2) -> floor metres (..., 2)."""
-        return apply_homography(self.homography_image_to_floor, points_px)
+        return apply_homography(self.homography_image_to_floor, self.undistort_px(points_px))
 
     def floor_to_image(self, points_m: Any) -> np.ndarray:
         """Floor metres (..., 2) -> pixels (..., 2)."""
-        return apply_homography(self.homography_floor_to_image, points_m)
+        ideal = apply_homography(self.homography_floor_to_image, points_m)
+        return self.intrinsics.distort_px(ideal) if self.intrinsics else ideal
 
 
 def calibration_from_pairs(image_px: Any, floor_m: Any, image_size_px: tuple[int, int] | None = None,
-                           frame_id: str = "floor") -> CameraCalibration:
-    """Fit a :class:`CameraCalibration` from n >= 4 (pixel, floor metre) pairs."""
+                           frame_id: str = "floor", intrinsics: CameraIntrinsics | None = None) -> CameraCalibration:
+    """Fit a :class:`CameraCalibration` from n >= 4 (pixel, floor metre) pairs (pixels undistorted first)."""
     image_px = _points("image_px", image_px).reshape(-1, 2)
     floor_m = _points("floor_m", floor_m).reshape(-1, 2)
-    h = fit_homography(image_px, floor_m)
-    return CameraCalibration(h, image_px, floor_m, image_size_px, frame_id)
+    h = fit_homography(intrinsics.undistort_px(image_px) if intrinsics else image_px, floor_m)
+    return CameraCalibration(h, image_px, floor_m, image_size_px, frame_id, intrinsics=intrinsics)
 
 
 def calibration_from_dict(data: Mapping[str, Any], source: str = "<dict>") -> CameraCalibration:
@@ -198,6 +334,9 @@ def calibration_from_dict(data: Mapping[str, Any], source: str = "<dict>") -> Ca
     if size is not None and not (isinstance(size, list) and len(size) == 2 and all(isinstance(v, int) for v in size)):
         raise ConfigurationError(f"{source}: 'image_size_px' is {size!r}; expected [width, height] integers.")
     frame_id = str(section.get("frame_id", "floor"))
+    intrinsics = None
+    if section.get("intrinsics") is not None:
+        intrinsics = CameraIntrinsics.from_dict(section["intrinsics"], f"{source} [intrinsics]")
     stored = section.get("homography_image_to_floor")
     try:
         if stored is not None:
@@ -208,7 +347,7 @@ def calibration_from_dict(data: Mapping[str, Any], source: str = "<dict>") -> Ca
                 )
             h = h / h[2, 2]
         elif len(image_px) >= MIN_POINT_PAIRS:
-            h = fit_homography(image_px, floor_m)
+            h = fit_homography(intrinsics.undistort_px(image_px) if intrinsics else image_px, floor_m)
         else:
             raise ConfigurationError(
                 f"{source}: neither 'homography_image_to_floor' nor >= {MIN_POINT_PAIRS} 'point_pairs'; "
@@ -216,7 +355,7 @@ def calibration_from_dict(data: Mapping[str, Any], source: str = "<dict>") -> Ca
             )
     except InvalidInputError as exc:
         raise ConfigurationError(f"{source}: {exc}") from exc
-    return CameraCalibration(h, image_px, floor_m, tuple(size) if size else None, frame_id, source)
+    return CameraCalibration(h, image_px, floor_m, tuple(size) if size else None, frame_id, source, intrinsics)
 
 
 def load_calibration(path: str | Path | None = None) -> CameraCalibration:
@@ -239,6 +378,8 @@ def calibration_to_dict(calibration: CameraCalibration) -> dict[str, Any]:
     }
     if calibration.image_size_px:
         section["image_size_px"] = [int(v) for v in calibration.image_size_px]
+    if calibration.intrinsics is not None:
+        section["intrinsics"] = calibration.intrinsics.to_dict()
     return {CALIBRATION_KEY: section}
 
 

@@ -254,7 +254,7 @@ def geometric_guess(curves, s_m, robot: RobotDescription) -> np.ndarray:
 
     Module by module: the chord from the module's base to the curve point one arc length further, in
     the module's base frame, gives the bending plane (its direction) and angle (twice its angle to +Z);
-    the least-extension lengths of that bend (CONVENTIONS.md) set the arc length; repeated 3 times.
+    the least-extension lengths of that bend (docs/conventions.md) set the arc length; repeated 3 times.
     """
     count, n_act = len(curves), robot.actuators_per_module
     q = np.zeros((count, robot.joint_count))

@@ -3,7 +3,7 @@
 A gait is one shape function here, registered with ``@gait("name")``, plus one block of typed
 parameters with defaults and ranges in ``config/gaits.yaml``. A shape function maps phases ``(N,)``
 in ``[0, 1)`` and arc lengths ``s_m`` ``(M,)`` to the target curve in the robot frame ``(N, M, 3)``:
-the curve starts at the robot origin, leaves it along +Z (the unbent body's axis, CONVENTIONS.md),
+the curve starts at the robot origin, leaves it along +Z (the unbent body's axis, docs/conventions.md),
 and is parameterised by arc length (metres).
 
 Body frame of a curve that lives in the world (serpentine, sidewinding): at the robot origin on the
@@ -43,6 +43,9 @@ class GaitParameter:
     maximum: float | None
     unit: str
     description: str
+    #: How the parameter follows the pressure amplitude: "" (not at all), "proportional" (it scales the body's
+    #: bending, e.g. a serpenoid's angle) or "inverse" (a length that shrinks as the body bends more, e.g. a radius).
+    amplitude: str = ""
 
     def check(self, gait_name: str, value: Any) -> Any:
         """Return ``value`` converted to :attr:`type`, or raise :class:`InvalidInputError` saying why not."""
@@ -82,6 +85,21 @@ class GaitSpec:
     def defaults(self) -> dict[str, Any]:
         """Parameter name -> default value."""
         return {p.name: p.default for p in self.parameters}
+
+    @property
+    def amplitude_parameters(self) -> tuple[str, ...]:
+        """Names of the parameters that follow the pressure amplitude (``amplitude:`` in gaits.yaml)."""
+        return tuple(p.name for p in self.parameters if p.amplitude)
+
+    def bent(self, values: Mapping[str, Any], factor: float) -> dict[str, Any]:
+        """``values`` bent ``factor`` times as much: proportional parameters times it, inverse ones over it.
+
+        Scaling every curvature of a curve by ``factor`` is what these parameters do (a serpenoid's angle,
+        a helix's radius and pitch), so the result is the gait's shape bent ``factor`` times as much.
+        """
+        kinds = {p.name: p.amplitude for p in self.parameters}
+        return {name: value * factor if kinds.get(name) == "proportional" else
+                value / factor if kinds.get(name) == "inverse" else value for name, value in values.items()}
 
     def resolve(self, params: Mapping[str, Any] | None = None) -> dict[str, Any]:
         """Defaults overlaid with ``params``, every value checked; unknown names raise :class:`InvalidInputError`."""
@@ -128,9 +146,13 @@ def _parameter_from_yaml(gait_name: str, name: str, block: Any, where: str) -> G
         raise ConfigurationError(
             f"{where}: parameter '{name}' of gait '{gait_name}' needs 'type' (one of {sorted(_TYPES)}) and 'default'.")
     kind = _TYPES[block["type"]]
+    amplitude = str(block.get("amplitude", ""))
+    if amplitude not in ("", "proportional", "inverse") or (amplitude and kind is not float):
+        raise ConfigurationError(f"{where}: parameter '{name}' of gait '{gait_name}' has amplitude {amplitude!r}; "
+                                 "expected 'proportional' or 'inverse' on a float parameter.")
     parameter = GaitParameter(name=name, type=kind, default=block["default"], minimum=block.get("minimum"),
                               maximum=block.get("maximum"), unit=str(block.get("unit", "")),
-                              description=str(block.get("description", "")))
+                              description=str(block.get("description", "")), amplitude=amplitude)
     try:
         default = parameter.check(gait_name, block["default"])
     except InvalidInputError as exc:
@@ -179,11 +201,18 @@ def gait_curves(name: str, phase, robot: RobotDescription, params: Mapping[str, 
     ``parameters used`` holds the resolved parameters plus what a shape derived (e.g. the serpentine
     scale in metres per curve unit).
     """
-    spec = gait_spec(name)
-    resolved = spec.resolve(params)
+    return shape_curves(name, phase, robot, gait_spec(name).resolve(params), points)
+
+
+def shape_curves(name: str, phase, robot: RobotDescription, resolved: Mapping[str, Any],
+                 points: int = 401) -> tuple[np.ndarray, np.ndarray, dict]:
+    """:func:`gait_curves` for a complete, already checked parameter set.
+
+    E.g. one solved for an amplitude, which may lie outside the ranges a user may ask for.
+    """
     phase = np.atleast_1d(np.asarray(phase, dtype=np.float64))
     s_m = np.linspace(0.0, curve_length_m(robot), points)
-    curves, derived = _SHAPES[name](phase, s_m, resolved, robot)
+    curves, derived = _SHAPES[name](phase, s_m, dict(resolved), robot)
     return curves, s_m, {**resolved, **derived}
 
 
@@ -309,7 +338,7 @@ def rolling_arc_lengths(phase, radius_m: float, robot: RobotDescription, turns_p
 
     Every module is one piece of the arc (constant curvature ``1 / radius_m``) bent in the arc's
     plane; module ``i`` (0-based) sees that plane at ``psi - i * sigma`` (the inter-module twist), with
-    ``psi = 2 pi turns_per_cycle phase``. With the least-extension lengths of CONVENTIONS.md,
+    ``psi = 2 pi turns_per_cycle phase``. With the least-extension lengths of docs/conventions.md,
     ``l_j = r phi (m - cos(theta_j - plane))``, ``m = max_j cos(theta_j - plane)``, and the bend
     ``phi = L / radius`` of the arc length ``L = L0 + r phi m``: ``phi = L0 / (radius - r m)``.
     """
@@ -321,3 +350,28 @@ def rolling_arc_lengths(phase, radius_m: float, robot: RobotDescription, turns_p
     varying = robot.actuator_radius_m * bend[..., None] * (
         reach[..., None] - np.cos(robot.actuator_angles_rad - planes[..., None]))
     return varying.reshape(len(phase), robot.joint_count)
+
+
+#: Rolling gaits, whose every shape is one constant-curvature arc: turns of its bending plane per cycle.
+ROLLING_TURNS = {"inward_rolling": 1.0, "outward_rolling": -1.0}
+
+
+def rolling_radius_for_peak(peak_length_m: float, phase, robot: RobotDescription,
+                            turns_per_cycle: float = 1.0) -> float:
+    """The rolling arc radius (m) whose exact cycle (:func:`rolling_arc_lengths` at ``phase``) peaks at the length.
+
+    The peak falls monotonically as the radius grows (less bending), so a bracketing root search finds it
+    to 1e-12 m; at 4 bar (0.04 m) the default robot's arc has a radius of 0.092 m (0.336 m at 1 bar).
+    """
+    from scipy.optimize import brentq
+
+    def excess(radius_m: float) -> float:
+        return float(rolling_arc_lengths(phase, radius_m, robot, turns_per_cycle).max()) - peak_length_m
+
+    if not peak_length_m > 0.0:
+        raise InvalidInputError(f"peak length {peak_length_m!r} m; a rolling arc needs a positive extension.")
+    low = robot.actuator_radius_m * (1.0 + 1e-9) + 1e-6
+    high = 1.0
+    while excess(high) > 0.0:
+        high *= 10.0
+    return float(brentq(excess, low, high, xtol=1e-12, rtol=1e-12))

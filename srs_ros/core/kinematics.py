@@ -3,12 +3,12 @@
 Every function is batched: ``q`` has shape ``(..., 9)`` (actuator length changes in metres, order
 ``m1_pma1 ... m3_pma3``), ``xi`` is a 1-D array of body coordinates in ``[0, 3]`` and the optional
 floating base ``base`` (``q_b = [x, y, z, roll, pitch, yaw]``, metres and radians) has shape
-``(..., 6)``. Leading dimensions broadcast. Module frames and conventions: CONVENTIONS.md.
+``(..., 6)``. Leading dimensions broadcast. Module frames and conventions: docs/conventions.md.
 
 A body coordinate ``xi`` in ``[i, i+1)`` lies on module ``i+1`` (0-based ``i``), after the mounting
 frame ``[Rot_z(sigma), (0, 0, delta)]`` that joins it to module ``i``; ``xi = 3`` is the tip.
 
-Worked example (the sanity values of CONVENTIONS.md)::
+Worked example (the sanity values of docs/conventions.md)::
 
     >>> import numpy as np
     >>> backbone_points(np.zeros(9))[-1].round(6).tolist()      # the tip of a straight robot

@@ -240,6 +240,11 @@ class GaitPlayback:
         return self._phase
 
     @property
+    def cycles_done(self) -> float:
+        """Cycles played since the last start (the whole part counts cycles, the fraction is the phase)."""
+        return self._cycles_done
+
+    @property
     def frequency_hz(self) -> float:
         """Frequency currently played (moving to its target after a change)."""
         return self._frequency.value

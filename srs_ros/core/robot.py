@@ -18,7 +18,7 @@ import yaml
 
 from srs_ros.core.errors import ConfigurationError
 
-#: Absolute ceiling of any commanded pressure, whatever a config file says (CONVENTIONS.md).
+#: Absolute ceiling of any commanded pressure, whatever a config file says (docs/conventions.md).
 ABSOLUTE_MAX_PRESSURE_BAR = 4.0
 #: Gait cycle frequencies every tool accepts (Hz): the paper plays 0.25-1 Hz; above 5 Hz the muscles
 #: cannot follow, below 0.01 Hz a "cycle" is a posture held at pressure for minutes.
@@ -39,7 +39,7 @@ class RegulatorModel:
 
 @dataclass(frozen=True)
 class RobotDescription:
-    """Geometry, limits and actuation map of the SRS (CONVENTIONS.md, paper Sec. II-A and IV-B)."""
+    """Geometry, limits and actuation map of the SRS (docs/conventions.md, paper Sec. II-A and IV-B)."""
 
     name: str
     module_count: int

@@ -6,12 +6,16 @@ the joint-space cycle to the requested pressure amplitude and times it by the fr
 a :class:`GaitCycle`, plays back smoothly by periodic cubic interpolation in phase and round-trips
 through CSV.
 
-Amplitude (CONVENTIONS.md): the gait's reference shape (its parameters, e.g. ``radius_m``) is fitted;
-the fitted lengths are then multiplied by one factor ``k`` (:func:`pressure_amplitude_scale`) so
-that the largest pressure of the cycle, ``P = 100 l`` (+ the optional deadzone offset), is exactly A.
-Lengths scale the bending vectors linearly, so a larger A bends more (a smaller rolling radius, a
-larger serpentine wave) as in the paper; ``fit_error_mm`` is the error of the fitted reference shape.
-If ``k * l`` would exceed ``max_extension_m`` the request is refused (it cannot be reached).
+Amplitude (docs/conventions.md, Gaits): the cycle at amplitude A is a shape of the gait bent just enough
+that its largest pressure, ``P = 100 l`` (+ the optional deadzone offset), is exactly A; a larger A bends
+more (a smaller rolling radius, a larger serpentine wave) as in the paper. Rolling gaits are solved
+exactly: every shape is one constant-curvature arc, whose three lengths per module are sinusoids 120 deg
+apart, so the arc radius for A is found by a 1-D root search and the cycle is that arc, not a fit.
+Other gaits are fitted: the gait's amplitude parameters (``amplitude:`` in ``config/gaits.yaml``, e.g. a
+serpenoid's angle, a helix's radius and pitch) are scaled by the factor the fitted cycle misses A by, and
+the shape refitted, until the factor is within 1 % of 1; that last factor is then applied. Either way
+``fit_error_mm`` and the reported parameters describe the shape that is commanded, not a reference.
+If A needs more than ``max_extension_m`` the request is refused (it cannot be reached).
 """
 
 from __future__ import annotations
@@ -29,8 +33,17 @@ import yaml
 
 from srs_ros.core.actuation import lengths_to_pressures_bar, pressure_amplitude_scale
 from srs_ros.core.errors import InvalidInputError
-from srs_ros.core.fitting import FitSettings, fit_shapes
-from srs_ros.core.gaits import GaitSpec, gait_curves, gait_spec, gaits_config, list_gaits
+from srs_ros.core.fitting import FitSettings, fit_error_mm, fit_shapes
+from srs_ros.core.gaits import (
+    ROLLING_TURNS,
+    GaitSpec,
+    gait_spec,
+    gaits_config,
+    list_gaits,
+    rolling_arc_lengths,
+    rolling_radius_for_peak,
+    shape_curves,
+)
 from srs_ros.core.interpolation import PeriodicTrajectory
 from srs_ros.core.robot import CYCLE_FREQUENCY_RANGE_HZ, RobotDescription, default_robot
 
@@ -54,9 +67,10 @@ class GaitCycle:
     """One joint-space cycle of a gait, ready to play (sample ``i`` at phase ``i / N``).
 
     ``lengths_m`` (N, 9) actuator length changes in joint order ``joint_names``, within
-    ``[0, max_extension_m]``; ``fit_error_mm`` (N,) RMS distance of the 31 backbone points to the
-    gait shape (of the fitted reference shape); ``poor_samples`` samples still poor after the retry;
-    ``parameters`` the gait parameters used, with derived values (``amplitude_scale``, ...).
+    ``[0, max_extension_m]``; ``fit_error_mm`` (N,) RMS distance of the commanded body's 31 backbone
+    points to the gait shape it is commanded to take; ``poor_samples`` samples still poor after the
+    retry; ``parameters`` the gait parameters of that shape (solved for the amplitude, with the given
+    values as ``reference_<name>``) and derived values.
     """
 
     gait: str
@@ -118,9 +132,16 @@ class GaitCycle:
         """One line for people: gait, amplitude, frequency, samples, fit errors, poor samples."""
         poor = f"{len(self.poor_samples)} poor sample(s) {list(self.poor_samples)}" if self.poor_samples \
             else "no poor samples"
+        shape = ", ".join(f"{name} {self.parameters[name]:.4g}" for name in self.shape_parameters)
         return (f"{self.gait}: A = {self.amplitude_bar:g} bar, f = {self.frequency_hz:g} Hz, N = {self.sample_count}, "
-                f"fit error mean {float(np.mean(self.fit_error_mm)):.3f} mm, worst "
-                f"{float(np.max(self.fit_error_mm)):.3f} mm, {poor}")
+                f"{'shape ' + shape + ', ' if shape else ''}fit error mean {float(np.mean(self.fit_error_mm)):.3f} mm, "
+                f"worst {float(np.max(self.fit_error_mm)):.3f} mm, {poor}")
+
+    @property
+    def shape_parameters(self) -> tuple[str, ...]:
+        """The parameters solved for the amplitude (e.g. ``radius_m`` of a rolling arc), in gaits.yaml order."""
+        return tuple(f"{key[len('reference_'):]}" for key in self.parameters
+                     if key.startswith("reference_") and key[len("reference_"):] in self.parameters)
 
     # ----------------------------------------------------------------------------------------
     # CSV
@@ -224,32 +245,39 @@ def _check_request(gait: str, amplitude_bar: float, frequency_hz: float, samples
 
 def generate_cycle(gait: str, amplitude_bar: float, frequency_hz: float, samples: int = 64,
                    robot: RobotDescription | None = None, params: Mapping[str, Any] | None = None) -> GaitCycle:
-    """Fit ``gait`` over one cycle of ``samples`` shapes, scale it to ``amplitude_bar``, time it by ``frequency_hz``.
+    """The cycle of ``gait`` at ``amplitude_bar`` (shape solved for it), ``samples`` shapes, timed by ``frequency_hz``.
 
     Raises :class:`InvalidInputError` for an unknown gait, ``amplitude_bar`` outside
-    ``(0, max_pressure_bar]``, ``frequency_hz <= 0``, ``samples < 8``, or unknown/out-of-range gait
-    parameters (the message lists what is allowed). Samples whose fit stays poor after the global
-    retry are listed in ``poor_samples`` and a :class:`PoorFitWarning` is issued.
+    ``(0, max_pressure_bar]``, ``frequency_hz <= 0``, ``samples < 8``, unknown/out-of-range gait
+    parameters (the message lists what is allowed), or an amplitude beyond the actuators' extension.
+    Samples whose fit stays poor after the global retry are listed in ``poor_samples`` and a
+    :class:`PoorFitWarning` is issued.
     """
     robot = robot or default_robot()
     spec = _check_request(gait, amplitude_bar, frequency_hz, samples, robot)
     settings = fit_settings()
+    given = spec.resolve(params)
     phase = np.arange(samples) / samples
-    curves, s_m, used = gait_curves(spec.name, phase, robot, params, settings.curve_points)
-    fit = fit_shapes(curves, s_m, robot, settings, poor_fit_mm=used["poor_fit_mm"], periodic=True)
-    reference_peak_bar = float(fit.lengths_m.max()) * robot.pressure_per_length_bar_per_m
-    scale = pressure_amplitude_scale(fit.lengths_m, float(amplitude_bar), robot)
-    lengths = fit.lengths_m * scale
+    peak_m = (float(amplitude_bar) - robot.deadzone_offset_bar) / robot.pressure_per_length_bar_per_m
+    if peak_m > robot.max_extension_m * (1.0 + 1e-9):
+        raise InvalidInputError(
+            f"amplitude_bar: {amplitude_bar:g} bar needs {peak_m * 1e3:.1f} mm of extension, more than the "
+            f"{robot.max_extension_m * 1e3:.1f} mm an actuator has; ask for less amplitude.")
+    if spec.name in ROLLING_TURNS:
+        lengths, error, shape, used, fits, retried = _solve_rolling(spec, given, phase, peak_m, robot, settings)
+    else:
+        lengths, error, shape, used, fits, retried = _fit_for_amplitude(spec, given, phase, float(amplitude_bar),
+                                                                        robot, settings)
     if lengths.max() > robot.max_extension_m * (1.0 + 1e-9):
         raise InvalidInputError(
             f"amplitude_bar: {amplitude_bar:g} bar needs {lengths.max() * 1e3:.1f} mm of extension, more than the "
             f"{robot.max_extension_m * 1e3:.1f} mm an actuator has; ask for less amplitude or a gentler shape.")
     lengths = np.clip(lengths, 0.0, robot.max_extension_m)
-    poor = tuple(int(i) for i in np.flatnonzero(fit.poor))
-    used = {**used, "samples": int(samples), "amplitude_scale": float(scale),
-            "reference_peak_bar": reference_peak_bar, "retried_samples": len(fit.retried)}
+    poor = tuple(int(i) for i in np.flatnonzero(error > used["poor_fit_mm"]))
+    used = {**used, **{f"reference_{name}": given[name] for name in spec.amplitude_parameters},
+            "samples": int(samples), "shape_fits": fits, "retried_samples": retried}
     cycle = GaitCycle(gait=spec.name, amplitude_bar=float(amplitude_bar), frequency_hz=float(frequency_hz),
-                      lengths_m=lengths, fit_error_mm=fit.error_mm, poor_samples=poor, parameters=used,
+                      lengths_m=lengths, fit_error_mm=error, poor_samples=poor, parameters=used,
                       joint_names=tuple(robot.joint_names), robot=robot)
     if poor:
         warnings.warn(f"{cycle.summary()}: samples {list(poor)} fit worse than poor_fit_mm = "
@@ -257,3 +285,41 @@ def generate_cycle(gait: str, amplitude_bar: float, frequency_hz: float, samples
                       "after the global retry; check the shape parameters (the body may not reach this shape).",
                       PoorFitWarning, stacklevel=2)
     return cycle
+
+
+#: Refits of a fitted gait's shape while its amplitude factor is more than this far from 1.
+AMPLITUDE_TOLERANCE = 0.01
+#: Most fits per cycle in that loop (it usually converges after two).
+MAX_SHAPE_FITS = 4
+
+
+def _solve_rolling(spec: GaitSpec, given: dict, phase: np.ndarray, peak_m: float, robot: RobotDescription,
+                   settings: FitSettings):
+    """The exact rolling cycle that peaks at ``peak_m``: (lengths, error mm, shape, parameters, fits, retried)."""
+    turns = ROLLING_TURNS[spec.name]
+    shape = {**given, "radius_m": rolling_radius_for_peak(peak_m, phase, robot, turns)}
+    # A dense polyline: at 4 bar the arc nearly closes a circle and the fitter's 201 points would add 0.2 mm.
+    curves, _, used = shape_curves(spec.name, phase, robot, shape, 10 * settings.curve_points)
+    lengths = rolling_arc_lengths(phase, shape["radius_m"], robot, turns)
+    return lengths, fit_error_mm(lengths, curves, robot), shape, used, 0, 0
+
+
+def _fit_for_amplitude(spec: GaitSpec, given: dict, phase: np.ndarray, amplitude_bar: float,
+                       robot: RobotDescription, settings: FitSettings):
+    """Fit, bend the shape by the amplitude factor, refit, until the factor is ~1: the commanded cycle and its error."""
+    shape, fits = dict(given), 0
+    while True:  # without the global retry (slow) until the shape is settled
+        curves, s_m, used = shape_curves(spec.name, phase, robot, shape, settings.curve_points)
+        fit = fit_shapes(curves, s_m, robot, settings, poor_fit_mm=math.inf, periodic=True)
+        fits += 1
+        factor = pressure_amplitude_scale(fit.lengths_m, amplitude_bar, robot)
+        if abs(factor - 1.0) <= AMPLITUDE_TOLERANCE or not spec.amplitude_parameters or fits >= MAX_SHAPE_FITS:
+            break
+        shape = spec.bent(shape, factor)
+    if np.any(fit.error_mm > given["poor_fit_mm"]):
+        fit = fit_shapes(curves, s_m, robot, settings, poor_fit_mm=given["poor_fit_mm"], periodic=True)
+        factor = pressure_amplitude_scale(fit.lengths_m, amplitude_bar, robot)
+    retried = len(fit.retried)
+    lengths = fit.lengths_m * factor
+    error = fit_error_mm(np.clip(lengths, 0.0, robot.max_extension_m), curves, robot)
+    return lengths, error, shape, used, fits, retried

@@ -18,13 +18,15 @@ to 10-40 Hz in this rclpy). The GIL switch interval is lowered to 0.5 ms so the 
 the interpreter back quickly while a fit runs.
 
 Example: ``srs_bringup --gait serpentine --amplitude-bar 3 --frequency-hz 0.5``. ROS arguments
-after ``--ros-args`` are passed on (e.g. remappings). ``launch/srs.launch.py`` starts the same nodes
-as separate processes on a stock ROS install.
+after ``--ros-args`` are passed on (e.g. remappings) and win over the options above
+(``--ros-args -p gait:=serpentine`` is the same as ``--gait serpentine``). ``launch/srs.launch.py``
+starts the same nodes as separate processes on a stock ROS install.
 """
 
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 import tempfile
 import threading
@@ -79,13 +81,17 @@ class StatusMonitor(Node):
         self._largest_bar = max(self._largest_bar, max(msg.data, default=0.0))
 
     def status_line(self) -> str:
-        """One line: gait request, phase, rates (Hz) and the largest pressure commanded in the period."""
+        """One line: gait request, cycles played, rates (Hz) and the largest pressure commanded in the period.
+
+        Cycles played (e.g. ``cycle  12.37``: 12 whole cycles, phase 0.37) rather than the bare phase,
+        which a 1 s status period samples at the same value every time for a 1 Hz gait.
+        """
         now_s = time.monotonic()
         span_s = max(now_s - self._since_s, 1e-9)
         get = self._server.get_parameter
         playback = self._player.playback
         line = (f"[{now_s - self._start_s:6.1f} s] {get('gait').value} {get('amplitude_bar').value:g} bar "
-                f"{get('frequency_hz').value:g} Hz | {playback.state.value} phase {playback.phase:4.2f} | "
+                f"{get('frequency_hz').value:g} Hz | {playback.state.value} cycle {playback.cycles_done:7.2f} | "
                 f"setpoints {self._setpoints / span_s:5.0f} Hz | commands {self._commands / span_s:5.0f} Hz | "
                 f"largest {self._largest_bar:4.2f} bar | hardware {self._hardware.status.reason.value}")
         self._setpoints = self._commands = 0
@@ -119,15 +125,23 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def _params_file(args: argparse.Namespace) -> str:
+def _params_file(args: argparse.Namespace, ros_args: list[str]) -> str:
+    """The bringup's parameters as a temporary params file, without those the ROS arguments set.
+
+    A ``-p name:=value`` applies to every node (``/**``), and rcl lets a node's own entry in a params
+    file beat a wildcard: so a name given with ``-p`` is left out here for the user's value to win.
+    The file is passed before the user's ROS arguments, so their own ``--params-file`` wins too.
+    """
     if args.amplitude_bar is None:
         args.amplitude_bar = default_robot().max_pressure_bar
+    given = {value.split(":=", 1)[0] for flag, value in zip(ros_args, ros_args[1:]) if flag in ("-p", "--param")}
     params = {
         "trajectory_server": {"gait": args.gait, "amplitude_bar": args.amplitude_bar,
                               "frequency_hz": args.frequency_hz, "samples": args.samples},
         "gait_player": {"autostart": True, "rate_hz": args.rate_hz},
         "hardware_node": {"autostart": True, "rig_file": args.rig, "backend": args.backend},
     }
+    params = {node: {k: v for k, v in values.items() if k not in given} for node, values in params.items()}
     with tempfile.NamedTemporaryFile("w", prefix="srs_bringup_", suffix=".yaml", delete=False) as stream:
         yaml.safe_dump({name: {"ros__parameters": values} for name, values in params.items()}, stream)
         return stream.name
@@ -137,8 +151,11 @@ def main(argv: list[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     ros_args = argv[argv.index("--ros-args"):] if "--ros-args" in argv else []
     args = build_parser().parse_args(argv[:len(argv) - len(ros_args)])
-    ros_args = ros_args or ["--ros-args"]
-    init_ros(["srs_bringup", *ros_args, "--params-file", _params_file(args)])
+    params_file = _params_file(args, ros_args)
+    try:
+        init_ros(["srs_bringup", "--ros-args", "--params-file", params_file, *ros_args[1:]])
+    finally:
+        os.unlink(params_file)  # rcl has parsed it in init
     sys.setswitchinterval(0.0005)
     realtime = EventsExecutor()
     fitting = MultiThreadedExecutor(num_threads=2)

@@ -19,6 +19,7 @@ import time
 import traceback
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
+from functools import partial
 from typing import Any
 
 import rclpy
@@ -27,6 +28,7 @@ from rclpy.clock import Clock, ClockType
 from rclpy.exceptions import InvalidParameterValueException, ParameterException
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
+from rclpy.parameter import Parameter
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.signals import SignalHandlerOptions
 from std_msgs.msg import Float64MultiArray, MultiArrayDimension
@@ -71,6 +73,11 @@ class ParameterSpec:
     read_only: bool = False
     additional_constraints: str = ""
 
+    @property
+    def is_double(self) -> bool:
+        """True for a double parameter (a float default); it also accepts integers (:func:`declare_parameters`)."""
+        return isinstance(self.default, float)
+
     def descriptor(self) -> ParameterDescriptor:
         """A ParameterDescriptor that rclpy enforces on every set (range, read-only)."""
         desc = ParameterDescriptor(name=self.name, description=self.description, read_only=self.read_only,
@@ -89,7 +96,8 @@ class ParameterSpec:
         if expected is float and isinstance(value, int) and not isinstance(value, bool):
             value = float(value)
         if not isinstance(value, expected) or (expected is not bool and isinstance(value, bool)):
-            return f"{self.name}: expected a {expected.__name__}, got {value!r}."
+            kind = "number (a double, e.g. 500.0)" if expected is float else expected.__name__
+            return f"{self.name}: expected a {kind}, got {value!r}."
         if self.minimum is not None and self.maximum is not None and not isinstance(value, (bool, str)):
             if not (self.minimum <= value <= self.maximum):
                 return f"{self.name}: {value} is outside [{self.minimum}, {self.maximum}] ({self.description})."
@@ -97,11 +105,31 @@ class ParameterSpec:
 
 
 def declare_parameters(node: Node, specs: Iterable[ParameterSpec]) -> dict[str, ParameterSpec]:
-    """Declare every spec on ``node`` with its descriptor; return them by name."""
+    """Declare every spec on ``node`` with its descriptor; return them by name.
+
+    A double parameter also takes an integer, converted to a double: at start-up
+    (``-p rate_hz:=500``, a launch argument ``amplitude_bar:=3``) and at run time
+    (``ros2 param set /gait_player rate_hz 500``). rclpy types parameters strictly and would refuse
+    both; the value stored, published and checked against the range is always the double.
+    """
     by_name = {spec.name: spec for spec in specs}
+    doubles = frozenset(name for name, spec in by_name.items() if spec.is_double)
+    # Start-up overrides are read by declare_parameter before any callback runs, so convert them here
+    # (rclpy keeps them in Node._parameter_overrides and offers no public setter).
+    overrides = getattr(node, "_parameter_overrides", {})
+    for name in doubles & set(overrides):
+        overrides[name] = integers_as_doubles(doubles, [overrides[name]])[0]
     for spec in by_name.values():
         node.declare_parameter(spec.name, spec.default, spec.descriptor())
+    if doubles:
+        node.add_pre_set_parameters_callback(partial(integers_as_doubles, doubles))
     return by_name
+
+
+def integers_as_doubles(names: frozenset[str], params: list[Parameter]) -> list[Parameter]:
+    """``params`` with every integer value of a parameter in ``names`` turned into the equal double."""
+    return [Parameter(p.name, Parameter.Type.DOUBLE, float(p.value))
+            if p.name in names and p.type_ == Parameter.Type.INTEGER else p for p in params]
 
 
 def check_parameters(specs: dict[str, ParameterSpec], params: Sequence,

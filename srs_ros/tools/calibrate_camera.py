@@ -10,8 +10,14 @@ Two ways in:
   ``markers: [{id, x_m, y_m, yaw_rad}]`` (marker centre on the floor; yaw 0 = the marker's top edge
   faces floor +Y).
 
+``--intrinsics camera.yaml`` adds a wide-angle camera's lens model: the YAML that ROS's
+``camera_calibration`` tool saves (``camera_matrix``, ``distortion_model``, ``distortion_coefficients``),
+CameraInfo fields (``k``, ``d``, ``distortion_model``) or another calibration file with an ``intrinsics:``
+section. Pixels are then undistorted before the fit, and the intrinsics are saved with the homography.
+
 The result goes to ``--out`` (default ``config/camera_calibration.yaml``) with the reprojection error
-(mm) of every point; ``--max-rms-mm`` makes a poor fit exit with status 1.
+(mm) of every point; with ``--max-rms-mm`` a poorer fit is rejected: nothing is written (the old file
+stays) and the exit status is 1.
 """
 
 from __future__ import annotations
@@ -26,16 +32,18 @@ from typing import Any
 import cv2
 import numpy as np
 
+from srs_ros.core import aruco
 from srs_ros.core.camera_calibration import (
     DEFAULT_CALIBRATION_FILE,
     CameraCalibration,
     calibration_from_pairs,
+    load_intrinsics,
     read_point_pairs,
     save_calibration,
 )
 from srs_ros.core.errors import ConfigurationError, SrsError
 from srs_ros.core.robot import config_dir, read_yaml
-from srs_ros.core.tracking import DEFAULT_ARUCO_DICTIONARY, aruco_dictionary, quad_centre
+from srs_ros.core.tracking import DEFAULT_ARUCO_DICTIONARY, quad_centre
 
 
 def marker_corners_floor_m(x_m: float, y_m: float, yaw_rad: float, size_m: float) -> np.ndarray:
@@ -62,13 +70,11 @@ def pairs_from_marker_image(image: np.ndarray, layout: Mapping[str, Any], source
         raise ConfigurationError(
             f"{source}: each marker needs id, x_m, y_m numbers (and optional yaw_rad) ({exc!r})."
         ) from exc
-    params = cv2.aruco.DetectorParameters()
-    params.cornerRefinementMethod = cv2.aruco.CORNER_REFINE_SUBPIX
-    detector = cv2.aruco.ArucoDetector(aruco_dictionary(str(layout.get("aruco_dictionary", DEFAULT_ARUCO_DICTIONARY))),
-                                       params)
+    detector = aruco.MarkerDetector(str(layout.get("aruco_dictionary", DEFAULT_ARUCO_DICTIONARY)),
+                                    aruco.detector_parameters(cornerRefinementMethod=cv2.aruco.CORNER_REFINE_SUBPIX))
     gray = image if image.ndim == 2 else cv2.cvtColor(image, cv2.COLOR_BGR2GRAY)
-    corners, ids, _ = detector.detectMarkers(gray)
-    found = {} if ids is None else {int(i): q.reshape(4, 2).astype(np.float64) for q, i in zip(corners, ids.ravel())}
+    corners, ids = detector.detect(gray)
+    found = {int(i): q for q, i in zip(corners, ids)}
     image_px, floor_m = [], []
     for marker_id, (x, y, yaw) in known.items():
         if marker_id not in found:
@@ -106,6 +112,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--image-size", type=int, nargs=2, metavar=("W", "H"), help="image size, px (with --pairs)")
     parser.add_argument("--frame-id", default="floor", help="frame of the floor coordinates (default floor)")
     parser.add_argument("--out", help=f"output YAML (default config/{DEFAULT_CALIBRATION_FILE})")
+    parser.add_argument("--intrinsics", help="camera intrinsics YAML (K, D; ROS camera_calibration format)")
     parser.add_argument("--max-rms-mm", type=float, help="exit with status 1 if the rms error is above this, mm")
     args = parser.parse_args(argv)
     try:
@@ -123,7 +130,8 @@ def main(argv: list[str] | None = None) -> int:
             image_px, floor_m, missing = pairs_from_marker_image(image, read_yaml(args.markers), args.markers)
             size = (image.shape[1], image.shape[0])
             source = f"{args.image} + {args.markers}"
-        calibration = calibration_from_pairs(image_px, floor_m, size, args.frame_id)
+        intrinsics = load_intrinsics(args.intrinsics) if args.intrinsics else None
+        calibration = calibration_from_pairs(image_px, floor_m, size, args.frame_id, intrinsics)
     except SrsError as exc:
         print(f"srs_calibrate_camera: {exc}", file=sys.stderr)
         return 2
@@ -131,13 +139,13 @@ def main(argv: list[str] | None = None) -> int:
         print(f"warning: markers not found in the image: {missing}", file=sys.stderr)
     print(report(calibration))
     out = Path(args.out) if args.out else config_dir() / DEFAULT_CALIBRATION_FILE
+    if args.max_rms_mm is not None and calibration.rms_error_mm > args.max_rms_mm:
+        print(f"rms error {calibration.rms_error_mm:.3f} mm is above --max-rms-mm {args.max_rms_mm}: not saved, "
+              f"{out} is unchanged; re-measure the points or re-take the image.", file=sys.stderr)
+        return 1
     save_calibration(calibration, out, f"srs_calibrate_camera from {source}\n"
                                        "homography_image_to_floor maps pixels (u, v, 1) to floor metres (x, y, 1).")
     print(f"saved {out}")
-    if args.max_rms_mm is not None and calibration.rms_error_mm > args.max_rms_mm:
-        print(f"rms error {calibration.rms_error_mm:.3f} mm is above --max-rms-mm {args.max_rms_mm}; "
-              "re-measure the points or re-take the image.", file=sys.stderr)
-        return 1
     return 0
 
 

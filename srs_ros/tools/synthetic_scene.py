@@ -1,9 +1,10 @@
 """Synthetic overhead-camera frames and videos of the robot from known poses, for tests, demos and benchmarks.
 
-A pinhole camera above a textured floor sees the robot's body band with a head and a tail marker
-(ArUco or coloured discs). Everything is drawn in floor metres and warped into the image through the
-camera's exact floor -> image homography, supersampled and area-averaged, then blurred and noised, so the
-true pose of every frame is known. Occluders (floor polygons drawn on top) hide parts of the scene.
+A pinhole camera above a textured floor sees the robot's body band with a head and a tail marker (ArUco
+or coloured discs). Everything is drawn in floor metres and warped into the image through the camera's
+exact floor -> image homography, supersampled, optionally bent by a lens's distortion (plumb_bob), then
+area-averaged, blurred and noised, so the true pose of every frame is known. Occluders (floor polygons
+drawn on top) hide parts of the scene.
 
 ``python -m srs_ros.tools.synthetic_scene out.avi`` writes a demo video of a constant-speed run.
 """
@@ -13,7 +14,7 @@ from __future__ import annotations
 import argparse
 import math
 import sys
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -21,7 +22,13 @@ from typing import Any
 import cv2
 import numpy as np
 
-from srs_ros.core.camera_calibration import CameraCalibration, apply_homography, calibration_from_pairs
+from srs_ros.core.aruco import marker_image
+from srs_ros.core.camera_calibration import (
+    CameraCalibration,
+    CameraIntrinsics,
+    apply_homography,
+    calibration_from_pairs,
+)
 from srs_ros.core.tracking import DEFAULT_ARUCO_DICTIONARY, aruco_dictionary
 
 
@@ -64,6 +71,18 @@ class SyntheticCamera:
     height_m: float = 1.0
     tilt_rad: float = math.radians(12.0)
     pan_rad: float = math.radians(4.0)
+    #: Lens distortion, plumb_bob coefficients (k1, k2, p1, p2, k3); empty = an ideal pinhole.
+    distortion: tuple[float, ...] = ()
+
+    @property
+    def lens(self) -> CameraIntrinsics | None:
+        """The camera's intrinsics with its lens distortion (None for an ideal pinhole)."""
+        return CameraIntrinsics(self.intrinsics, np.array(self.distortion), "plumb_bob") if self.distortion else None
+
+    def floor_to_image_px(self, points_m: Any) -> np.ndarray:
+        """Exact pixels (..., 2) of floor points (..., 2) m, lens distortion included."""
+        ideal = apply_homography(self.homography_floor_to_image, points_m)
+        return self.lens.distort_px(ideal) if self.lens else ideal
 
     @property
     def intrinsics(self) -> np.ndarray:
@@ -88,13 +107,17 @@ class SyntheticCamera:
         return h / h[2, 2]
 
     def calibration(self, columns: int = 5, rows: int = 4) -> CameraCalibration:
-        """A calibration fitted from exact point pairs: a grid over the image, floor points rounded to mm."""
-        h = self.homography_floor_to_image
+        """A calibration fitted from exact point pairs: a grid over the image, floor points rounded to mm.
+
+        With lens distortion, the calibration carries the camera's intrinsics (as a real one would).
+        """
         u = np.linspace(0.1, 0.9, columns) * self.width_px
         v = np.linspace(0.1, 0.9, rows) * self.height_px
         pixels = np.stack(np.meshgrid(u, v), axis=-1).reshape(-1, 2)
-        floor = np.round(apply_homography(np.linalg.inv(h), pixels), 3)
-        return calibration_from_pairs(apply_homography(h, floor), floor, (self.width_px, self.height_px))
+        ideal = self.lens.undistort_px(pixels) if self.lens else pixels
+        floor = np.round(apply_homography(np.linalg.inv(self.homography_floor_to_image), ideal), 3)
+        return calibration_from_pairs(self.floor_to_image_px(floor), floor, (self.width_px, self.height_px),
+                                      intrinsics=self.lens)
 
 
 @dataclass(frozen=True)
@@ -135,20 +158,54 @@ class SyntheticScene:
     def __post_init__(self):
         self._floor: np.ndarray | None = None
         self._markers: dict[int, np.ndarray] = {}
+        self._lens_maps: tuple[np.ndarray, np.ndarray] | None = None
+        self._margin_px = self._lens_margin_px()
 
     # -- drawing helpers -------------------------------------------------------------------------
+    def _lens_margin_px(self) -> int:
+        """Border (supersampled px) the ideal image needs so that the distorted image finds all it shows."""
+        lens = self.camera.lens
+        if lens is None:
+            return 0
+        w, h = self.camera.width_px, self.camera.height_px
+        t = np.linspace(0.0, 1.0, 101)
+        border = np.concatenate([np.column_stack([t * (w - 1), np.zeros_like(t)]),
+                                 np.column_stack([t * (w - 1), np.full_like(t, h - 1)]),
+                                 np.column_stack([np.zeros_like(t), t * (h - 1)]),
+                                 np.column_stack([np.full_like(t, w - 1), t * (h - 1)])])
+        ideal = lens.undistort_px(border)
+        if np.max(np.abs(lens.distort_px(ideal) - border)) > 1e-3:
+            raise ValueError(f"lens distortion {self.camera.distortion} folds over within the image; "
+                             "use smaller coefficients or a narrower field of view.")
+        overflow = max(0.0, -ideal.min(), ideal[:, 0].max() - (w - 1), ideal[:, 1].max() - (h - 1))
+        return int(math.ceil((overflow + 2.0) * self.supersample))
+
     @property
     def _scale(self) -> np.ndarray:
-        s = float(self.supersample)
-        return np.array([[s, 0.0, 0.5 * (s - 1.0)], [0.0, s, 0.5 * (s - 1.0)], [0.0, 0.0, 1.0]])
+        s, m = float(self.supersample), float(self._margin_px)
+        return np.array([[s, 0.0, 0.5 * (s - 1.0) + m], [0.0, s, 0.5 * (s - 1.0) + m], [0.0, 0.0, 1.0]])
 
     @property
     def _h_floor_to_big(self) -> np.ndarray:
-        """Floor -> supersampled image (pixel centres aligned with the final image's after INTER_AREA)."""
+        """Floor -> supersampled ideal image (pixel centres aligned with the final image's after INTER_AREA)."""
         return self._scale @ self.camera.homography_floor_to_image
 
     def _big_size(self) -> tuple[int, int]:
-        return self.camera.width_px * self.supersample, self.camera.height_px * self.supersample
+        margin = 2 * self._margin_px
+        return self.camera.width_px * self.supersample + margin, self.camera.height_px * self.supersample + margin
+
+    def _through_lens(self, image: np.ndarray) -> np.ndarray:
+        """The supersampled ideal image (with its margin) as the distorting lens shows it, at supersampled size."""
+        if self._lens_maps is None:
+            w, h = self.camera.width_px, self.camera.height_px
+            pixels = np.stack(np.meshgrid(np.arange(w, dtype=np.float64), np.arange(h, dtype=np.float64)), axis=-1)
+            ideal = self.camera.lens.undistort_px(pixels)
+            s, m = self.supersample, self._margin_px
+            big = ((ideal + 0.5) * s - 0.5 + m).astype(np.float32)
+            size = (w * s, h * s)  # the map is smooth: bilinear upsampling keeps it exact to far below a pixel
+            self._lens_maps = (cv2.resize(big[..., 0], size, interpolation=cv2.INTER_LINEAR),
+                               cv2.resize(big[..., 1], size, interpolation=cv2.INTER_LINEAR))
+        return cv2.remap(image, *self._lens_maps, interpolation=cv2.INTER_LINEAR, borderMode=cv2.BORDER_REFLECT)
 
     def _floor_image(self) -> np.ndarray:
         """The floor texture as seen by the camera, supersampled."""
@@ -162,7 +219,7 @@ class SyntheticScene:
             dictionary = aruco_dictionary(self.robot.aruco_dictionary)
             cells = dictionary.markerSize + 2
             cell_px = 24
-            marker = cv2.aruco.generateImageMarker(dictionary, marker_id, cells * cell_px)
+            marker = marker_image(self.robot.aruco_dictionary, marker_id, cells * cell_px)
             self._markers[marker_id] = cv2.copyMakeBorder(marker, cell_px, cell_px, cell_px, cell_px,
                                                           cv2.BORDER_CONSTANT, value=255)
         return self._markers[marker_id]
@@ -196,8 +253,7 @@ class SyntheticScene:
     # -- public API ------------------------------------------------------------------------------
     def true_markers_px(self, pose: Sequence[float]) -> dict[str, np.ndarray]:
         """Exact image positions (px) of the marker centres for a pose."""
-        h = self.camera.homography_floor_to_image
-        return {k: apply_homography(h, c) for k, c in self.robot.marker_centres_m(pose).items()}
+        return {k: self.camera.floor_to_image_px(c) for k, c in self.robot.marker_centres_m(pose).items()}
 
     def render_floor_markers(self, markers: Sequence[tuple[int, float, float, float]], size_m: float,
                              rng: np.random.Generator | None = None) -> np.ndarray:
@@ -211,6 +267,8 @@ class SyntheticScene:
         """Area-average down to the camera's size, blur, add noise."""
         rng = rng if rng is not None else np.random.default_rng(0)
         size = (self.camera.width_px, self.camera.height_px)
+        if self.camera.lens is not None:
+            image = self._through_lens(image)
         frame = cv2.resize(image, size, interpolation=cv2.INTER_AREA) if self.supersample > 1 else image
         if self.blur_sigma_px > 0:
             frame = cv2.GaussianBlur(frame, (0, 0), self.blur_sigma_px)
@@ -262,8 +320,11 @@ def constant_velocity_poses(duration_s: float, fps: float, start_pose: Sequence[
 
 
 def write_video(path: str | Path, scene: SyntheticScene, poses: np.ndarray, fps: float, seed: int = 0,
-                fourcc: str = "MJPG") -> Path:
-    """Render ``poses`` (n, 3) into a video file at ``fps`` (MJPG .avi by default); returns the path."""
+                fourcc: str = "MJPG", occluders_by_frame: Mapping[int, Sequence[Any]] | None = None) -> Path:
+    """Render ``poses`` (n, 3) into a video file at ``fps`` (MJPG .avi by default); returns the path.
+
+    ``occluders_by_frame`` maps frame indices to the floor polygons drawn over that frame (see :meth:`render`).
+    """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     size = (scene.camera.width_px, scene.camera.height_px)
@@ -272,8 +333,8 @@ def write_video(path: str | Path, scene: SyntheticScene, poses: np.ndarray, fps:
         raise OSError(f"cannot open a {fourcc} video writer for {path}; try an .avi path with MJPG.")
     rng = np.random.default_rng(seed)
     try:
-        for pose in poses:
-            writer.write(scene.render(pose, rng))
+        for index, pose in enumerate(poses):
+            writer.write(scene.render(pose, rng, (occluders_by_frame or {}).get(index, ())))
     finally:
         writer.release()
     return path

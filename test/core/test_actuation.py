@@ -1,4 +1,4 @@
-"""Length -> pressure -> volts through the one clamp (CONVENTIONS.md, Actuation)."""
+"""Length -> pressure -> volts through the one clamp (docs/conventions.md, Pressure map)."""
 
 import dataclasses
 

@@ -1,4 +1,4 @@
-"""Kinematics (paper eq. 1-2): the sanity table of CONVENTIONS.md, exact Jacobian, properties, bad input."""
+"""Kinematics (paper eq. 1-2): the sanity table of docs/conventions.md, exact Jacobian, properties, bad input."""
 
 import math
 

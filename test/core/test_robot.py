@@ -1,4 +1,4 @@
-"""The robot description: the shipped file matches CONVENTIONS.md; bad files name the key."""
+"""The robot description: the shipped file matches docs/conventions.md; bad files name the key."""
 
 import math
 

@@ -2,9 +2,11 @@
 
 import math
 
+import cv2
 import numpy as np
 import pytest
 
+from srs_ros.core import aruco
 from srs_ros.core.camera_calibration import (
     apply_homography,
     calibration_from_pairs,
@@ -20,12 +22,20 @@ from srs_ros.core.tracking import (
     VelocityFilter,
     pose_from_markers,
     quad_centre,
+    to_gray,
     traveling_velocity,
     window_slope,
     wrap_angle,
     yaw_to_quaternion,
 )
-from srs_ros.tools.synthetic_scene import RobotAppearance, SyntheticScene, constant_velocity_poses
+from srs_ros.tools.synthetic_scene import (
+    RobotAppearance,
+    SyntheticCamera,
+    SyntheticScene,
+    constant_velocity_poses,
+    write_video,
+)
+from srs_ros.tools.track_cli import track_video
 
 POSITION_TOL_M = 0.002
 YAW_TOL_RAD = math.radians(1.0)
@@ -172,6 +182,39 @@ def test_constant_speed_run_velocity_within_2_percent(scene, calibration):
     assert smoothed[2] == pytest.approx(0.1, abs=0.02)
 
 
+def test_tilted_camera_video_keeps_the_pose_where_a_default_detector_loses_it(tmp_path):
+    """4 cm markers seen by a camera tilted 25 deg, sensor noise, mild blur, MJPG: the issue's hard case."""
+    camera = SyntheticCamera(tilt_rad=math.radians(25.0))
+    scene = SyntheticScene(camera=camera, robot=RobotAppearance(marker_size_m=0.04), noise_sigma=4.0,
+                           blur_sigma_px=0.8)
+    _, poses = constant_velocity_poses(10.0, 10.0, (-0.35, -0.1, 0.3), (0.07, 0.035), yaw_rate_rad_s=0.25)
+    # Now and then a hand covers the head marker: those frames must give no pose (nothing is guessed).
+    hidden = {i: [scene.robot.marker_centres_m(poses[i])["head"] + 0.035 * np.array([[-1, -1], [1, -1], [1, 1],
+                                                                                   [-1, 1]])]
+              for i in range(7, len(poses), 20)}
+    video = write_video(tmp_path / "tilted.avi", scene, poses, 10.0, occluders_by_frame=hidden)
+    size = np.array([camera.width_px, camera.height_px])
+    assert all(np.all((px > 10) & (px < size - 10)) for p in poses for px in scene.true_markers_px(p).values())
+
+    visible = [i for i in range(len(poses)) if i not in hidden]
+    capture = cv2.VideoCapture(str(video))
+    frames = [capture.read()[1] for _ in poses]
+    capture.release()
+    plain = aruco.MarkerDetector("DICT_4X4_50")  # OpenCV's default detector settings
+    plain_both = np.mean([{0, 1} <= set(plain.detect(to_gray(frames[i]))[1].tolist()) for i in visible])
+
+    rows, count = track_video(video, Tracker(camera.calibration()))
+    index = np.round(rows[:, 0] * 10.0).astype(int)
+    tracked = len(set(index.tolist()) & set(visible)) / len(visible)
+    print(f"tilted camera, {len(visible)} frames with both markers in view: tracker pose in {tracked:.0%}, "
+          f"plain cv2.aruco both markers in {plain_both:.0%}")
+    assert count == len(poses) and not set(index.tolist()) & set(hidden)
+    assert 0.6 <= plain_both <= 0.85  # the scene is as hard as the issue's video
+    assert tracked >= 0.9 and tracked >= plain_both + 0.1
+    np.testing.assert_allclose(rows[:, 1:3], poses[index, :2], atol=0.003)
+    assert max(yaw_error(a, b) for a, b in zip(rows[:, 3], poses[index, 2])) < math.radians(1.5)
+
+
 # -- velocity helpers ---------------------------------------------------------------------------
 def test_window_slope_is_exact_for_a_line_and_needs_two_times():
     t = np.array([0.0, 0.1, 0.3, 0.4])
@@ -208,3 +251,37 @@ def test_tracker_config_rejects_bad_choices():
         TrackerConfig(tail_marker_id=3, head_marker_id=3)
     with pytest.raises(ConfigurationError, match="unknown ArUco dictionary"):
         Tracker(load_calibration(), TrackerConfig(aruco_dictionary="DICT_NOPE"))
+
+
+# -- lens distortion ----------------------------------------------------------------------------
+WIDE_ANGLE = SyntheticCamera(horizontal_fov_rad=math.radians(70.0), distortion=(-0.25, 0.06, 0.0005, -0.0005, 0.0),
+                             tilt_rad=0.0, pan_rad=0.0)
+
+
+def test_intrinsics_match_opencv_and_invert_exactly():
+    lens = WIDE_ANGLE.lens
+    ideal = np.random.default_rng(4).uniform([0, 0], [640, 480], (40, 2))
+    normalised = np.column_stack([ideal, np.ones(len(ideal))]) @ np.linalg.inv(lens.camera_matrix).T
+    expected, _ = cv2.projectPoints(normalised.reshape(-1, 1, 3), np.zeros(3), np.zeros(3), lens.camera_matrix,
+                                    lens.distortion[:5])
+    np.testing.assert_allclose(lens.distort_px(ideal), expected.reshape(-1, 2), atol=1e-9)
+    np.testing.assert_allclose(lens.undistort_px(lens.distort_px(ideal)), ideal, atol=1e-9)
+
+
+def test_wide_angle_lens_distortion_is_removed_when_the_calibration_has_intrinsics(tmp_path):
+    scene = SyntheticScene(camera=WIDE_ANGLE)
+    with_lens = load_calibration(save_calibration(WIDE_ANGLE.calibration(), tmp_path / "wide.yaml"))
+    assert with_lens.intrinsics is not None and with_lens.rms_error_mm < 0.01
+    plain = calibration_from_pairs(with_lens.image_px, with_lens.floor_m)  # the same pairs, homography only
+    assert plain.rms_error_mm > 5.0
+    rng = np.random.default_rng(8)
+    poses = [(-0.45, 0.3, 0.2), (0.45, -0.3, 2.8), (0.4, 0.3, -1.0), (-0.4, -0.32, 1.6), (0.0, 0.0, 0.7)]
+    errors = {}
+    for name, calibration in (("intrinsics", with_lens), ("homography only", plain)):
+        tracker = Tracker(calibration, TrackerConfig(roi_margin_px=0))
+        results = [tracker.process(scene.render(pose, rng), float(i)) for i, pose in enumerate(poses)]
+        assert all(r.tracked for r in results), [r.message for r in results]
+        errors[name] = max(np.linalg.norm(r.pose[:2] - np.array(p[:2])) for r, p in zip(results, poses))
+    print(f"largest position error near the image edges: {errors}")
+    assert errors["intrinsics"] < 0.002, errors
+    assert errors["homography only"] > 0.01, errors

@@ -30,7 +30,8 @@ def test_cycle_fields(inward):
     assert inward.period_s == 1.0
     np.testing.assert_allclose(inward.phase, np.arange(32) / 32)
     np.testing.assert_allclose(inward.time_s, np.arange(32) / 32)
-    assert inward.parameters["radius_m"] == 0.2 and inward.parameters["amplitude_scale"] > 1.0
+    assert inward.parameters["reference_radius_m"] == 0.2 and inward.parameters["radius_m"] < 0.1
+    assert inward.shape_parameters == ("radius_m",)
     assert inward.lengths_m.min() >= 0.0 and inward.lengths_m.max() <= ROBOT.max_extension_m
     assert "inward_rolling" in inward.summary() and "no poor samples" in inward.summary()
 
@@ -45,12 +46,56 @@ def test_largest_pressure_is_the_amplitude(amplitude):
 def test_more_amplitude_bends_more():
     low = generate_cycle("inward_rolling", 2.0, 1.0, samples=16)
     high = generate_cycle("inward_rolling", 4.0, 1.0, samples=16)
-    np.testing.assert_allclose(high.lengths_m, 2.0 * low.lengths_m, rtol=1e-9, atol=1e-12)
-    # The bending angle of the first module doubles with the amplitude.
+    assert high.parameters["radius_m"] < 0.6 * low.parameters["radius_m"]
     from srs_ros.core.kinematics import lengths_to_bend
     bend_low = lengths_to_bend(low.lengths_m[:, :3])[0]
     bend_high = lengths_to_bend(high.lengths_m[:, :3])[0]
-    np.testing.assert_allclose(bend_high, 2.0 * bend_low)
+    assert np.all(bend_high > 1.8 * bend_low)
+    serpentine_low = generate_cycle("serpentine", 2.0, 1.0, samples=16)
+    serpentine_high = generate_cycle("serpentine", 4.0, 1.0, samples=16)
+    assert abs(serpentine_high.parameters["a_rad"]) > 1.5 * abs(serpentine_low.parameters["a_rad"])
+
+
+def _circle_fit_rms_mm(points):
+    """RMS distance (mm) of 3-D points to their best-fitting circle (plane by SVD, then a 2-D algebraic fit)."""
+    centred = points - points.mean(axis=0)
+    basis = np.linalg.svd(centred)[2][:2]
+    xy = centred @ basis.T
+    plane_mm = np.abs(centred @ np.linalg.svd(centred)[2][2])
+    a = np.column_stack([xy, np.ones(len(xy))])
+    cx, cy, c = np.linalg.lstsq(a, (xy ** 2).sum(axis=1), rcond=None)[0]
+    centre = np.array([cx, cy]) / 2.0
+    radius = np.sqrt(c + centre @ centre)
+    in_plane = np.linalg.norm(xy - centre, axis=1) - radius
+    return 1e3 * np.sqrt(np.mean(in_plane ** 2 + plane_mm ** 2)), radius
+
+
+@pytest.mark.parametrize("gait", ["inward_rolling", "outward_rolling"])
+@pytest.mark.parametrize("amplitude", [1.0, 4.0])
+def test_rolling_cycle_commands_the_exact_arc_that_reaches_the_amplitude(gait, amplitude):
+    from srs_ros.core.kinematics import backbone_points
+    cycle = generate_cycle(gait, amplitude, 1.0, samples=32)
+    assert cycle.pressures_bar.max() == pytest.approx(amplitude, abs=1e-9)
+    bodies = backbone_points(cycle.lengths_m, robot=ROBOT)
+    for body in bodies:
+        rms_mm, radius_m = _circle_fit_rms_mm(body)
+        assert rms_mm < 0.01  # the commanded body is an arc (the scaled reference fit was 0.75 mm off one)
+        assert radius_m == pytest.approx(cycle.parameters["radius_m"], rel=1e-6)
+    assert cycle.fit_error_mm.max() < 0.05
+
+
+@pytest.mark.parametrize("gait", ["serpentine", "sidewinding", "helical_rolling"])
+def test_fit_error_and_shape_describe_what_is_commanded(gait):
+    from srs_ros.core.fitting import fit_error_mm
+    from srs_ros.core.gaits import shape_curves
+
+    cycle = generate_cycle(gait, 4.0, 1.0, samples=16)
+    assert cycle.pressures_bar.max() == pytest.approx(4.0, abs=1e-9)
+    names = [p.name for p in list_gaits()[gait].parameters]
+    curves, _, _ = shape_curves(gait, cycle.phase, ROBOT, {n: cycle.parameters[n] for n in names})
+    np.testing.assert_allclose(cycle.fit_error_mm, fit_error_mm(cycle.lengths_m, curves, ROBOT), rtol=0.05, atol=0.05)
+    assert cycle.shape_parameters and all(
+        cycle.parameters[n] != cycle.parameters[f"reference_{n}"] for n in cycle.shape_parameters)
 
 
 def test_outward_is_inward_reversed_in_time(inward):

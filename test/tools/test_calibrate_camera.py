@@ -6,7 +6,7 @@ import yaml
 
 from srs_ros.core.camera_calibration import apply_homography, load_calibration
 from srs_ros.tools import calibrate_camera
-from srs_ros.tools.synthetic_scene import SyntheticScene
+from srs_ros.tools.synthetic_scene import SyntheticCamera, SyntheticScene
 
 LAYOUT = [(10, -0.4, -0.25, 0.0), (11, 0.4, -0.25, 0.3), (12, 0.4, 0.25, -0.5), (13, -0.4, 0.25, 1.2),
           (14, 0.0, 0.0, 2.0)]
@@ -46,12 +46,54 @@ def test_calibration_from_csv_pairs_and_threshold(tmp_path, capsys):
     out = tmp_path / "cal.yaml"
     code = calibrate_camera.main(["--pairs", str(tmp_path / "pairs.csv"), "--out", str(out), "--max-rms-mm", "0.5"])
     captured = capsys.readouterr()
-    assert code == 1 and "above --max-rms-mm" in captured.err
-    assert out.exists() and load_calibration(out).rms_error_mm > 0.5
+    assert code == 1 and "above --max-rms-mm" in captured.err and "not saved" in captured.err
+    assert not out.exists()  # a rejected calibration is never written
+    # ... nor does it overwrite the good calibration already there.
+    out.write_text("camera_calibration: {homography_image_to_floor: [[1, 0, 0], [0, 1, 0], [0, 0, 1]]}\n")
+    before = out.read_text()
+    assert calibrate_camera.main(["--pairs", str(tmp_path / "pairs.csv"), "--out", str(out), "--max-rms-mm",
+                                  "0.5"]) == 1
+    assert out.read_text() == before
+    # Without the threshold the same fit is saved, with its error.
+    assert calibrate_camera.main(["--pairs", str(tmp_path / "pairs.csv"), "--out", str(out)]) == 0
+    assert load_calibration(out).rms_error_mm > 0.5
 
 
 def test_too_few_pairs_is_refused(tmp_path, capsys):
     (tmp_path / "pairs.csv").write_text("u_px,v_px,x_m,y_m\n1,2,0,0\n3,4,1,0\n5,9,0,1\n")
     code = calibrate_camera.main(["--pairs", str(tmp_path / "pairs.csv"), "--out", str(tmp_path / "c.yaml")])
     assert code == 2 and "at least 4" in capsys.readouterr().err
+    assert not (tmp_path / "c.yaml").exists()
+
+
+def test_intrinsics_from_a_ros_camera_calibration_file_are_used_and_saved(tmp_path, capsys):
+    camera = SyntheticCamera(horizontal_fov_rad=np.radians(70.0), distortion=(-0.25, 0.06, 0.0, 0.0, 0.0))
+    lens = camera.lens
+    # What `ros2 run camera_calibration cameracalibrator` saves (camera_calibration_parsers format).
+    (tmp_path / "camera.yaml").write_text(yaml.safe_dump({
+        "image_width": 640, "image_height": 480, "camera_name": "overhead",
+        "camera_matrix": {"rows": 3, "cols": 3, "data": lens.camera_matrix.ravel().tolist()},
+        "distortion_model": "plumb_bob",
+        "distortion_coefficients": {"rows": 1, "cols": 5, "data": list(camera.distortion)}}))
+    floor = np.array([[x, y] for x in (-0.45, -0.15, 0.15, 0.45) for y in (-0.3, 0.0, 0.3)])
+    rows = "\n".join(f"{u},{v},{x},{y}" for (u, v), (x, y) in zip(camera.floor_to_image_px(floor), floor))
+    (tmp_path / "pairs.csv").write_text("u_px,v_px,x_m,y_m\n" + rows + "\n")
+    out = tmp_path / "cal.yaml"
+    args = ["--pairs", str(tmp_path / "pairs.csv"), "--out", str(out), "--max-rms-mm", "0.1"]
+    assert calibrate_camera.main(args + ["--intrinsics", str(tmp_path / "camera.yaml")]) == 0
+    calib = load_calibration(out)
+    assert calib.intrinsics is not None and calib.rms_error_mm < 0.01
+    probe = np.array([[0.4, -0.25], [-0.3, 0.28]])
+    np.testing.assert_allclose(calib.image_to_floor(camera.floor_to_image_px(probe)), probe, atol=1e-6)
+    # The same pairs without the lens model: a straight homography cannot follow the barrel distortion.
+    assert calibrate_camera.main(args) == 1
+    assert "above --max-rms-mm" in capsys.readouterr().err
+
+
+def test_a_bad_intrinsics_file_is_refused_with_what_is_missing(tmp_path, capsys):
+    (tmp_path / "camera.yaml").write_text("camera_matrix: {data: [1, 0, 0, 0, 1, 0, 0, 0, 1]}\n")
+    (tmp_path / "pairs.csv").write_text("u_px,v_px,x_m,y_m\n0,0,0,0\n100,0,1,0\n0,100,0,1\n100,100,1,1\n")
+    code = calibrate_camera.main(["--pairs", str(tmp_path / "pairs.csv"), "--out", str(tmp_path / "c.yaml"),
+                                  "--intrinsics", str(tmp_path / "camera.yaml")])
+    assert code == 2 and "distortion coefficients" in capsys.readouterr().err
     assert not (tmp_path / "c.yaml").exists()

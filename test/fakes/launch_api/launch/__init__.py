@@ -1,0 +1,8 @@
+"""Stand-in for ROS 2 ``launch`` (see ../README.md): just what srs.launch.py uses."""
+
+
+class LaunchDescription:
+    """The entities of a launch file, in order."""
+
+    def __init__(self, initial_entities=None):
+        self.entities = list(initial_entities or [])

@@ -1,0 +1,31 @@
+"""srs_bringup's own parameters: ``--ros-args -p`` wins over them, the temporary params file is removed at
+start-up, and the status line shows the cycles played (a phase sampled once a second looked frozen at 1 Hz)."""
+
+import re
+
+from sensor_msgs.msg import JointState
+
+from srs_ros.nodes.common import setpoint_qos
+
+
+def test_ros_args_win_and_the_temporary_params_file_is_gone_while_running(launch_node, ros_client, tmp_path):
+    temp = tmp_path / "tmp"
+    temp.mkdir()
+    proc = launch_node("srs_bringup", ["--duration-s", "4", "--status-period-s", "0.5", "--ros-args",
+                                       "-p", "gait:=outward_rolling", "-p", "amplitude_bar:=3"],
+                       env_overrides={"TMPDIR": str(temp)})
+    setpoints = ros_client.subscribe(JointState, "joint_setpoints", setpoint_qos())
+    ros_client.spin_until(lambda: setpoints, 30.0, "setpoints from the bringup")
+    assert list(temp.iterdir()) == []  # parsed by rcl at init, then removed
+    assert proc.process.wait(30) == 0, proc.output()
+    output = proc.output()
+    assert "outward_rolling 3 bar 1 Hz" in output, output
+    assert list(temp.iterdir()) == []
+
+
+def test_status_line_counts_cycles_so_a_1_hz_gait_sampled_each_second_visibly_advances(launch_node):
+    proc = launch_node("srs_bringup", ["--duration-s", "5"])  # status period 1 s, gait 1 Hz
+    assert proc.process.wait(60) == 0, proc.output()
+    cycles = [float(v) for v in re.findall(r"running cycle +([0-9.]+)", proc.output())]
+    assert len(cycles) >= 2, proc.output()
+    assert all(later - earlier > 0.5 for earlier, later in zip(cycles, cycles[1:])), cycles

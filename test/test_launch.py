@@ -1,0 +1,91 @@
+"""launch/srs.launch.py, evaluated with a stand-in for launch/launch_ros (test/fakes/launch_api, no ROS install
+here): arguments accept 3 and 3.0, hardware_node is a LifecycleNode, namespace and use_sim_time reach every node;
+and trajectory_server runs with what launch hands it, an integer amplitude included."""
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+from srs_testing import ros_args
+from trajectory_msgs.msg import JointTrajectory
+
+from srs_ros.nodes.common import TRAJECTORY_TOPIC, latched_qos
+
+ROOT = Path(__file__).resolve().parents[1]
+FAKES = ROOT / "test" / "fakes" / "launch_api"
+
+
+@pytest.fixture(scope="module")
+def ament_prefix(tmp_path_factory):
+    """An ament prefix in which ``get_package_share_directory('srs_ros')`` finds the repo's config."""
+    prefix = tmp_path_factory.mktemp("ament_prefix")
+    marker = prefix / "share" / "ament_index" / "resource_index" / "packages" / "srs_ros"
+    marker.parent.mkdir(parents=True)
+    marker.write_text("")
+    (prefix / "share" / "srs_ros").mkdir()
+    (prefix / "share" / "srs_ros" / "config").symlink_to(ROOT / "config")
+    return prefix
+
+
+def evaluate(ament_prefix, *arguments):
+    env = dict(os.environ, AMENT_PREFIX_PATH=str(ament_prefix), PYTHONPATH=str(FAKES))
+    done = subprocess.run([sys.executable, str(FAKES / "evaluate_launch.py"), str(ROOT / "launch" / "srs.launch.py"),
+                           *arguments], capture_output=True, text=True, env=env, timeout=60, cwd=FAKES)
+    if done.returncode:
+        raise RuntimeError(done.stderr)
+    return {node["name"]: node for node in json.loads(done.stdout)["nodes"]}
+
+
+def test_defaults_start_three_nodes_with_hardware_node_as_a_lifecycle_node(ament_prefix):
+    nodes = evaluate(ament_prefix)
+    assert sorted(nodes) == ["gait_player", "hardware_node", "trajectory_server"]
+    assert nodes["hardware_node"]["kind"] == "LifecycleNode"
+    assert nodes["trajectory_server"]["kind"] == nodes["gait_player"]["kind"] == "Node"
+    server = nodes["trajectory_server"]["parameters"]
+    assert server["amplitude_bar"] == 4.0 and isinstance(server["amplitude_bar"], float)
+    assert server["gait"] == "inward_rolling"
+    for node in nodes.values():
+        assert node["namespace"] == "" and node["parameters"]["use_sim_time"] is False
+        assert all(Path(f).is_file() for f in node["parameter_files"]), node["parameter_files"]
+    assert nodes["hardware_node"]["parameters"]["autostart"] is True
+    assert Path(nodes["hardware_node"]["parameters"]["rig_file"]).name == "mock.yaml"
+
+
+@pytest.mark.parametrize("written", ["3", "3.0"])
+def test_amplitude_and_frequency_reach_the_server_as_doubles(ament_prefix, written):
+    server = evaluate(ament_prefix, f"amplitude_bar:={written}", "frequency_hz:=1")["trajectory_server"]
+    assert server["parameters"]["amplitude_bar"] == 3.0 and isinstance(server["parameters"]["amplitude_bar"], float)
+    assert server["parameters"]["frequency_hz"] == 1.0 and isinstance(server["parameters"]["frequency_hz"], float)
+
+
+def test_namespace_and_sim_time_reach_every_node_including_the_camera(ament_prefix):
+    nodes = evaluate(ament_prefix, "namespace:=snake1", "use_sim_time:=true", "camera:=true")
+    assert sorted(nodes) == ["camera_tracker", "gait_player", "hardware_node", "trajectory_server"]
+    for node in nodes.values():
+        assert node["namespace"] == "snake1" and node["parameters"]["use_sim_time"] is True
+
+
+def test_a_bad_switch_value_is_refused_by_launch(ament_prefix):
+    with pytest.raises(RuntimeError, match="use_sim_time"):
+        evaluate(ament_prefix, "use_sim_time:=maybe")
+
+
+@pytest.mark.ros
+@pytest.mark.parametrize("amplitude", [3, 3.0], ids=["integer", "double"])
+def test_trajectory_server_runs_with_what_launch_hands_it(launch_node, ros_client, tmp_path, amplitude):
+    """An integer reaches the node when launch reads a bare ``amplitude_bar:=3``; the node accepts it either way."""
+    params = tmp_path / "launch_params.yaml"
+    params.write_text(yaml.safe_dump({"/**": {"ros__parameters": {"amplitude_bar": amplitude, "frequency_hz": 1}}}))
+    files = ["--params-file", str(ROOT / "config" / "trajectory_server.yaml"), "--params-file", str(params)]
+    proc = launch_node("trajectory_server", ["--ros-args", *files, *ros_args({"samples": 16})[1:]])
+    received = ros_client.subscribe(JointTrajectory, TRAJECTORY_TOPIC, latched_qos())
+    ros_client.spin_until(lambda: received, 60.0, "the latched trajectory")
+    lengths = np.array([p.positions for p in received[-1].points])
+    assert lengths.max() * 100.0 == pytest.approx(3.0, abs=1e-6)  # P = 100 l peaks at the 3 bar amplitude
+    assert ros_client.get_parameters("trajectory_server", ["amplitude_bar"]) == {"amplitude_bar": 3.0}
+    assert proc.alive(), proc.output()
