@@ -92,7 +92,8 @@ def _third_party_imports():
     folders = ("srs_ros", "test", "launch", "benchmarks")
     files = [ROOT / "setup.py"] + [p for d in folders for p in (ROOT / d).rglob("*.py")
                                    if "fakes" not in p.parts]  # stand-ins for packages that cannot be installed here
-    local = {p.stem for p in files}
+    local = {p.stem for p in files} | {p.name for d in folders for p in (ROOT / d).rglob("*")  # test packages
+                                       if p.is_dir() and "fakes" not in p.parts}
     found: dict[str, set[str]] = {}
     for path in files:
         for node in ast.walk(ast.parse(path.read_text())):

@@ -1,9 +1,14 @@
 """``srs_bringup``: the whole SRS in one process, all nodes on one executor (the main job).
 
 Starts ``trajectory_server`` (fits the gait at start-up), ``gait_player`` (autostart) and the
-lifecycle ``hardware_node`` (autostart: configured and active) on the chosen rig (the mock robot by
-default), plus a small status monitor that prints gait, phase, setpoint and command rates and the
-largest commanded pressure until Ctrl-C (or ``--duration-s``); then the valves are vented.
+lifecycle ``hardware_node`` (autostart: configured and active) on the chosen rig, plus a small status
+monitor that prints gait, cycles, setpoint and command rates and the largest commanded pressure until
+Ctrl-C (or ``--duration-s``); then the valves are vented.
+
+The default rig is the simulated robot (``config/rigs/sim.yaml``): the bringup then also runs
+``sim_world`` (MuJoCo, real time) and ``camera_tracker`` on its overhead camera (colour bands), and the
+status line shows the tracked speed beside the ground truth (cm/s); ``--video FILE`` saves the camera's
+view. ``--rig config/rigs/mock.yaml`` runs the muscle-only mock instead.
 
 On a rig with real regulators (``can``, ``daq``) nothing above 0 bar is commanded until the operator
 arms it: ``--arm`` on the command line, or ``ros2 service call /hardware_node/arm std_srvs/srv/Trigger``
@@ -13,7 +18,8 @@ exit status 2 and the reason. Ctrl-C (once or several times) vents, then exits 0
 Executors: the real-time path (gait_player, hardware_node, status) shares one EventsExecutor, driven
 by a timed spin_once loop in the main thread (its spin() hangs in this rclpy); the trajectory_server
 keeps its own multi-threaded executor in a second thread so that a fit (~0.1 s) never holds up a
-setpoint or a command (a MultiThreadedExecutor for everything was measured to drop the 200 Hz streams
+setpoint or a command; the simulated world, the camera tracker and the video recorder share a third
+executor on a third thread (a MultiThreadedExecutor for everything was measured to drop the 200 Hz streams
 to 10-40 Hz in this rclpy). The GIL switch interval is lowered to 0.5 ms so the real-time thread gets
 the interpreter back quickly while a fit runs.
 
@@ -26,25 +32,31 @@ starts the same nodes as separate processes on a stock ROS install.
 from __future__ import annotations
 
 import argparse
+import math
 import os
 import sys
 import tempfile
 import threading
 import time
 
+import cv2
 import rclpy
 import yaml
-from rclpy.executors import MultiThreadedExecutor
+from geometry_msgs.msg import PoseStamped
+from rclpy.executors import MultiThreadedExecutor, SingleThreadedExecutor
 from rclpy.experimental import EventsExecutor
 from rclpy.node import Node
-from sensor_msgs.msg import JointState
+from sensor_msgs.msg import Image, JointState
 from std_msgs.msg import Float64MultiArray
 
 from srs_ros.core.errors import ConfigurationError
-from srs_ros.core.robot import default_robot
+from srs_ros.core.rig import load_rig
+from srs_ros.core.robot import config_dir, default_robot
 from srs_ros.core.safety import min_setpoint_rate_hz
+from srs_ros.nodes.camera_tracker import IMAGE_TOPIC, CameraTrackerNode, image_msg_to_array
 from srs_ros.nodes.common import (
     COMMANDED_PRESSURE_TOPIC,
+    POSE_TOPIC,
     SETPOINT_TOPIC,
     CleanExit,
     init_ros,
@@ -54,13 +66,15 @@ from srs_ros.nodes.common import (
 )
 from srs_ros.nodes.gait_player import GaitPlayer
 from srs_ros.nodes.hardware_node import HardwareNode, release_and_report
+from srs_ros.nodes.sim_world import GROUND_TRUTH_TOPIC, SimWorldNode
 from srs_ros.nodes.trajectory_server import TrajectoryServer
 
 
 class StatusMonitor(Node):
-    """Counts setpoints and commands and prints one status line per period."""
+    """Counts setpoints and commands and prints one status line per period (with speeds on the sim rig)."""
 
-    def __init__(self, player: GaitPlayer, server: TrajectoryServer, hardware: HardwareNode, period_s: float):
+    def __init__(self, player: GaitPlayer, server: TrajectoryServer, hardware: HardwareNode, period_s: float,
+                 simulated: bool = False):
         super().__init__("srs_status")
         self._player, self._server, self._hardware = player, server, hardware
         self._setpoints = 0
@@ -69,8 +83,13 @@ class StatusMonitor(Node):
         self._since_s = time.monotonic()
         self._start_s = self._since_s
         self._tty = sys.stdout.isatty()
+        self._tracked = SpeedMeter()
+        self._truth = SpeedMeter() if simulated else None
         self.create_subscription(JointState, SETPOINT_TOPIC, self._on_setpoint, setpoint_qos())
         self.create_subscription(Float64MultiArray, COMMANDED_PRESSURE_TOPIC, self._on_command, 10)
+        if simulated:
+            self.create_subscription(PoseStamped, POSE_TOPIC, self._tracked.add, 10)
+            self.create_subscription(PoseStamped, GROUND_TRUTH_TOPIC, self._truth.add, 10)
         steady_timer(self, period_s, self._print)
 
     def _on_setpoint(self, _msg: JointState) -> None:
@@ -81,9 +100,9 @@ class StatusMonitor(Node):
         self._largest_bar = max(self._largest_bar, max(msg.data, default=0.0))
 
     def status_line(self) -> str:
-        """One line: gait request, cycles played, rates (Hz) and the largest pressure commanded in the period.
+        """One line: gait, cycles played, rates (Hz), the largest pressure in the period, speeds (sim rig).
 
-        Cycles played (e.g. ``cycle  12.37``: 12 whole cycles, phase 0.37) rather than the bare phase,
+        On the simulated robot it ends with the camera-tracked speed beside the ground truth (cm/s). Cycles played (e.g. ``cycle  12.37``: 12 whole cycles, phase 0.37) rather than the bare phase,
         which a 1 s status period samples at the same value every time for a 1 Hz gait.
         """
         now_s = time.monotonic()
@@ -94,6 +113,8 @@ class StatusMonitor(Node):
                 f"{get('frequency_hz').value:g} Hz | {playback.state.value} cycle {playback.cycles_done:7.2f} | "
                 f"setpoints {self._setpoints / span_s:5.0f} Hz | commands {self._commands / span_s:5.0f} Hz | "
                 f"largest {self._largest_bar:4.2f} bar | hardware {self._hardware.status.reason.value}")
+        if self._truth is not None:
+            line += f" | speed tracked {self._tracked.take()} truth {self._truth.take()} cm/s"
         self._setpoints = self._commands = 0
         self._largest_bar = 0.0
         self._since_s = now_s
@@ -102,9 +123,58 @@ class StatusMonitor(Node):
     def _print(self) -> None:
         line = self.status_line()
         if self._tty:
-            print("\r" + line.ljust(140), end="", flush=True)
+            print("\r" + line.ljust(170), end="", flush=True)
         else:
             print(line, flush=True)
+
+
+class SpeedMeter:
+    """Floor speed (cm/s) of a PoseStamped stream over the poses since the last :meth:`take`, by their stamps."""
+
+    def __init__(self) -> None:
+        self._first: tuple[float, float, float] | None = None
+        self._last: tuple[float, float, float] | None = None
+
+    def add(self, msg: PoseStamped) -> None:
+        """One pose (stamp s, x m, y m)."""
+        sample = (msg.header.stamp.sec + 1e-9 * msg.header.stamp.nanosec, msg.pose.position.x, msg.pose.position.y)
+        self._first = self._first or sample
+        self._last = sample
+
+    def take(self) -> str:
+        """The speed over the period as text (``--`` without two poses); the next period starts at the last pose."""
+        first, last = self._first, self._last
+        self._first = last
+        if first is None or last is None or last[0] <= first[0]:
+            return "  --"
+        return f"{100.0 * math.hypot(last[1] - first[1], last[2] - first[2]) / (last[0] - first[0]):4.1f}"
+
+
+class VideoRecorder(Node):
+    """``--video``: writes the overhead camera's images (``image_raw``) to a video file (MJPG)."""
+
+    def __init__(self, path: str, fps: float):
+        super().__init__("srs_video_recorder")
+        self.path, self.fps, self.frames = path, fps, 0
+        self._writer = None
+        self.create_subscription(Image, IMAGE_TOPIC, self._on_image, 10)
+
+    def _on_image(self, msg: Image) -> None:
+        frame = image_msg_to_array(msg)
+        if self._writer is None:
+            self._writer = cv2.VideoWriter(self.path, cv2.VideoWriter_fourcc(*"MJPG"), self.fps,
+                                           (frame.shape[1], frame.shape[0]))
+            if not self._writer.isOpened():
+                raise ConfigurationError(f"--video {self.path}: OpenCV cannot write this file (use a .avi path in "
+                                         "a writable folder).")
+        self._writer.write(frame)
+        self.frames += 1
+
+    def close(self) -> None:
+        """Finish the file and say where it is."""
+        if self._writer is not None:
+            self._writer.release()
+            print(f"srs_bringup: saved {self.frames} camera frames to {self.path}", flush=True)
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -115,8 +185,12 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--frequency-hz", type=float, default=1.0, help="gait frequency, Hz (default 1)")
     parser.add_argument("--samples", type=int, default=64, help="samples per fitted cycle (default 64)")
     parser.add_argument("--rate-hz", type=float, default=200.0, help="setpoint rate, Hz (default 200)")
-    parser.add_argument("--rig", default="", help="rig YAML (default: config/rigs/mock.yaml, the mock robot)")
-    parser.add_argument("--backend", default="", help="override the rig's backend: mock, can or daq")
+    parser.add_argument("--rig", default=str(config_dir() / "rigs" / "sim.yaml"),
+                        help="rig YAML (default: config/rigs/sim.yaml, the simulated robot; config/rigs/mock.yaml "
+                             "is the muscle-only mock, can.yaml and daq.yaml drive real regulators)")
+    parser.add_argument("--backend", default="", help="override the rig's backend: sim, mock, can or daq")
+    parser.add_argument("--sim-config", default="", help="simulation YAML for the sim rig (default config/sim.yaml)")
+    parser.add_argument("--video", default="", help="sim rig: save the overhead camera's view to this file (.avi)")
     parser.add_argument("--arm", action="store_true",
                         help="the operator's go for a rig with real regulators: command pressures at once "
                              "(without it such a rig stays at 0 bar until ~/arm is called)")
@@ -140,6 +214,8 @@ def _params_file(args: argparse.Namespace, ros_args: list[str]) -> str:
                               "frequency_hz": args.frequency_hz, "samples": args.samples},
         "gait_player": {"autostart": True, "rate_hz": args.rate_hz},
         "hardware_node": {"autostart": True, "rig_file": args.rig, "backend": args.backend},
+        "sim_world": {"sim_config_file": args.sim_config},
+        "camera_tracker": {"color_preset": "sim_bands"},
     }
     params = {node: {k: v for k, v in values.items() if k not in given} for node, values in params.items()}
     with tempfile.NamedTemporaryFile("w", prefix="srs_bringup_", suffix=".yaml", delete=False) as stream:
@@ -160,19 +236,30 @@ def main(argv: list[str] | None = None) -> int:
     realtime = EventsExecutor()
     fitting = MultiThreadedExecutor(num_threads=2)
     fitting_thread = threading.Thread(target=_spin_quietly, args=(fitting,), name="trajectory_server", daemon=True)
+    world = SingleThreadedExecutor()
+    world_stop = threading.Event()
+    world_thread = threading.Thread(target=_spin_until, args=(world, world_stop), name="sim_world", daemon=True)
     nodes: list[Node] = []
-    hardware = server = None
+    hardware = server = recorder = None
     outcome = CleanExit()
     try:
         with outcome:
+            simulated = _rig_backend(args) == "sim"
+            world_nodes = _world_nodes(args) if simulated else []  # the world first: the hardware talks to it
             server, player, hardware = TrajectoryServer(), GaitPlayer(), HardwareNode()
-            nodes = [server, player, hardware, StatusMonitor(player, server, hardware, args.status_period_s)]
+            status = StatusMonitor(player, server, hardware, args.status_period_s, simulated)
+            recorder = next((n for n in world_nodes if isinstance(n, VideoRecorder)), None)
+            nodes = [server, player, hardware, status, *world_nodes]
             _check_hardware(hardware, args)
             outcome.started = True
             fitting.add_node(server)
             fitting_thread.start()
-            for node in nodes[1:]:
+            for node in (player, hardware, status):
                 realtime.add_node(node)
+            for node in world_nodes:
+                world.add_node(node)
+            if world_nodes:
+                world_thread.start()
             spin_until_shutdown(realtime, args.duration_s)
     finally:
         realtime.shutdown()
@@ -183,12 +270,36 @@ def main(argv: list[str] | None = None) -> int:
         if server is not None:
             server.wait_for_fit()
         fitting.shutdown()
-        if fitting_thread.is_alive():
-            fitting_thread.join(timeout=10.0)
+        world_stop.set()
+        for thread in (fitting_thread, world_thread):
+            if thread.is_alive():
+                thread.join(timeout=10.0)
+        world.shutdown()
+        if recorder is not None:
+            recorder.close()
         for node in nodes:
             node.destroy_node()
         rclpy.try_shutdown()
     return outcome.exit_code
+
+
+def _rig_backend(args: argparse.Namespace) -> str:
+    return args.backend or load_rig(args.rig or None).backend
+
+
+def _world_nodes(args: argparse.Namespace) -> list[Node]:
+    """The simulated robot, the camera tracker on its images and (``--video``) the recorder."""
+    nodes: list[Node] = [SimWorldNode(), CameraTrackerNode()]
+    if args.video:
+        nodes.append(VideoRecorder(args.video, nodes[0].get_parameter("camera_rate_hz").value))
+    return nodes
+
+
+def _spin_until(executor, stop: threading.Event) -> None:
+    """A timed spin_once loop on its own thread until ``stop`` (or rclpy's shutdown)."""
+    with CleanExit():
+        while not stop.is_set() and rclpy.ok():
+            executor.spin_once(timeout_sec=0.05)
 
 
 def _check_hardware(hardware: HardwareNode, args: argparse.Namespace) -> None:

@@ -49,7 +49,8 @@ def test_write_before_open_is_a_hardware_error():
 
 
 def test_unknown_backend_lists_the_known_ones():
-    with pytest.raises(ConfigurationError, match=r"unknown backend 'pcan'; expected one of \['can', 'daq', 'mock'\]"):
+    known = r"\['can', 'daq', 'mock', 'sim'\]"
+    with pytest.raises(ConfigurationError, match=r"unknown backend 'pcan'; expected one of " + known):
         create_backend("pcan")
 
 

@@ -41,7 +41,7 @@ def test_lengths_the_clamp_changes_are_named_not_rejected():
     lengths = setpoint_lengths_m(NAMES, [-0.01, 0.07, 0.05, 0.04] + [0.01] * 5, ROBOT)
     # 0.05 m is within the muscles' stroke (0.065 m) but needs 5 bar with P = 100 l: limited to 4 bar
     assert clamped_joints(lengths, ROBOT) == ["m1_pma1", "m1_pma2", "m1_pma3"]
-    assert clamped_joints(np.full(9, 0.04 * (1 + 1e-15)), ROBOT) == []  # a 4 bar cycle's rounding is no clamp
+    assert clamped_joints(np.full(9, 0.04005), ROBOT) == []  # a 4 bar cycle's spline overshoot is no request
 
 
 def test_gate_sends_fresh_commands_only_while_active():
