@@ -102,7 +102,8 @@ class StatusMonitor(Node):
     def status_line(self) -> str:
         """One line: gait, cycles played, rates (Hz), the largest pressure in the period, speeds (sim rig).
 
-        On the simulated robot it ends with the camera-tracked speed beside the ground truth (cm/s). Cycles played (e.g. ``cycle  12.37``: 12 whole cycles, phase 0.37) rather than the bare phase,
+        On the simulated robot it ends with the camera-tracked speed beside the ground truth (cm/s).
+        Cycles played (e.g. ``cycle  12.37``: 12 whole cycles, phase 0.37) rather than the bare phase,
         which a 1 s status period samples at the same value every time for a 1 Hz gait.
         """
         now_s = time.monotonic()
