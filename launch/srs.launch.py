@@ -1,8 +1,10 @@
 """Launch the SRS system as separate processes on a stock ROS 2 install (params from config/).
 
-- ``ros2 launch srs_ros srs.launch.py``: mock rig, inward rolling at 4 bar, 1 Hz;
-- ``ros2 launch srs_ros srs.launch.py rig_file:=/path/to/rigs/can.yaml gait:=serpentine amplitude_bar:=3``;
-- ``ros2 launch srs_ros srs.launch.py camera:=true``: also the overhead camera tracker;
+- ``ros2 launch srs_ros srs.launch.py``: the simulated robot (``sim_world``, MuJoCo) on the sim rig, watched
+  by ``camera_tracker`` on its overhead camera, inward rolling at 4 bar, 1 Hz;
+- ``ros2 launch srs_ros srs.launch.py rig_file:=/path/to/rigs/can.yaml sim:=false camera_preset:=''
+  gait:=serpentine amplitude_bar:=3``: a real rig (then arm it: ``ros2 service call /hardware_node/arm
+  std_srvs/srv/Trigger``) with a real camera tracking ArUco markers (``camera:=false`` for none);
 - ``ros2 launch srs_ros srs.launch.py namespace:=snake1 use_sim_time:=true``: every node under
   ``/snake1`` (topics ``/snake1/joint_setpoints`` ..., services ``/snake1/hardware_node/...``), on
   ``/clock`` time.
@@ -36,12 +38,17 @@ def generate_launch_description():
         DeclareLaunchArgument("amplitude_bar", default_value="4.0",
                               description="largest pressure of the cycle, bar (3 or 3.0)"),
         DeclareLaunchArgument("frequency_hz", default_value="1.0", description="gait frequency, Hz (1 or 1.0)"),
-        DeclareLaunchArgument("rig_file", default_value=os.path.join(config, "rigs", "mock.yaml"),
-                              description="rig YAML (backend, channels, rates)"),
+        DeclareLaunchArgument("rig_file", default_value=os.path.join(config, "rigs", "sim.yaml"),
+                              description="rig YAML (backend, channels, rates); rigs/sim.yaml = the simulated robot"),
+        DeclareLaunchArgument("sim", default_value="true", choices=["true", "false"],
+                              description="start sim_world, the simulated robot (for rigs/sim.yaml)"),
         DeclareLaunchArgument("autostart", default_value="true", choices=["true", "false"],
                               description="configure and activate the hardware node, play the gait"),
-        DeclareLaunchArgument("camera", default_value="false", choices=["true", "false"],
-                              description="start the camera tracker"),
+        DeclareLaunchArgument("camera", default_value="true", choices=["true", "false"],
+                              description="start the camera tracker (on image_raw)"),
+        DeclareLaunchArgument("camera_preset", default_value="sim_bands", choices=["sim_bands", ""],
+                              description="camera_tracker color_preset: sim_bands for sim_world's camera, '' for "
+                                          "config/camera_tracker.yaml (ArUco markers of a real robot)"),
         DeclareLaunchArgument("namespace", default_value="", description="ROS namespace of every node"),
         DeclareLaunchArgument("use_sim_time", default_value="false", choices=["true", "false"],
                               description="use /clock (simulation) time"),
@@ -69,7 +76,12 @@ def generate_launch_description():
     )
     camera_tracker = Node(
         package="srs_ros", executable="camera_tracker", name="camera_tracker", namespace=namespace, output="screen",
-        parameters=[os.path.join(config, "camera_tracker.yaml"), common],
+        parameters=[os.path.join(config, "camera_tracker.yaml"), common,
+                    {"color_preset": _typed("camera_preset", str)}],
         condition=IfCondition(LaunchConfiguration("camera")),
     )
-    return LaunchDescription(args + [trajectory_server, gait_player, hardware_node, camera_tracker])
+    sim_world = Node(
+        package="srs_ros", executable="sim_world", name="sim_world", namespace=namespace, output="screen",
+        parameters=[common], condition=IfCondition(LaunchConfiguration("sim")),
+    )
+    return LaunchDescription(args + [sim_world, trajectory_server, gait_player, hardware_node, camera_tracker])

@@ -41,9 +41,10 @@ def evaluate(ament_prefix, *arguments):
     return {node["name"]: node for node in json.loads(done.stdout)["nodes"]}
 
 
-def test_defaults_start_three_nodes_with_hardware_node_as_a_lifecycle_node(ament_prefix):
+def test_defaults_run_the_simulated_robot_with_hardware_node_as_a_lifecycle_node(ament_prefix):
     nodes = evaluate(ament_prefix)
-    assert sorted(nodes) == ["gait_player", "hardware_node", "trajectory_server"]
+    assert sorted(nodes) == ["camera_tracker", "gait_player", "hardware_node", "sim_world", "trajectory_server"]
+    assert nodes["camera_tracker"]["parameters"]["color_preset"] == "sim_bands"
     assert nodes["hardware_node"]["kind"] == "LifecycleNode"
     assert nodes["trajectory_server"]["kind"] == nodes["gait_player"]["kind"] == "Node"
     server = nodes["trajectory_server"]["parameters"]
@@ -53,7 +54,9 @@ def test_defaults_start_three_nodes_with_hardware_node_as_a_lifecycle_node(ament
         assert node["namespace"] == "" and node["parameters"]["use_sim_time"] is False
         assert all(Path(f).is_file() for f in node["parameter_files"]), node["parameter_files"]
     assert nodes["hardware_node"]["parameters"]["autostart"] is True
-    assert Path(nodes["hardware_node"]["parameters"]["rig_file"]).name == "mock.yaml"
+    assert Path(nodes["hardware_node"]["parameters"]["rig_file"]).name == "sim.yaml"
+    real = evaluate(ament_prefix, "sim:=false", "camera:=false", "rig_file:=/etc/srs/can.yaml")
+    assert sorted(real) == ["gait_player", "hardware_node", "trajectory_server"]
 
 
 @pytest.mark.parametrize("written", ["3", "3.0"])
@@ -65,7 +68,7 @@ def test_amplitude_and_frequency_reach_the_server_as_doubles(ament_prefix, writt
 
 def test_namespace_and_sim_time_reach_every_node_including_the_camera(ament_prefix):
     nodes = evaluate(ament_prefix, "namespace:=snake1", "use_sim_time:=true", "camera:=true")
-    assert sorted(nodes) == ["camera_tracker", "gait_player", "hardware_node", "trajectory_server"]
+    assert sorted(nodes) == ["camera_tracker", "gait_player", "hardware_node", "sim_world", "trajectory_server"]
     for node in nodes.values():
         assert node["namespace"] == "snake1" and node["parameters"]["use_sim_time"] is True
 
