@@ -154,11 +154,15 @@ class OverheadCamera:
         return bank
 
     def _tube_samples(self, nodes_m: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Points along the backbone polyline every ``TUBE_STEP_M`` and the arc length (m) of each."""
+        """Points along the backbone polyline about every ``TUBE_STEP_M`` and at the bands' edges, with arc lengths."""
         chords = np.diff(nodes_m, axis=0)
         lengths = np.linalg.norm(chords, axis=1)
         arc = np.concatenate([[0.0], np.cumsum(lengths)])
-        s = np.linspace(0.0, arc[-1], max(2, int(math.ceil(arc[-1] / TUBE_STEP_M)) + 1))
+        offset, half_band = self.config.body.marker_offset_m, 0.5 * self.camera_config.band_length_m
+        edges = np.array([offset - half_band, offset + half_band, arc[-1] - offset - half_band,
+                          arc[-1] - offset + half_band])
+        even = np.linspace(0.0, arc[-1], max(2, int(math.ceil(arc[-1] / TUBE_STEP_M)) + 1))
+        s = np.unique(np.concatenate([even, edges[(edges > 0.0) & (edges < arc[-1])]]))
         points = np.stack([np.interp(s, arc, nodes_m[:, i]) for i in range(3)], axis=-1)
         return points, s
 

@@ -90,7 +90,7 @@ class SimWorld:
     """The snake on a floor, stepped at a fixed time step; see the module docstring.
 
     >>> world = SimWorld()
-    >>> world.command_pressures(np.full(9, 2.0))
+    >>> _ = world.command_pressures(np.full(9, 2.0))
     >>> world.step(0.5)
     >>> round(world.time_s, 3)
     0.5

@@ -1,0 +1,105 @@
+"""config/sim.yaml: loaded into a SimConfig; every bad value refused with the key, the value and what is expected."""
+
+import copy
+
+import pytest
+import yaml
+
+from srs_ros.core.errors import ConfigurationError
+from srs_ros.core.muscle_model import MUSCLE_OPTION_DEFAULTS
+from srs_ros.core.robot import default_robot
+from srs_ros.sim.config import default_sim_config_path, load_sim_config, sim_config_from_dict, with_friction
+
+
+@pytest.fixture(scope="module")
+def raw():
+    return yaml.safe_load(default_sim_config_path().read_text())
+
+
+def test_the_package_file_loads_with_units_and_shared_muscle_defaults():
+    config = load_sim_config()
+    robot = default_robot()
+    assert config.body.segments_per_module >= 1 and config.body.skin_radius_m > robot.actuator_radius_m
+    assert config.physics.steps_per_control * config.physics.time_step_s == pytest.approx(
+        config.physics.control_period_s)
+    # No muscle option in the file: the mock backend's shared defaults and the robot's deadzone/extension.
+    assert config.muscles.pressure_time_constant_s == MUSCLE_OPTION_DEFAULTS["pressure_time_constant_s"]
+    assert config.muscles.transport_delay_s == MUSCLE_OPTION_DEFAULTS["transport_delay_s"]
+    assert config.muscles.deadzone_bar == robot.deadzone_bar
+    assert config.muscles.max_extension_m == robot.max_extension_m
+    assert config.contact.friction == "isotropic" and config.contact.self_contact is True
+
+
+@pytest.mark.parametrize(("section", "key", "value", "expected"), [
+    ("body", "segments_per_module", 0, "an integer in [1, 20]"),
+    ("body", "segments_per_module", 2.5, "an integer in [1, 20]"),
+    ("body", "skin_radius_m", -0.02, "a radius in [0.002, 0.2] m"),
+    ("servo", "bend_stiffness_nm_per_rad", "stiff", "a stiffness"),
+    ("servo", "skin_bend_stiffness_nm_per_rad", float("nan"), "a stiffness"),
+    ("contact", "friction", "sticky", "one of ['isotropic', 'anisotropic']"),
+    ("contact", "friction_coefficient", -0.1, "a Coulomb coefficient in [0, 10]"),
+    ("contact", "self_contact", "yes", "true or false"),
+    ("physics", "time_step_s", 0.5, "a time step in [1e-5, 0.02] s"),
+    ("physics", "control_period_s", 0.003, "a whole number (>= 1) of time_step_s"),
+    ("physics", "solver_iterations", True, "an integer in [1, 1000]"),
+    ("start", "yaw_rad", None, "a heading in [-10, 10] rad"),
+    ("camera", "tail_band_bgr", [300, 0, 0], "three integers 0-255 (B, G, R)"),
+    ("camera", "head_band_bgr", [0, 0], "three integers 0-255 (B, G, R)"),
+    ("muscles", "transport_delay_s", -1.0, "a number in [0.0, 2.0]"),
+])
+def test_a_bad_value_is_refused_naming_the_key_the_value_and_what_is_expected(raw, section, key, value, expected):
+    data = copy.deepcopy(raw)
+    data["sim"][section][key] = value
+    with pytest.raises(ConfigurationError) as error:
+        sim_config_from_dict(data, source="bad.yaml")
+    text = str(error.value)
+    assert text.startswith(f"bad.yaml [sim.{section}]") and f"'{key}'" in text and repr(value) in text, text
+    assert expected in text, text
+
+
+@pytest.mark.parametrize(("change", "message"), [
+    (lambda d: d["sim"]["body"].update(segments=5), "unknown key 'segments'"),
+    (lambda d: d["sim"]["servo"].pop("axial_stiffness_n_per_m"), "missing key 'axial_stiffness_n_per_m'"),
+    (lambda d: d["sim"].pop("contact"), "missing section 'sim.contact:'"),
+    (lambda d: d["sim"].update(extras={}), "unknown section 'extras'"),
+    (lambda d: d.pop("sim"), "missing section 'sim:'"),
+])
+def test_structure_errors_say_what_is_missing_or_unknown(raw, change, message):
+    data = copy.deepcopy(raw)
+    change(data)
+    with pytest.raises(ConfigurationError, match=message):
+        sim_config_from_dict(data, source="bad.yaml")
+
+
+def test_a_missing_file_is_a_configuration_error(tmp_path):
+    with pytest.raises(ConfigurationError, match="no such file"):
+        load_sim_config(tmp_path / "nope.yaml")
+
+
+@pytest.mark.parametrize(("text", "mode", "along_across"), [
+    ("isotropic", "isotropic", None),
+    ("anisotropic", "anisotropic", None),
+    ("0.5", "isotropic", (0.5, 0.5)),
+    ("0.2, 0.9", "anisotropic", (0.2, 0.9)),
+])
+def test_friction_option(text, mode, along_across):
+    base = load_sim_config()
+    contact = with_friction(base, text).contact
+    assert contact.friction == mode
+    expected = along_across or ((base.contact.friction_along_body, base.contact.friction_across_body)
+                                if mode == "anisotropic" else (base.contact.friction_coefficient,) * 2)
+    assert contact.along_across == pytest.approx(expected)
+
+
+@pytest.mark.parametrize("text", ["slippery", "1,2,3", "-0.5", "0.3,abc"])
+def test_a_bad_friction_option_is_refused(text):
+    with pytest.raises(ConfigurationError, match="friction"):
+        with_friction(load_sim_config(), text)
+
+
+def test_replace_validates_the_new_value():
+    config = load_sim_config()
+    assert config.replace("start", yaw_rad=1.0).start.yaw_rad == 1.0
+    assert config.start.yaw_rad == 0.0  # the original is untouched
+    with pytest.raises(ConfigurationError, match="'skin_radius_m' is 5.0"):
+        config.replace("body", skin_radius_m=5.0)

@@ -1,0 +1,76 @@
+"""What the simulated robot does on the floor (real MuJoCo), as the issue and the paper (Sec. IV, Table I) say.
+
+Velocities are Table I's: displacement of the tracked reference point over the run time, 15 s runs.
+"""
+
+import numpy as np
+import pytest
+
+from srs_ros.sim.config import load_sim_config, with_friction
+from srs_ros.sim.experiment import run_experiment
+
+RUN_S = 15.0
+_RUNS = {}
+
+
+def run(gait, amplitude_bar, frequency_hz, friction=None, duration_s=RUN_S):
+    """One cached experiment, with the body's opening recorded at every frame."""
+    key = (gait, amplitude_bar, frequency_hz, friction, duration_s)
+    if key not in _RUNS:
+        config = load_sim_config()
+        if friction:
+            config = with_friction(config, friction)
+        toward_opening = []
+
+        def on_frame(state):
+            # A rolling C-shape opens from its middle toward the midpoint of its ends (the reference point).
+            opening = state.reference_xy_m - state.nodes_m[len(state.nodes_m) // 2, :2]
+            if np.linalg.norm(opening) > 1e-3:
+                toward_opening.append(state.reference_velocity_m_s @ opening / np.linalg.norm(opening))
+
+        result = run_experiment(gait, amplitude_bar, frequency_hz, duration_s, config, on_frame=on_frame)
+        _RUNS[key] = result, 100.0 * float(np.mean(toward_opening)) if toward_opening else 0.0
+    return _RUNS[key]
+
+
+@pytest.mark.parametrize("gait", ["inward_rolling", "serpentine"])
+def test_at_1_bar_nothing_moves(gait):
+    result, _ = run(gait, 1.0, 1.0)
+    assert result.velocity.speed_cm_s < 0.1, result.summary()
+    assert result.peak_body_bend_rad < 0.01  # the deadzone keeps every muscle at rest
+
+
+@pytest.mark.parametrize("frequency_hz", [0.5, 1.0])
+def test_inward_rolling_at_4_bar_moves_faster_than_2_cm_s_toward_its_opening(frequency_hz):
+    result, toward_opening_cm_s = run("inward_rolling", 4.0, frequency_hz)
+    assert result.velocity.speed_cm_s > 2.0, result.summary()
+    assert toward_opening_cm_s > 2.0
+
+
+@pytest.mark.parametrize("frequency_hz", [0.5, 1.0])
+def test_outward_rolling_moves_the_opposite_way(frequency_hz):
+    inward, inward_opening = run("inward_rolling", 4.0, frequency_hz)
+    outward, outward_opening = run("outward_rolling", 4.0, frequency_hz)
+    assert outward.velocity.speed_cm_s > 1.0, outward.summary()
+    # Same start pose: the net displacements point into opposite half-planes ...
+    d_in = np.array([inward.velocity.displacement_x_m, inward.velocity.displacement_y_m])
+    d_out = np.array([outward.velocity.displacement_x_m, outward.velocity.displacement_y_m])
+    assert d_in @ d_out < 0.0, (d_in, d_out)
+    # ... because inward rolls toward the curve's opening and outward away from it (paper Sec. IV-D).
+    assert inward_opening > 0.0 > outward_opening
+
+
+def test_serpentine_needs_anisotropic_friction_to_progress():
+    isotropic, _ = run("serpentine", 4.0, 0.25)
+    anisotropic, _ = run("serpentine", 4.0, 0.25, friction="anisotropic")
+    config = with_friction(load_sim_config(), "anisotropic").contact
+    assert config.friction_across_body >= 2.0 * config.friction_along_body
+    assert isotropic.velocity.speed_cm_s < 1.0, isotropic.summary()
+    assert anisotropic.velocity.speed_cm_s > max(1.0, 3.0 * isotropic.velocity.speed_cm_s), anisotropic.summary()
+
+
+def test_a_run_is_deterministic():
+    first = run_experiment("inward_rolling", 3.0, 1.0, 2.0)
+    second = run_experiment("inward_rolling", 3.0, 1.0, 2.0)
+    np.testing.assert_array_equal(first.track, second.track)
+    assert np.ptp(first.track[:, 1:3], axis=0).max() > 0.01  # it moved, so equality means something
