@@ -30,7 +30,7 @@ import numpy as np
 
 from srs_ros.backends.base import ActuatorBackend
 from srs_ros.core.errors import BackendUnavailableError, ConfigurationError, HardwareError
-from srs_ros.core.robot import RobotDescription, config_dir
+from srs_ros.core.robot import RobotDescription, config_file
 
 DEFAULT_DBC_FILE = "srs_dac.dbc"
 DEFAULT_COMMAND_SIGNAL = "CMD_CH{channel}"
@@ -78,14 +78,6 @@ def crc8_sae_j1850(data: bytes) -> int:
     return crc ^ 0xFF
 
 
-def resolve_config_path(path: str | Path) -> Path:
-    """An absolute path, or a relative one found in the working directory, else in the package's config/."""
-    path = Path(path).expanduser()
-    if path.is_absolute() or path.exists():
-        return path
-    return config_dir() / path
-
-
 class CanBackend(ActuatorBackend):
     """Nine regulator commands as DBC-encoded CAN frames; optional monitor read-back.
 
@@ -127,7 +119,7 @@ class CanBackend(ActuatorBackend):
         #: How long the hardware keeps the last command after the host stops writing (s).
         self.host_loss_timeout_s = self.board_timeout_s
         self.channels = self._channel_list()
-        self.dbc_path = resolve_config_path(self.options.get("dbc_file", DEFAULT_DBC_FILE))
+        self.dbc_path = config_file(self.options.get("dbc_file", DEFAULT_DBC_FILE))
         self.database = self._load_dbc(self.dbc_path)
         self._command_layout = self._command_signals()
         names = {message.name for message, _ in self._command_layout}

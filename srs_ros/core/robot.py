@@ -230,6 +230,12 @@ def config_dir() -> Path:
     )
 
 
+def config_file(path: str | Path) -> Path:
+    """A file named in a config: as given if absolute or found from the working directory, else in config/."""
+    path = Path(path).expanduser()
+    return path if path.is_absolute() or path.exists() else config_dir() / path
+
+
 def read_yaml(path: str | Path) -> Any:
     """Parse a YAML file, raising :class:`ConfigurationError` with the path on any failure."""
     path = Path(path)

@@ -63,7 +63,8 @@ PARAMETERS = (
                   read_only=True),
     ParameterSpec("head_color_hsv_high", [10, 255, 255], "colour detector: head HSV upper bound", read_only=True),
     ParameterSpec("color_preset", "", "'' or 'sim_bands': the colour detector set for the simulated robot's head "
-                  "and tail bands (config/sim.yaml), replacing detector and the HSV bounds", read_only=True,
+                  "and tail bands (config/sim.yaml), replacing detector and the HSV bounds; with no calibration_file "
+                  "the simulated camera's calibration in the bands' plane", read_only=True,
                   additional_constraints="'' or 'sim_bands'"),
     ParameterSpec("min_blob_area_px", 20.0, "colour detector: smallest blob, px^2", 1.0, 1e7, read_only=True),
     ParameterSpec("position_ratio", 0.5, "pose point between tail (0) and head (1)", 0.0, 1.0, read_only=True),
@@ -148,6 +149,18 @@ def tracker_config(params: dict[str, Any]) -> TrackerConfig:
     return dataclasses.replace(config, detector="color", tail_color=bands.tail_color, head_color=bands.head_color)
 
 
+def sim_band_calibration():
+    """The simulated camera's calibration in the plane of its bands (one skin radius above the floor).
+
+    A lab calibrates with its markers' height in mind; the simulated bands ride on the body's axis.
+    """
+    from srs_ros.sim.camera import OverheadCamera
+    from srs_ros.sim.config import load_sim_config
+
+    config = load_sim_config()
+    return OverheadCamera(config).calibration_at_height(config.body.skin_radius_m)
+
+
 # ------------------------------------------------------------------------------------------
 # The node
 # ------------------------------------------------------------------------------------------
@@ -160,7 +173,10 @@ class CameraTrackerNode(Node):
         declare_parameters(self, PARAMETERS)
         p = {spec.name: self.get_parameter(spec.name).value for spec in PARAMETERS}
         calibration_file = p["calibration_file"] or None
-        self.calibration = load_calibration(calibration_file)
+        if p["color_preset"] == "sim_bands" and calibration_file is None:
+            self.calibration = sim_band_calibration()
+        else:
+            self.calibration = load_calibration(calibration_file)
         self.tracker = Tracker(self.calibration, tracker_config(p))
         self.frame_id = p["frame_id"] or self.calibration.frame_id
         self.path_max_poses = int(p["path_max_poses"])

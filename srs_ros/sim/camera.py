@@ -18,6 +18,7 @@ import numpy as np
 
 from srs_ros.core.camera_calibration import CameraCalibration, load_calibration
 from srs_ros.core.errors import ConfigurationError
+from srs_ros.core.robot import config_file
 from srs_ros.core.tracking import ColorRange, TrackerConfig
 from srs_ros.sim.config import CameraConfig, SimConfig, load_sim_config
 from srs_ros.tools.synthetic_scene import floor_texture_bgr
@@ -95,7 +96,8 @@ class OverheadCamera:
         """Recover the pinhole from ``calibration`` (default: ``sim.camera.calibration_file``) and draw the floor."""
         self.config = config or load_sim_config()
         cam = self.camera_config = self.config.camera
-        self.calibration = calibration or load_calibration(cam.calibration_file or None)
+        self.calibration = calibration or load_calibration(config_file(cam.calibration_file) if cam.calibration_file
+                                                           else None)
         self.size_px = tuple(self.calibration.image_size_px or DEFAULT_IMAGE_SIZE_PX)
         self.intrinsics, self.rotation, self.translation = pinhole_from_homography(
             self.calibration.homography_floor_to_image, self.size_px, cam.focal_length_px)
