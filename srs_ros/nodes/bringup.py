@@ -7,7 +7,7 @@ Ctrl-C (or ``--duration-s``); then the valves are vented.
 
 The default rig is the simulated robot (``config/rigs/sim.yaml``): the bringup then also runs
 ``sim_world`` (MuJoCo, real time) and ``camera_tracker`` on its overhead camera (colour bands), and the
-status line shows the tracked speed beside the ground truth (cm/s); ``--video FILE`` saves the camera's
+status line shows the tracked traveling speed beside the ground truth (cm/s); ``--video FILE`` saves the camera's
 view. ``--rig config/rigs/mock.yaml`` runs the muscle-only mock instead.
 
 On a rig with real regulators (``can``, ``daq``) nothing above 0 bar is commanded until the operator
@@ -102,7 +102,8 @@ class StatusMonitor(Node):
     def status_line(self) -> str:
         """One line: gait, cycles played, rates (Hz), the largest pressure in the period, speeds (sim rig).
 
-        On the simulated robot it ends with the camera-tracked speed beside the ground truth (cm/s).
+        On the simulated robot it ends with the traveling speed since the start (Table I's displacement over
+        time), tracked by the camera beside the ground truth (cm/s).
         Cycles played (e.g. ``cycle  12.37``: 12 whole cycles, phase 0.37) rather than the bare phase,
         which a 1 s status period samples at the same value every time for a 1 Hz gait.
         """
@@ -115,7 +116,7 @@ class StatusMonitor(Node):
                 f"setpoints {self._setpoints / span_s:5.0f} Hz | commands {self._commands / span_s:5.0f} Hz | "
                 f"largest {self._largest_bar:4.2f} bar | hardware {self._hardware.status.reason.value}")
         if self._truth is not None:
-            line += f" | speed tracked {self._tracked.take()} truth {self._truth.take()} cm/s"
+            line += f" | travel speed tracked {self._tracked.take()} truth {self._truth.take()} cm/s"
         self._setpoints = self._commands = 0
         self._largest_bar = 0.0
         self._since_s = now_s
@@ -130,7 +131,10 @@ class StatusMonitor(Node):
 
 
 class SpeedMeter:
-    """Floor speed (cm/s) of a PoseStamped stream over the poses since the last :meth:`take`, by their stamps."""
+    """Traveling speed (cm/s) of a PoseStamped stream since its first pose, by the stamps.
+
+    The paper's Table I measure (displacement over time): a gait that only sways in place shows about 0.
+    """
 
     def __init__(self) -> None:
         self._first: tuple[float, float, float] | None = None
@@ -143,9 +147,8 @@ class SpeedMeter:
         self._last = sample
 
     def take(self) -> str:
-        """The speed over the period as text (``--`` without two poses); the next period starts at the last pose."""
+        """The speed so far as text (``--`` before two poses)."""
         first, last = self._first, self._last
-        self._first = last
         if first is None or last is None or last[0] <= first[0]:
             return "  --"
         return f"{100.0 * math.hypot(last[1] - first[1], last[2] - first[2]) / (last[0] - first[0]):4.1f}"
