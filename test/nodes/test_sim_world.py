@@ -15,25 +15,42 @@ from srs_ros.core.robot import config_dir
 SIM_RIG = str(config_dir() / "rigs" / "sim.yaml")
 
 
+def stamps_s(msgs):
+    return np.array([m.header.stamp.sec + 1e-9 * m.header.stamp.nanosec for m in msgs])
+
+
 def test_the_gait_moves_the_simulated_robot_and_killing_sim_world_vents_the_hardware(launch_node, ros_client):
-    world = launch_node("sim_world", ros_args({"camera_rate_hz": 10.0}))
-    launch_node("hardware_node", ros_args({"autostart": True, "rig_file": SIM_RIG, "ramp_time_s": 0.2}))
+    world = launch_node("sim_world", ros_args({"camera_rate_hz": 15.0}))
+    launch_node("camera_tracker", ros_args({"color_preset": "sim_bands"}))
+    hardware = launch_node("hardware_node", ros_args({"autostart": True, "rig_file": SIM_RIG, "ramp_time_s": 0.2}))
     launch_node("trajectory_server", ros_args({"samples": 32}))
     launch_node("gait_player", ros_args({"autostart": True, "ramp_time_s": 0.2}))
     truth = ros_client.subscribe(PoseStamped, "sim/ground_truth_pose")
+    tracked = ros_client.subscribe(PoseStamped, "robot_pose")
     lengths = ros_client.subscribe(JointState, "actuator_state")
     bus = ros_client.subscribe(JointState, SIM_COMMAND_TOPIC, bus_qos())
     markers = ros_client.subscribe(MarkerArray, "sim/body_markers")
     images = ros_client.subscribe(Image, "image_raw", 1)
     diagnostics = ros_client.subscribe(DiagnosticArray, "/diagnostics")
-    ros_client.spin_until(lambda: lengths and max(lengths[-1].position, default=0.0) > 0.02, 60.0,
-                          "the simulated muscles extending (read back through the sim backend)")
+    try:
+        ros_client.spin_until(lambda: lengths and max(lengths[-1].position, default=0.0) > 0.02, 60.0,
+                              "the simulated muscles extending (read back through the sim backend)")
+    except AssertionError as exc:
+        raise AssertionError(f"{exc}\nhardware_node:\n{hardware.output()}\nsim_world:\n{world.output()}") from None
     ros_client.spin_until(lambda: len(truth) > 100 and images and markers, 30.0, "pose, camera and markers")
 
-    start = truth[-1].pose.position
-    ros_client.spin_for(3.0)
+    start, first_tracked = truth[-1].pose.position, len(tracked)
+    ros_client.spin_for(4.0)
     end = truth[-1].pose.position
     assert np.hypot(end.x - start.x, end.y - start.y) > 0.05  # inward rolling at 4 bar, 1 Hz moves
+    # The loop closed by pixels: camera_tracker on sim_world's images against the ground truth, while rolling.
+    seen = tracked[first_tracked:]
+    assert len(seen) > 12, f"{len(seen)} tracked poses in 4 s of 15 fps"
+    truth_t, truth_xy = stamps_s(truth), np.array([[m.pose.position.x, m.pose.position.y] for m in truth])
+    errors_mm = [1000 * np.hypot(*(np.array([m.pose.position.x, m.pose.position.y])
+                                   - [np.interp(t, truth_t, truth_xy[:, 0]), np.interp(t, truth_t, truth_xy[:, 1])]))
+                 for m, t in zip(seen, stamps_s(seen))]
+    assert np.median(errors_mm) < 5.0, f"median {np.median(errors_mm):.1f} mm, worst {np.max(errors_mm):.1f} mm"
     assert truth[-1].header.frame_id == "floor"
     assert (images[-1].width, images[-1].height, images[-1].encoding) == (640, 480, "bgr8")
     assert [m.ns for m in markers[-1].markers] == ["simulated", "commanded"]
