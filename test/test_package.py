@@ -175,10 +175,6 @@ def test_colcon_build_installs_scripts_config_and_launch(tmp_path):
 # ------------------------------------------------------------------------------------------
 # Documents that belong to the package
 # ------------------------------------------------------------------------------------------
-#: Pages of docs/ that other parts of the work write (the index links them already).
-DOCS_WRITTEN_ELSEWHERE = {"docs/can.md", "docs/safety.md", "docs/simulation.md"}
-
-
 def _text_files():
     folders = ("srs_ros", "launch", "config", "docs", "scripts", "benchmarks")
     paths = [ROOT / "README.md", ROOT / "package.xml", ROOT / "setup.py"]
@@ -208,7 +204,7 @@ def test_relative_links_of_readme_and_docs_resolve():
             if "://" in target:
                 continue
             path = (page.parent / target).resolve()
-            if not path.exists() and str(path.relative_to(ROOT)) not in DOCS_WRITTEN_ELSEWHERE:
+            if not path.exists():
                 broken.append(f"{page.relative_to(ROOT)} -> {target}")
     assert broken == []
 
