@@ -1,0 +1,78 @@
+"""CPU share of the `sim_world` node in real time, with the whole simulated loop running as separate processes.
+
+Starts sim_world (camera at 30 fps), hardware_node on the sim rig, trajectory_server, gait_player (inward
+rolling 4 bar 1 Hz) and camera_tracker (sim bands), lets them run, and reads each process's CPU time from
+/proc: the share of one core each used over the measuring window (target for sim_world: <= 30 %). Also
+prints the camera frames, tracked poses and ground-truth poses received per second.
+
+Run: python benchmarks/bench_sim_world_node.py [--duration-s 20] [--camera-rate-hz 30]
+"""
+
+import argparse
+import os
+import sys
+import time
+from pathlib import Path
+
+from geometry_msgs.msg import PoseStamped
+from sensor_msgs.msg import Image
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "test"))
+from srs_testing import NodeProcess, RosClient, allocate_domain, release_domain, ros_args  # noqa: E402
+
+from srs_ros.core.robot import config_dir  # noqa: E402
+
+CLOCK_TICKS = os.sysconf("SC_CLK_TCK")
+
+
+def cpu_seconds(pid: int) -> float:
+    """utime + stime of a process (s)."""
+    fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / CLOCK_TICKS
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--duration-s", type=float, default=20.0, help="measuring window, s (default 20)")
+    parser.add_argument("--camera-rate-hz", type=float, default=30.0, help="sim_world camera rate (default 30)")
+    args = parser.parse_args()
+    os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
+    domain = allocate_domain()
+    env = dict(os.environ, ROS_DOMAIN_ID=str(domain))
+    rig = str(config_dir() / "rigs" / "sim.yaml")
+    processes = {
+        "sim_world": NodeProcess("sim_world", ros_args({"camera_rate_hz": args.camera_rate_hz}), env=env),
+        "hardware_node": NodeProcess("hardware_node", ros_args({"autostart": True, "rig_file": rig}), env=env),
+        "trajectory_server": NodeProcess("trajectory_server", ros_args({"samples": 64}), env=env),
+        "gait_player": NodeProcess("gait_player", ros_args({"autostart": True}), env=env),
+        "camera_tracker": NodeProcess("camera_tracker", ros_args({"color_preset": "sim_bands"}), env=env),
+    }
+    client = RosClient(domain)
+    try:
+        images = client.subscribe(Image, "image_raw", 1)
+        tracked = client.subscribe(PoseStamped, "robot_pose")
+        truth = client.subscribe(PoseStamped, "sim/ground_truth_pose")
+        client.spin_until(lambda: len(tracked) > 10, 60.0, "tracked poses (the loop running)")
+        client.spin_for(2.0)  # past start-up
+        counts = (len(images), len(tracked), len(truth))
+        start = {name: cpu_seconds(p.process.pid) for name, p in processes.items()}
+        started_s = time.monotonic()
+        client.spin_for(args.duration_s)
+        span_s = time.monotonic() - started_s
+        print(f"simulated loop, {span_s:.1f} s window, camera {args.camera_rate_hz:g} fps "
+              f"({os.cpu_count()} cores, load {os.getloadavg()[0]:.2f}):")
+        for name, proc in processes.items():
+            share = 100.0 * (cpu_seconds(proc.process.pid) - start[name]) / span_s
+            target = "  (target <= 30 %)" if name == "sim_world" else ""
+            print(f"  {name:18s} {share:5.1f} % of a core{target}")
+        rates = [(len(x) - c) / span_s for x, c in zip((images, tracked, truth), counts)]
+        print(f"  received: images {rates[0]:.1f}/s, tracked poses {rates[1]:.1f}/s, ground truth {rates[2]:.1f}/s")
+    finally:
+        client.close()
+        for proc in processes.values():
+            proc.stop()
+        release_domain(domain)
+
+
+if __name__ == "__main__":
+    main()
