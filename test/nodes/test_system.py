@@ -24,6 +24,8 @@ def test_killing_gait_player_vents_the_valves_within_the_timeout(launch_node, ro
         ros_client.spin_until(lambda: np.allclose(pressures[-1].data, 0.0), 10.0, "vent after gait_player died")
         delays_s.append(time.monotonic() - killed_s)
     assert max(max(m.data) for m in pressures) <= default_robot().max_pressure_bar
+    print(f"vent after gait_player was SIGKILLed: median {np.median(delays_s) * 1e3:.0f} ms, "
+          f"trials {[round(d * 1e3) for d in delays_s]} ms")
     # the timeout plus one command period and DDS: a watchdog 1.5x too slow fails on the median
     assert np.median(delays_s) < timeout_s + 1 / command_rate_hz + 0.07, delays_s
     count = len(pressures)
