@@ -108,7 +108,7 @@ class SimWorldNode(Node):
     def state(self):
         """The world's state now (computed once per world time step for all outputs)."""
         if self._state is None or self._state.time_s != self.world.time_s:
-            self._state = self.world.state()
+            self._state = self.world.state(with_contacts=False)
         return self._state
 
     def _world_time_s(self) -> float:
@@ -133,11 +133,11 @@ class SimWorldNode(Node):
     def _on_control_tick(self) -> None:
         if not self._advance():
             return
-        state = self.state()
+        pressure_bar, length_m = self.world.muscles.state(self.world.time_s)  # the read-back only: cheap
         msg = self._monitor
         msg.header.stamp = self.get_clock().now().to_msg()
-        msg.effort = state.pressure_bar.tolist()
-        msg.position = state.length_m.tolist()
+        msg.effort = pressure_bar.tolist()
+        msg.position = length_m.tolist()
         self._monitor_pub.publish(msg)
 
     # -- inputs ------------------------------------------------------------------------------

@@ -78,7 +78,7 @@ class SimState:
     length_m: np.ndarray
     target_bend_rad: np.ndarray
     body_bend_rad: np.ndarray
-    contacts: Contacts
+    contacts: Contacts | None
 
     @property
     def pose(self) -> np.ndarray:
@@ -238,8 +238,11 @@ class SimWorld:
         self._raise_if_diverged()
         return self.data.xpos[self.layout.node_body].copy()
 
-    def state(self) -> SimState:
-        """The world now (see :class:`SimState`); raises :class:`SimulationError` after a divergence."""
+    def state(self, with_contacts: bool = True) -> SimState:
+        """The world now (see :class:`SimState`); raises :class:`SimulationError` after a divergence.
+
+        ``with_contacts=False`` leaves ``contacts`` as None (a third of the cost, for a real-time node).
+        """
         self._raise_if_diverged()
         data, layout, robot = self.data, self.layout, self.robot
         nodes = data.xpos[layout.node_body].copy()
@@ -268,7 +271,7 @@ class SimWorld:
             length_m=length,
             target_bend_rad=lengths_to_bend(length.reshape(robot.module_count, -1), robot)[0],
             body_bend_rad=_module_bends(nodes, layout),
-            contacts=self._contacts(),
+            contacts=self._contacts() if with_contacts else None,
         )
 
     def _contacts(self) -> Contacts:
