@@ -245,6 +245,9 @@ class RosSweep:
         # Anything but an explicit "False" counts as real air: the go is asked rather than assumed.
         self.rig = RigInfo(requires_arm=values.get("requires_arm") != "False", simulated=simulated,
                            rig=values.get("rig", "unknown"))
+        if not self.vent():  # a player already streaming (e.g. srs_bringup's autostart) stops: runs start at rest
+            raise SweepStopped(f"the commanded pressures did not vent within {self.options.vent_timeout_s:g} s of "
+                               "gait_player ~/stop and hardware_node ~/disarm: check the rig")
         return self.rig
 
     def hardware_problem(self) -> str:
@@ -266,22 +269,27 @@ class RosSweep:
         if problem:
             raise RunAborted(problem)
 
-    def _pose_now(self, since_s: float) -> tuple[float, float, float] | None:
-        """Median pose over the last POSE_WINDOW_S of poses received after ``since_s``; None if none is fresh."""
-        now = time.monotonic()
-        recent = [p for p in self._poses if p[0] >= max(since_s, now - POSE_WINDOW_S)]
+    def _median_pose(self, since_s: float) -> tuple[float, float, float] | None:
+        """Median position (and the last heading) of the poses received since ``since_s``; None if there are none."""
+        recent = [p for p in self._poses if p[0] >= since_s]
         if not recent:
             return None
         data = np.array(recent)
         return float(np.median(data[:, 1])), float(np.median(data[:, 2])), float(data[-1, 3])
 
     def _wait_pose(self, since_s: float, what: str) -> tuple[float, float, float]:
+        """The robot's pose at rest: a fresh pose (after ``since_s``), then the median over POSE_WINDOW_S more."""
         timeout = self.options.pose_timeout_s
-        if not self.spin_until(lambda: self._pose_now(since_s) is not None, timeout, self._abort_on_hardware_problem):
+
+        def fresh() -> bool:
+            return self._median_pose(max(since_s, time.monotonic() - POSE_WINDOW_S)) is not None
+
+        if not self.spin_until(fresh, timeout, self._abort_on_hardware_problem):
             raise RunAborted(f"no pose on {self.node.resolve_topic_name(POSE_TOPIC)} for {timeout:g} s {what} "
                              "(is camera_tracker running and does it see both markers?)")
-        self.spin_for(POSE_WINDOW_S)  # a full window of poses at rest
-        return self._pose_now(since_s)
+        found_s = time.monotonic()
+        self.spin_for(POSE_WINDOW_S)
+        return self._median_pose(max(since_s, found_s - POSE_WINDOW_S))
 
     # -- one run ----------------------------------------------------------------------------
     def prepare(self, cell: Cell) -> None:
