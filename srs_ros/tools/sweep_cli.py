@@ -216,7 +216,8 @@ def _calibrate(args: argparse.Namespace, out: Path) -> int:
                  "lower the error of full-length runs: the starting values are kept")
     for name, records in (("before", result.before), ("after", result.after)):
         lines.append(f"\ngoals ({name}):")
-        lines += [f"  [{'met' if c.met else 'NOT met'}] {c.goal}: {c.detail}" for c in target_report(records, reference)]
+        checks = target_report(records, reference)
+        lines += [f"  [{'met' if c.met else 'NOT met'}] {c.goal}: {c.detail}" for c in checks]
     limits = model_limits(result.after, reference, result.config)
     if limits:
         lines.append("\nwhere the model cannot follow the measurements (a body rolling without slip covers "
