@@ -246,8 +246,7 @@ class RosSweep:
         self.rig = RigInfo(requires_arm=values.get("requires_arm") != "False", simulated=simulated,
                            rig=values.get("rig", "unknown"))
         if not self.vent():  # a player already streaming (e.g. srs_bringup's autostart) stops: runs start at rest
-            raise SweepStopped(f"the commanded pressures did not vent within {self.options.vent_timeout_s:g} s of "
-                               "gait_player ~/stop and hardware_node ~/disarm: check the rig")
+            raise self._not_vented("gait_player ~/stop and hardware_node ~/disarm at the start")
         return self.rig
 
     def hardware_problem(self) -> str:
@@ -318,6 +317,10 @@ class RosSweep:
         return self.spin_until(lambda: self._vented_since(started) or self._hardware_inactive_since(started),
                                self.options.vent_timeout_s)
 
+    def _not_vented(self, after: str) -> SweepStopped:
+        return SweepStopped(f"the commanded pressures did not vent within {self.options.vent_timeout_s:g} s of "
+                            f"{after}: check the rig (shut off the air if in doubt)")
+
     def _vented_since(self, since_s: float) -> bool:
         return self._commanded is not None and self._commanded[0] > since_s and self._commanded[1] <= VENTED_BAR
 
@@ -364,8 +367,7 @@ class RosSweep:
             self.call("gait_player", "stop")
             if not self.spin_until(lambda: self._vented_since(stopped), self.options.vent_timeout_s,
                                    self._abort_on_hardware_problem):
-                raise SweepStopped(f"the commanded pressures did not vent within {self.options.vent_timeout_s:g} s "
-                                   "of gait_player ~/stop: check the rig (shut off the air if in doubt)")
+                raise self._not_vented("gait_player ~/stop")
             self.spin_for(self.options.settle_s)
             end_pose = self._wait_pose(stopped, "after the settle")
             track = [(t - started, x, y, yaw) for t, x, y, yaw in self._poses[first:]]
@@ -389,8 +391,7 @@ class RosSweep:
 
     def _vent_after_abort(self, armed: bool) -> None:
         if not self.vent():
-            raise SweepStopped(f"the commanded pressures did not vent within {self.options.vent_timeout_s:g} s "
-                               "after the abort: check the rig (shut off the air if in doubt)")
+            raise self._not_vented("the abort")
         if armed:
             self.log("srs_sweep: vented and disarmed")
 
