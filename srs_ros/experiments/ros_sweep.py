@@ -17,8 +17,8 @@ start of each bag; ``sim/ground_truth_pose`` appears where a simulated robot pub
 A run aborts, vents (player stop, disarm) and is returned as a failed record with the reason when the
 hardware node reports an ERROR (a backend fault) or a latched e-stop on ``/diagnostics``, or the pose is
 missing; :class:`SweepStopped` ends the whole sweep where going on would be unsafe (the valves did not
-vent). Ctrl-C (``KeyboardInterrupt``) vents the same way, uninterrupted, and closes the bag: what was
-recorded is kept. Waits use timed ``spin_once`` loops (this rclpy's ``spin()`` hangs).
+vent). Ctrl-C (:meth:`RosSweep.install_interrupt_handler`) vents the same way, uninterrupted, and closes the
+bag: what was recorded is kept. Waits use timed ``spin_once`` loops (this rclpy's ``spin()`` hangs).
 """
 
 from __future__ import annotations
@@ -137,6 +137,8 @@ class RosSweep:
         self._commanded: tuple[float, float] | None = None  # (monotonic s, largest pressure bar)
         self._trajectory: bytes | None = None
         self._trajectories = 0
+        self.interrupted = False  # Ctrl-C seen (see install_interrupt_handler)
+        self._venting = False
         for topic, msg_class, qos in RECORDED_TOPICS:
             name = self.node.resolve_topic_name(topic)
             self.node.create_subscription(msg_class, topic, self._receiver(name, msg_class), qos, raw=True)
@@ -175,10 +177,27 @@ class RosSweep:
 
         return receive
 
+    def install_interrupt_handler(self) -> None:
+        """SIGINT/SIGTERM set :attr:`interrupted`; the waits raise ``KeyboardInterrupt`` between two spins.
+
+        So a Ctrl-C never lands inside a bag write or a vent; the vent itself is never interrupted and
+        every later signal is one and the same request (as the nodes' ``ShutdownSignals``).
+        """
+        def on_signal(_signum, _frame) -> None:
+            self.interrupted = True
+
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            signal.signal(sig, on_signal)
+
+    def _check_interrupt(self) -> None:
+        if self.interrupted and not self._venting:
+            raise KeyboardInterrupt
+
     def spin_for(self, seconds: float) -> None:
         end = time.monotonic() + seconds
         while time.monotonic() < end:
             self.executor.spin_once(timeout_sec=min(SPIN_S, max(end - time.monotonic(), 0.0)))
+            self._check_interrupt()
 
     def spin_until(self, predicate: Callable[[], bool], timeout_s: float,
                    check: Callable[[], None] | None = None) -> bool:
@@ -188,6 +207,7 @@ class RosSweep:
             if time.monotonic() > end:
                 return False
             self.executor.spin_once(timeout_sec=SPIN_S)
+            self._check_interrupt()
             if check is not None:
                 check()
         return True
@@ -309,13 +329,17 @@ class RosSweep:
         and a backend fault).
         """
         started = time.monotonic()
-        for node, name in (("gait_player", "stop"), ("hardware_node", "disarm")):
-            try:
-                self.call(node, name, timeout_s=min(self.options.service_timeout_s, 5.0))
-            except RunAborted as exc:
-                self.log(f"srs_sweep: while venting: {exc}")
-        return self.spin_until(lambda: self._vented_since(started) or self._hardware_inactive_since(started),
-                               self.options.vent_timeout_s)
+        self._venting = True
+        try:
+            for node, name in (("gait_player", "stop"), ("hardware_node", "disarm")):
+                try:
+                    self.call(node, name, timeout_s=min(self.options.service_timeout_s, 5.0))
+                except RunAborted as exc:
+                    self.log(f"srs_sweep: while venting: {exc}")
+            return self.spin_until(lambda: self._vented_since(started) or self._hardware_inactive_since(started),
+                                   self.options.vent_timeout_s)
+        finally:
+            self._venting = False
 
     def _not_vented(self, after: str) -> SweepStopped:
         return SweepStopped(f"the commanded pressures did not vent within {self.options.vent_timeout_s:g} s of "
@@ -375,7 +399,6 @@ class RosSweep:
             self._vent_after_abort(armed)
             return RunRecord.failed(cell, str(exc), _array(track))
         except KeyboardInterrupt:
-            signal.signal(signal.SIGINT, signal.SIG_IGN)  # one Ctrl-C: the vent is not interrupted
             self.log("srs_sweep: Ctrl-C: venting")
             self._vent_after_abort(armed)
             raise

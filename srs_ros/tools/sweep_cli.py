@@ -25,6 +25,7 @@ from __future__ import annotations
 import argparse
 import math
 import os
+import signal
 import sys
 import tempfile
 import time
@@ -238,6 +239,7 @@ def _ros(args: argparse.Namespace, grid: SweepGrid, reference: MeasuredTable, ou
 
     options = RosSweepOptions(settle_s=args.settle_s, namespace=args.namespace, reset_sim=not args.no_sim_reset)
     sweep = RosSweep(options, log=lambda text: tqdm.write(text, file=sys.stderr))
+    sweep.install_interrupt_handler()
     records: list[RunRecord] = []
     cells = grid.cells()
     started = time.perf_counter()
@@ -258,11 +260,14 @@ def _ros(args: argparse.Namespace, grid: SweepGrid, reference: MeasuredTable, ou
                 if args.yes:
                     return True
                 bar.clear()
+                handler = signal.signal(signal.SIGINT, signal.default_int_handler)  # Ctrl-C at the prompt: quit
                 try:
                     answer = input(f"{PROG}: run {cell[0]} {cell[1]:g} bar {cell[2]:g} Hz for {grid.duration_s:g} s "
                                    "on the real rig? Place the robot, then [y]es / [n]o, skip / [q]uit: ")
-                except EOFError:
+                except (EOFError, KeyboardInterrupt):
                     answer = "q"
+                finally:
+                    signal.signal(signal.SIGINT, handler)
                 bar.refresh()
                 if answer.strip().lower() in ("q", "quit"):
                     raise SweepStopped("the operator stopped the sweep")

@@ -2,15 +2,17 @@
 
 The simulated rig (sim_world, hardware_node on the sim rig, trajectory_server, gait_player, camera_tracker on
 the simulated camera): a short grid, its bags read back with rosbags (topics, message counts), its table in
-the offline sweep's layout; a run aborted by an e-stop. A rig with real regulators (CAN on python-can's
-virtual bus): nothing is armed without the operator's go, and a go arms only that run.
+the offline sweep's layout; a run aborted by an e-stop; Ctrl-C venting and keeping the recording. A rig with
+real regulators (CAN on python-can's virtual bus): nothing is armed without the operator's go, and a go arms
+only that run.
 """
 
 import csv
+import signal
 import subprocess
 
 from diagnostic_msgs.msg import DiagnosticArray
-from srs_testing import ros_args, script_path
+from srs_testing import RosClient, ros_args, script_path
 from std_msgs.msg import Float64MultiArray
 
 from srs_ros.core.robot import config_dir
@@ -41,7 +43,7 @@ def _rows(path):
 def test_ros_sweep_on_the_simulated_rig_records_bags_and_the_offline_table_layout(launch_node, ros_env, tmp_path):
     _start_sim_rig(launch_node)
     out = tmp_path / "ros"
-    grid = ["--gait", "inward_rolling", "--amplitudes", "3", "4", "--frequencies", "1", "--duration-s", "3"]
+    grid = ["--gait", "inward_rolling", "--amplitudes", "3", "4", "--frequencies", "1", "--duration-s", "2.5"]
     done = _sweep(ros_env, [*grid, "--settle-s", "0.5", "--out", str(out)])
     assert done.returncode == 0, done.stdout + done.stderr
     assert "no arm needed; simulated world" in done.stderr
@@ -58,11 +60,11 @@ def test_ros_sweep_on_the_simulated_rig_records_bags_and_the_offline_table_layou
         assert types["/robot_pose"] == "geometry_msgs/msg/PoseStamped"
         assert types["/joint_setpoints"] == "sensor_msgs/msg/JointState"
         assert counts["/gait_trajectory"] >= 1
-        assert counts["/joint_setpoints"] > 3 * 100  # 200 Hz over a 3 s run and the ramp-out
-        assert counts["/commanded_pressure_bar"] > 3 * 100
+        assert counts["/joint_setpoints"] > 2.5 * 100  # 200 Hz over a 2.5 s run and the ramp-out
+        assert counts["/commanded_pressure_bar"] > 2.5 * 100
         assert counts["/actuator_state"] > 10
-        assert counts["/robot_pose"] > 3 * 5  # the tracker on a 15 fps camera
-        assert counts["/sim/ground_truth_pose"] > 3 * 20
+        assert counts["/robot_pose"] > 2.5 * 5  # the tracker on a 15 fps camera
+        assert counts["/sim/ground_truth_pose"] > 2.5 * 20
         assert counts["/diagnostics"] >= 3
 
     offline = tmp_path / "offline"
@@ -78,24 +80,39 @@ def test_ros_sweep_on_the_simulated_rig_records_bags_and_the_offline_table_layou
         assert (out / name).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
     # An e-stop during a run aborts it, is marked with its reason, and --on-failure stop ends the sweep.
-    from srs_testing import RosClient
-
-    estop = tmp_path / "estop"
-    process = subprocess.Popen([script_path("srs_sweep"), "--ros", "--no-progress", "--gait", "inward_rolling",
-                                "--amplitudes", "4", "--frequencies", "1", "0.5", "--duration-s", "20",
-                                "--on-failure", "stop", "--out", str(estop)], env=ros_env, text=True,
-                               stdout=subprocess.PIPE, stderr=subprocess.STDOUT)
-    with RosClient(int(ros_env["ROS_DOMAIN_ID"]), "estop_client") as client:
-        pressures = client.subscribe(Float64MultiArray, "commanded_pressure_bar")
-        client.spin_until(lambda: pressures and max(pressures[-1].data) > 2.0, 60.0, "the first run commanding")
-        assert client.trigger("/hardware_node/emergency_stop").success
-        output, _ = process.communicate(timeout=60.0)
-        assert process.returncode == 1, output
-        assert client.trigger("/hardware_node/reset").success
-    records = read_table_csv(estop / "table.csv")
+    output, records = _interrupted_sweep(ros_env, tmp_path / "estop", lambda client, _process: client.trigger(
+        "/hardware_node/emergency_stop").success, expected_code=1, extra=["--on-failure", "stop"])
     assert len(records) == 1 and records[0].status.startswith("failed: e-stop latched"), output
     assert "stopping at the first failed run" in output
-    assert bag_message_counts(estop / "bags" / "01_inward_rolling_4bar_1hz")["/joint_setpoints"] > 0  # kept
+
+    # Ctrl-C vents, writes the table of what was done and keeps the bag of the interrupted run.
+    output, records = _interrupted_sweep(ros_env, tmp_path / "ctrl_c", lambda _client, process: process.send_signal(
+        signal.SIGINT) or True, expected_code=130)
+    assert len(records) == 1 and records[0].status.startswith("failed: interrupted (Ctrl-C)"), output
+    assert "Ctrl-C: venting" in output
+
+
+def _interrupted_sweep(ros_env, out, interrupt, expected_code, extra=()):
+    """A 20 s sweep of two runs, interrupted by ``interrupt(client, process)`` while the first one commands."""
+    process = subprocess.Popen([script_path("srs_sweep"), "--ros", "--no-progress", "--gait", "inward_rolling",
+                                "--amplitudes", "4", "--frequencies", "1", "0.5", "--duration-s", "20", *extra,
+                                "--out", str(out)], env=ros_env, text=True,
+                               stdout=subprocess.PIPE, stderr=subprocess.STDOUT)
+    try:
+        with RosClient(int(ros_env["ROS_DOMAIN_ID"]), "interrupting_client") as client:
+            pressures = client.subscribe(Float64MultiArray, "commanded_pressure_bar")
+            client.spin_until(lambda: pressures and max(pressures[-1].data) > 2.0, 60.0, "the first run commanding")
+            assert interrupt(client, process)
+            output, _ = process.communicate(timeout=60.0)
+            assert process.returncode == expected_code, output
+            client.spin_for(0.3)
+            assert max(pressures[-1].data) <= 0.01  # vented before the sweep ended
+            assert client.trigger("/hardware_node/reset").success  # (releases an e-stop for the next sweep)
+    finally:
+        if process.poll() is None:
+            process.kill()
+    assert bag_message_counts(out / "bags" / "01_inward_rolling_4bar_1hz")["/joint_setpoints"] > 0  # kept
+    return output, read_table_csv(out / "table.csv")
 
 
 def test_on_a_rig_with_real_regulators_nothing_is_armed_without_the_operators_go(launch_node, ros_env, ros_client,
