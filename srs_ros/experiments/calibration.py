@@ -3,10 +3,12 @@
 The robot's geometry is known; what the paper does not measure is not: the floor friction, the skin's
 outer radius (the rolling distance per turn, 2 pi r), the muscles' pressure lag, the supply line's
 transport delay and where the deadzone really ends. :func:`calibrate` searches those
-(:data:`FIT_PARAMETERS`, a chosen subset) with SciPy's bounded Nelder-Mead on the offline simulation
-(:class:`~srs_ros.experiments.sweep.OfflineRunner`), minimising the RMS log error of the resultant speed
-over the table's cells (:func:`cell_errors`; speeds are compared through ``log((v + 1) / (v_meas + 1))``
-with v in cm/s, so near-zero cells such as serpentine weigh little unless the simulation moves there).
+(:data:`FIT_PARAMETERS`, a chosen subset) on the offline simulation
+(:class:`~srs_ros.experiments.sweep.OfflineRunner`), coarse to fine: the starting values, Sobol points over
+the parameters' ranges (SciPy ``qmc``), then SciPy's bounded Nelder-Mead from the best point. It minimises
+the RMS log error of the resultant speed over the table's cells (:func:`cell_errors`; speeds are compared
+through ``log((v + 1) / (v_meas + 1))`` with v in cm/s, so near-zero cells such as serpentine weigh little
+unless the simulation moves there).
 The search runs shorter runs than the table (``fit_duration_s``) and at most ``max_evaluations``
 evaluations of the cost; every evaluation runs all cells in parallel. Before and after, every cell runs
 at the table's own run time; a fit that does not lower that full-length error is not taken (the
@@ -30,6 +32,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 from scipy.optimize import minimize
+from scipy.stats import qmc
 
 from srs_ros.core.errors import InvalidInputError
 from srs_ros.core.robot import RobotDescription, default_robot
@@ -47,6 +50,8 @@ FIT_DIGITS = 4
 #: Default number of cost evaluations and the search's starting step (fraction of each parameter's range).
 DEFAULT_MAX_EVALUATIONS = 40
 INITIAL_STEP = 0.25
+#: Seed of the Sobol points of the coarse search (the search is deterministic).
+SOBOL_SEED = 0
 
 
 @dataclass(frozen=True)
@@ -238,15 +243,24 @@ def calibrate(reference: MeasuredTable, config: SimConfig, parameters: Sequence[
                 on_evaluation(history[-1])
             return error
 
+        global_count = (max_evaluations - 1) // 2 if len(params) > 1 else 0
         if on_stage:
             on_stage(f"search: {[p.name for p in params]} over {len(fit_cells)} cells, runs of {fit_duration_s:g} s, "
-                     f"at most {max_evaluations} evaluations (Nelder-Mead)")
+                     f"at most {max_evaluations} evaluations (the start, {global_count} Sobol points over the ranges, "
+                     "then Nelder-Mead from the best)")
         u0 = np.array([(initial[p.name] - lo) / (hi - lo) if hi > lo else 0.0
                        for p, lo, hi in zip(params, lows, highs)])
-        simplex = [u0] + [u0 + np.eye(len(params))[i] * (INITIAL_STEP if u0[i] + INITIAL_STEP <= 1.0 else -INITIAL_STEP)
-                          for i in range(len(params))]
         try:
-            minimize(cost, u0, method="Nelder-Mead", bounds=[(0.0, 1.0)] * len(params),
+            cost(u0)
+            if global_count:  # coarse: the cost is rugged (contacts), a local search alone stalls near the start
+                for u in qmc.Sobol(len(params), scramble=True, seed=SOBOL_SEED).random(global_count):
+                    cost(u)
+            best_x = np.array(list(min(history, key=lambda e: e.error).values.values()))
+            start = np.clip((best_x - lows) / np.where(highs > lows, highs - lows, 1.0), 0.0, 1.0)
+            step = INITIAL_STEP / 2 if global_count else INITIAL_STEP  # fine: around the best point
+            simplex = [start] + [start + np.eye(len(params))[i] * (step if start[i] + step <= 1.0 else -step)
+                                 for i in range(len(params))]
+            minimize(cost, start, method="Nelder-Mead", bounds=[(0.0, 1.0)] * len(params),
                      options={"initial_simplex": np.array(simplex), "maxfev": max_evaluations,
                               "xatol": 0.01, "fatol": 1e-3})
         except _Budget:
