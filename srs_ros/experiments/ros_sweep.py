@@ -398,9 +398,11 @@ class RosSweep:
         except RunAborted as exc:
             self._vent_after_abort(armed)
             return RunRecord.failed(cell, str(exc), _array(track))
-        except KeyboardInterrupt:
-            self.log("srs_sweep: Ctrl-C: venting")
-            self._vent_after_abort(armed)
+        except BaseException as exc:  # Ctrl-C, SweepStopped, anything unexpected: vent, then let it go on
+            self.log("srs_sweep: Ctrl-C: venting" if isinstance(exc, KeyboardInterrupt) else
+                     f"srs_sweep: venting after: {exc}")
+            if not self.vent():
+                self.log(f"srs_sweep: {self._not_vented('the stop')}")
             raise
         finally:
             if self.recorder is not None:
