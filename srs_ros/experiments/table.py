@@ -273,8 +273,8 @@ def format_table(records: Sequence[RunRecord], reference: MeasuredTable | None, 
     by_cell = {r.cell: r for r in records}
     amplitudes = sorted({r.amplitude_bar for r in records})
     frequencies = sorted({r.frequency_hz for r in records})
-    width = 15
     ref_name = "paper" if reference is None or "Table I" in reference.name else "measured"
+    width = max(15, len(label) + 10, len(ref_name) + 10)
     head1 = f"{'A (bar)':>7} {'f (Hz)':>6} |" + "|".join(f" {g:^{2 * width + 1}} " for g in gaits) + "|"
     head2 = f"{'':>7} {'':>6} |" + "|".join(f" {label + ' v_x / v_y':^{width}} {ref_name + ' v_x / v_y':^{width}} "
                                             for _ in gaits) + "|"
