@@ -39,7 +39,9 @@ setup(
     ],
     python_requires=">=3.10",
     # MuJoCo runs the simulated robot (srs_ros/sim); tested with 4.0 (MjSpec model building, split wheels).
-    install_requires=["setuptools", "numpy>=1.24", "scipy>=1.10", "PyYAML>=6", "matplotlib>=3.6", "mujoco>=4.0"],
+    # rosbags writes the sweep's rosbag2 recordings (MCAP) without a ROS install; tqdm draws its progress bar.
+    install_requires=["setuptools", "numpy>=1.24", "scipy>=1.10", "PyYAML>=6", "matplotlib>=3.6", "mujoco>=4.0",
+                      "rosbags>=0.11", "tqdm>=4.60"],
     extras_require={
         "wheels": ROS_WHEELS + HARDWARE + VISION,
         "hardware": HARDWARE,
@@ -65,6 +67,7 @@ setup(
             "srs_wiring_check = srs_ros.tools.wiring_check:main",
             "sim_world = srs_ros.nodes.sim_world:main",
             "srs_sim = srs_ros.tools.sim_cli:main",
+            "srs_sweep = srs_ros.tools.sweep_cli:main",
         ],
     },
 )

@@ -70,6 +70,7 @@ IMPORT_KEYS = {
     "numpy": "python3-numpy", "scipy": "python3-scipy", "yaml": "python3-yaml",
     "matplotlib": "python3-matplotlib", "cv2": "python3-opencv", "can": "python3-can",
     "cantools": "python3-cantools-pip", "mujoco": "python3-mujoco-pip", "rosbags": "python3-rosbags-pip",
+    "tqdm": "python3-tqdm",
     "nidaqmx": None, "pytest": "python3-pytest", "hypothesis": "python3-hypothesis",
     "setuptools": "python3-setuptools", "ament_index_python": "ament_index_python", "rclpy": "rclpy",
     "launch": "launch", "launch_ros": "launch_ros", "rcl_interfaces": "rcl_interfaces",

@@ -1,0 +1,171 @@
+"""The sweep grid (gaits x amplitudes x frequencies, one run time) and the parallel offline runner.
+
+:class:`SweepGrid` validates what a user asks for (known gaits, ``0 < A <= max_pressure_bar``,
+frequencies in :data:`~srs_ros.core.robot.CYCLE_FREQUENCY_RANGE_HZ`, non-empty lists, a run time > 0)
+and lists its cells in the paper's order. :class:`OfflineRunner` runs cells on the simulated robot
+(:func:`srs_ros.sim.experiment.run_experiment`, faster than real time) in a pool of worker processes, one
+per core by default; a run that diverges becomes a failed :class:`~srs_ros.experiments.table.RunRecord`
+with the reason, never a velocity. Runs are deterministic for a given configuration, whatever the
+number of workers. Each worker fits a cell's gait cycle once and keeps it for later runs (calibration
+runs the same cells many times).
+"""
+
+from __future__ import annotations
+
+import math
+import multiprocessing
+import os
+import warnings
+from collections.abc import Callable, Iterable, Sequence
+from concurrent.futures import Future, ProcessPoolExecutor, as_completed
+from dataclasses import dataclass
+from functools import lru_cache
+
+from srs_ros.core.errors import InvalidInputError, SrsError
+from srs_ros.core.gaits import list_gaits
+from srs_ros.core.robot import CYCLE_FREQUENCY_RANGE_HZ, RobotDescription, default_robot
+from srs_ros.core.trajectory import GaitCycle, PoorFitWarning, generate_cycle
+from srs_ros.experiments.table import Cell, RunRecord, cell_key
+from srs_ros.sim.config import SimConfig
+from srs_ros.sim.experiment import run_experiment
+
+#: The paper's grid (Sec. IV): amplitudes (bar), frequencies (Hz) and run time (s).
+PAPER_AMPLITUDES_BAR = (1.0, 2.0, 3.0, 4.0)
+PAPER_FREQUENCIES_HZ = (0.25, 0.5, 0.75, 1.0)
+PAPER_DURATION_S = 15.0
+#: Shapes fitted per gait cycle (as the trajectory server's default).
+CYCLE_SAMPLES = 64
+
+
+def _numbers(name: str, values: Iterable[float], low: float, high: float, low_open: bool, unit: str) -> list[float]:
+    values = list(values)
+    if not values:
+        raise InvalidInputError(f"{name}: the list is empty; expected at least one value in {unit}.")
+    out = []
+    for value in values:
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+            raise InvalidInputError(f"{name}: {value!r} is not a number; expected values in {unit}.")
+        if value > high or value < low or (low_open and value == low):
+            bound = f"{low:g} < x" if low_open else f"{low:g} <= x"
+            raise InvalidInputError(f"{name}: {value:g} is out of range; expected {bound} <= {high:g} {unit}.")
+        if float(value) not in out:
+            out.append(float(value))
+    return out
+
+
+@dataclass(frozen=True)
+class SweepGrid:
+    """Gaits x amplitudes (bar) x frequencies (Hz), each run ``duration_s`` long; validated on creation."""
+
+    gaits: tuple[str, ...]
+    amplitudes_bar: tuple[float, ...]
+    frequencies_hz: tuple[float, ...]
+    duration_s: float
+
+    @classmethod
+    def create(cls, gaits: Iterable[str], amplitudes_bar: Iterable[float], frequencies_hz: Iterable[float],
+               duration_s: float = PAPER_DURATION_S, robot: RobotDescription | None = None) -> SweepGrid:
+        """A validated grid; :class:`InvalidInputError` names the bad value and what is allowed."""
+        robot = robot or default_robot()
+        known = list_gaits()
+        gaits = list(dict.fromkeys(gaits))
+        if not gaits:
+            raise InvalidInputError(f"gaits: the list is empty; expected one or more of {sorted(known)}.")
+        for gait in gaits:
+            if gait not in known:
+                raise InvalidInputError(f"gait {gait!r} is unknown; expected one of {sorted(known)}.")
+        amplitudes = _numbers("amplitudes", amplitudes_bar, 0.0, robot.max_pressure_bar, True, "bar")
+        frequencies = _numbers("frequencies", frequencies_hz, *CYCLE_FREQUENCY_RANGE_HZ, False, "Hz")
+        if isinstance(duration_s, bool) or not isinstance(duration_s, (int, float)) or not (
+                math.isfinite(duration_s) and duration_s > 0):
+            raise InvalidInputError(f"duration_s: {duration_s!r}; expected a run time > 0 s.")
+        return cls(tuple(gaits), tuple(amplitudes), tuple(frequencies), float(duration_s))
+
+    def cells(self) -> list[Cell]:
+        """Every cell, gait by gait, then amplitude, then frequency (Table I's order)."""
+        return [cell_key(g, a, f) for g in self.gaits for a in self.amplitudes_bar for f in self.frequencies_hz]
+
+    def __len__(self) -> int:
+        return len(self.gaits) * len(self.amplitudes_bar) * len(self.frequencies_hz)
+
+
+# ------------------------------------------------------------------------------------------
+# One run in a worker process
+# ------------------------------------------------------------------------------------------
+@lru_cache(maxsize=256)
+def _cycle(gait: str, amplitude_bar: float, frequency_hz: float, samples: int) -> GaitCycle:
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", PoorFitWarning)  # a serpenoid is never fitted exactly; the fit is reported
+        return generate_cycle(gait, amplitude_bar, frequency_hz, samples)
+
+
+def run_cell(cell: Cell, duration_s: float, config: SimConfig, keep_track: bool = True,
+             samples: int = CYCLE_SAMPLES) -> RunRecord:
+    """One run of ``cell`` on the simulated robot; a diverged simulation gives a failed record with the reason."""
+    gait, amplitude_bar, frequency_hz = cell
+    try:
+        cycle = _cycle(gait, amplitude_bar, frequency_hz, samples)
+        result = run_experiment(gait, amplitude_bar, frequency_hz, duration_s, config, cycle=cycle)
+    except SrsError as exc:
+        return RunRecord.failed(cell, f"{type(exc).__name__}: {exc}")
+    v = result.velocity
+    return RunRecord(gait, amplitude_bar, frequency_hz, v.vx_cm_s, v.vy_cm_s, v.displacement_x_m, v.displacement_y_m,
+                     track=result.track if keep_track else None)
+
+
+def default_workers() -> int:
+    """One worker per core."""
+    return max(1, os.cpu_count() or 1)
+
+
+class OfflineRunner:
+    """Runs cells on the simulated robot in ``workers`` processes (1: in this process); reuse it for many batches.
+
+    Use as a context manager, or call :meth:`close`. Worker processes are started with ``spawn`` (no state
+    inherited from the caller, such as threads or an rclpy context).
+    """
+
+    def __init__(self, workers: int | None = None):
+        workers = default_workers() if workers is None else int(workers)
+        if workers < 1:
+            raise InvalidInputError(f"workers: {workers}; expected 1 or more processes.")
+        self.workers = workers
+        self._pool: ProcessPoolExecutor | None = None
+
+    def __enter__(self) -> OfflineRunner:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+    def close(self) -> None:
+        """Stop the worker processes (pending runs are cancelled)."""
+        if self._pool is not None:
+            self._pool.shutdown(wait=True, cancel_futures=True)
+            self._pool = None
+
+    def run(self, cells: Sequence[Cell], duration_s: float, config: SimConfig, keep_track: bool = True,
+            on_result: Callable[[RunRecord], None] | None = None) -> list[RunRecord]:
+        """Run every cell; records in the order of ``cells``; ``on_result`` is called as each run finishes."""
+        cells = list(cells)
+        if self.workers == 1 or len(cells) == 1:
+            records = []
+            for cell in cells:
+                records.append(run_cell(cell, duration_s, config, keep_track))
+                if on_result is not None:
+                    on_result(records[-1])
+            return records
+        if self._pool is None:
+            self._pool = ProcessPoolExecutor(self.workers, mp_context=multiprocessing.get_context("spawn"))
+        futures: list[Future] = [self._pool.submit(run_cell, cell, duration_s, config, keep_track) for cell in cells]
+        if on_result is not None:
+            for future in as_completed(futures):
+                on_result(future.result())
+        return [future.result() for future in futures]
+
+
+def run_offline_sweep(grid: SweepGrid, config: SimConfig, workers: int | None = None,
+                      on_result: Callable[[RunRecord], None] | None = None) -> list[RunRecord]:
+    """Every run of ``grid`` on the simulated robot, in parallel; records in the grid's order."""
+    with OfflineRunner(workers) as runner:
+        return runner.run(grid.cells(), grid.duration_s, config, on_result=on_result)

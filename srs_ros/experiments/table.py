@@ -1,0 +1,296 @@
+"""Table I as data: measured tables (the paper's or a lab's), run records, the CSV and the paper's layout.
+
+A *measured table* (``config/paper_table1.yaml``, :func:`load_measured_table`) holds one velocity
+``(v_x, v_y)`` per cell ``(gait, amplitude_bar, frequency_hz)``, the run time and whether the velocities
+are signed. A *run record* (:class:`RunRecord`) is one run of a sweep: its signed traveling velocity and
+displacement in the floor frame, and ``status`` ("ok" or why it failed). :func:`write_table_csv` writes the
+sweep's ``table.csv`` with the measured values beside the simulated or tracked ones, and
+:func:`format_table` prints it in the paper's layout (rows amplitude x frequency, two columns per gait).
+
+Velocities follow the paper's definition (:func:`srs_ros.core.tracking.traveling_velocity`): X and Y
+displacement divided by the run time, cm/s. Because a camera's floor axes are arbitrary with respect to
+the robot, tables are compared on the resultant speed ``hypot(v_x, v_y)``.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import math
+import os
+from collections.abc import Iterable, Mapping, Sequence
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from srs_ros.core.errors import ConfigurationError
+from srs_ros.core.gaits import list_gaits
+from srs_ros.core.robot import CYCLE_FREQUENCY_RANGE_HZ, RobotDescription, config_dir, default_robot, read_yaml
+
+#: The paper's Table I in ``config/``.
+PAPER_TABLE_FILE = "paper_table1.yaml"
+#: Columns of a measured table's rows.
+MEASURED_COLUMNS = ("gait", "amplitude_bar", "frequency_hz", "vx_cm_s", "vy_cm_s")
+#: Columns of a sweep's ``table.csv``: the run, its velocity and displacement, the measured velocity of the
+#: cell (empty where the measured table has none) and the run's status ("ok" or the reason it failed).
+TABLE_COLUMNS = ("gait", "amplitude_bar", "frequency_hz", "vx_cm_s", "vy_cm_s", "dx_m", "dy_m",
+                 "paper_vx_cm_s", "paper_vy_cm_s", "status")
+#: Status of a run that went through.
+OK = "ok"
+
+Cell = tuple[str, float, float]
+
+
+def cell_key(gait: str, amplitude_bar: float, frequency_hz: float) -> Cell:
+    """The key of a cell: gait and amplitude / frequency rounded to 1e-6 (so 0.5 and 0.50 are one cell)."""
+    return str(gait), round(float(amplitude_bar), 6), round(float(frequency_hz), 6)
+
+
+@dataclass(frozen=True)
+class MeasuredTable:
+    """Velocities measured per cell (cm/s); ``signed`` false when only magnitudes are known (the paper)."""
+
+    name: str
+    velocity_definition: str
+    duration_s: float
+    signed: bool
+    cells: Mapping[Cell, tuple[float, float]]
+    source: str = "<dict>"
+
+    def velocity(self, gait: str, amplitude_bar: float, frequency_hz: float) -> tuple[float, float] | None:
+        """``(v_x, v_y)`` of the cell, or None where the table has no such cell."""
+        return self.cells.get(cell_key(gait, amplitude_bar, frequency_hz))
+
+    def speed_cm_s(self, cell: Cell) -> float:
+        """Resultant speed of a cell (cm/s)."""
+        return math.hypot(*self.cells[cell])
+
+    @property
+    def gaits(self) -> list[str]:
+        """The table's gaits in their first order of appearance."""
+        return list(dict.fromkeys(c[0] for c in self.cells))
+
+    @property
+    def amplitudes_bar(self) -> list[float]:
+        return sorted({c[1] for c in self.cells})
+
+    @property
+    def frequencies_hz(self) -> list[float]:
+        return sorted({c[2] for c in self.cells})
+
+
+def _measured_error(where: str, text: str) -> ConfigurationError:
+    return ConfigurationError(f"{where}: {text}")
+
+
+def measured_table_from_dict(data: Any, source: str = "<dict>", robot: RobotDescription | None = None
+                             ) -> MeasuredTable:
+    """Validate a parsed measured table (``measured_table:``); a :class:`ConfigurationError` says what is wrong."""
+    robot = robot or default_robot()
+    section = data.get("measured_table") if isinstance(data, Mapping) else None
+    if not isinstance(section, Mapping):
+        raise _measured_error(source, "missing section 'measured_table:' (name, velocity_definition, duration_s, "
+                                      f"signed, columns, rows); see config/{PAPER_TABLE_FILE}.")
+    columns = section.get("columns")
+    if list(columns or []) != list(MEASURED_COLUMNS):
+        raise _measured_error(source, f"'columns' is {columns!r}; expected {list(MEASURED_COLUMNS)}.")
+    duration = section.get("duration_s")
+    if isinstance(duration, bool) or not isinstance(duration, (int, float)) or not (math.isfinite(duration)
+                                                                                    and duration > 0):
+        raise _measured_error(source, f"'duration_s' is {duration!r}; expected the run time in s (> 0).")
+    signed = section.get("signed", False)
+    if not isinstance(signed, bool):
+        raise _measured_error(source, f"'signed' is {signed!r}; expected true or false.")
+    rows = section.get("rows")
+    if not isinstance(rows, Sequence) or isinstance(rows, str) or not rows:
+        raise _measured_error(source, "'rows' is empty or not a list; expected one row "
+                                      f"{list(MEASURED_COLUMNS)} per cell.")
+    gaits = list_gaits()
+    low_hz, high_hz = CYCLE_FREQUENCY_RANGE_HZ
+    cells: dict[Cell, tuple[float, float]] = {}
+    for index, row in enumerate(rows):
+        where = f"{source} [measured_table.rows[{index}]]"
+        if not isinstance(row, Sequence) or isinstance(row, str) or len(row) != len(MEASURED_COLUMNS):
+            raise _measured_error(where, f"{row!r}; expected a list {list(MEASURED_COLUMNS)}.")
+        gait, amplitude, frequency, vx, vy = row
+        if gait not in gaits:
+            raise _measured_error(where, f"gait {gait!r}; expected one of {sorted(gaits)}.")
+        numbers = {"amplitude_bar": amplitude, "frequency_hz": frequency, "vx_cm_s": vx, "vy_cm_s": vy}
+        for name, value in numbers.items():
+            if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+                raise _measured_error(where, f"{name} is {value!r}; expected a finite number.")
+        if not 0 < amplitude <= robot.max_pressure_bar:
+            raise _measured_error(where, f"amplitude_bar {amplitude!r}; expected 0 < A <= {robot.max_pressure_bar:g}.")
+        if not low_hz <= frequency <= high_hz:
+            raise _measured_error(where, f"frequency_hz {frequency!r}; expected {low_hz:g} <= f <= {high_hz:g}.")
+        if not signed and (vx < 0 or vy < 0):
+            raise _measured_error(where, f"negative velocity ({vx}, {vy}) in a table of magnitudes; set "
+                                         "'signed: true' if the signs are meant.")
+        key = cell_key(gait, amplitude, frequency)
+        if key in cells:
+            raise _measured_error(where, f"cell {key} appears twice; expected one row per cell.")
+        cells[key] = (float(vx), float(vy))
+    return MeasuredTable(name=str(section.get("name", source)),
+                         velocity_definition=str(section.get("velocity_definition", "")),
+                         duration_s=float(duration), signed=signed, cells=cells, source=source)
+
+
+def load_measured_table(path: str | Path | None = None, robot: RobotDescription | None = None) -> MeasuredTable:
+    """Read and validate a measured table (default: the paper's Table I, ``config/paper_table1.yaml``)."""
+    path = Path(path) if path else config_dir() / PAPER_TABLE_FILE
+    return measured_table_from_dict(read_yaml(path), str(path), robot)
+
+
+def paper_table() -> MeasuredTable:
+    """The paper's Table I (all 48 cells)."""
+    return load_measured_table()
+
+
+# ------------------------------------------------------------------------------------------
+# Run records
+# ------------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class RunRecord:
+    """One run: signed traveling velocity (cm/s) and displacement (m) in the floor frame, and its status.
+
+    ``track`` (optional, ``(n, 4)``: ``time_s, x_m, y_m, yaw_rad``) is the path for the figures; it is not
+    part of the table. A failed run has NaN figures and ``status`` saying why.
+    """
+
+    gait: str
+    amplitude_bar: float
+    frequency_hz: float
+    vx_cm_s: float = math.nan
+    vy_cm_s: float = math.nan
+    dx_m: float = math.nan
+    dy_m: float = math.nan
+    status: str = OK
+    track: np.ndarray | None = field(default=None, compare=False, repr=False)
+
+    @property
+    def cell(self) -> Cell:
+        return cell_key(self.gait, self.amplitude_bar, self.frequency_hz)
+
+    @property
+    def ok(self) -> bool:
+        return self.status == OK
+
+    @property
+    def speed_cm_s(self) -> float:
+        """Resultant speed (cm/s); NaN for a failed run."""
+        return math.hypot(self.vx_cm_s, self.vy_cm_s)
+
+    @classmethod
+    def failed(cls, cell: Cell, reason: str, track: np.ndarray | None = None) -> RunRecord:
+        """A run that gave no velocity, with the reason (one line)."""
+        text = " ".join(str(reason).split()) or "unknown failure"
+        return cls(*cell, status=f"failed: {text}", track=track)
+
+    def without_track(self) -> RunRecord:
+        return replace(self, track=None)
+
+
+def _number(value: float, digits: int) -> str:
+    if value is None or not math.isfinite(value):
+        return ""
+    return f"{value if round(value, digits) else 0.0:.{digits}f}"  # no "-0.000"
+
+
+def table_rows(records: Iterable[RunRecord], reference: MeasuredTable | None) -> list[list[str]]:
+    """The CSV rows (strings) of ``records``, the measured velocity beside each run where the table has the cell."""
+    rows = []
+    for r in records:
+        measured = reference.velocity(*r.cell) if reference else None
+        rows.append([r.gait, f"{r.amplitude_bar:g}", f"{r.frequency_hz:g}", _number(r.vx_cm_s, 3),
+                     _number(r.vy_cm_s, 3), _number(r.dx_m, 4), _number(r.dy_m, 4),
+                     "" if measured is None else f"{measured[0]:.2f}", "" if measured is None else f"{measured[1]:.2f}",
+                     r.status])
+    return rows
+
+
+def write_atomically(path: str | Path, text: str | bytes) -> Path:
+    """Write a file through a temporary sibling and a rename: it is there whole or not at all."""
+    path = Path(path)
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    try:
+        if isinstance(text, bytes):
+            tmp.write_bytes(text)
+        else:
+            tmp.write_text(text, encoding="utf-8")
+        os.replace(tmp, path)
+    finally:
+        if tmp.exists():
+            tmp.unlink()
+    return path
+
+
+def write_table_csv(path: str | Path, records: Iterable[RunRecord], reference: MeasuredTable | None) -> Path:
+    """Write ``table.csv`` (:data:`TABLE_COLUMNS`) atomically."""
+    stream = io.StringIO()
+    writer = csv.writer(stream, lineterminator="\n")
+    writer.writerow(TABLE_COLUMNS)
+    writer.writerows(table_rows(records, reference))
+    return write_atomically(path, stream.getvalue())
+
+
+def read_table_csv(path: str | Path) -> list[RunRecord]:
+    """Read a sweep's ``table.csv`` back into run records (the measured columns are dropped)."""
+    path = Path(path)
+    with path.open(newline="", encoding="utf-8") as stream:
+        reader = csv.DictReader(stream)
+        if tuple(reader.fieldnames or ()) != TABLE_COLUMNS:
+            raise ConfigurationError(f"{path}: columns {reader.fieldnames}; expected {list(TABLE_COLUMNS)}.")
+
+        def number(text: str) -> float:
+            return float(text) if text else math.nan
+
+        return [RunRecord(row["gait"], float(row["amplitude_bar"]), float(row["frequency_hz"]),
+                          number(row["vx_cm_s"]), number(row["vy_cm_s"]), number(row["dx_m"]), number(row["dy_m"]),
+                          row["status"]) for row in reader]
+
+
+# ------------------------------------------------------------------------------------------
+# The paper's layout
+# ------------------------------------------------------------------------------------------
+def _pair(values: tuple[float, float] | None, width: int) -> str:
+    if values is None:
+        return "--".center(width)
+    vx, vy = values
+    if not (math.isfinite(vx) and math.isfinite(vy)):
+        return "failed".center(width)
+    return f"{abs(vx):5.2f} / {abs(vy):5.2f}".center(width)
+
+
+def format_table(records: Sequence[RunRecord], reference: MeasuredTable | None, label: str = "sim") -> str:
+    """Text in Table I's layout: rows amplitude x frequency, per gait ``v_x / v_y`` of the runs and the table's.
+
+    Magnitudes (cm/s), as the paper prints them; the CSV keeps the signs. Failed runs show ``failed`` and
+    are listed under the table with their reasons.
+    """
+    gaits = list(dict.fromkeys(r.gait for r in records))
+    by_cell = {r.cell: r for r in records}
+    amplitudes = sorted({r.amplitude_bar for r in records})
+    frequencies = sorted({r.frequency_hz for r in records})
+    ref_name = "paper" if reference is None or "Table I" in reference.name else "measured"
+    width = max(15, len(label) + 10, len(ref_name) + 10)
+    head1 = f"{'A (bar)':>7} {'f (Hz)':>6} |" + "|".join(f" {g:^{2 * width + 1}} " for g in gaits) + "|"
+    head2 = f"{'':>7} {'':>6} |" + "|".join(f" {label + ' v_x / v_y':^{width}} {ref_name + ' v_x / v_y':^{width}} "
+                                            for _ in gaits) + "|"
+    rule = "-" * len(head1)
+    lines = ["Traveling velocity (cm/s, magnitudes of X and Y displacement / run time)", rule, head1, head2, rule]
+    for amplitude in amplitudes:
+        for frequency in frequencies:
+            cells = []
+            for gait in gaits:
+                record = by_cell.get(cell_key(gait, amplitude, frequency))
+                ours = None if record is None else (record.vx_cm_s, record.vy_cm_s)
+                theirs = reference.velocity(gait, amplitude, frequency) if reference else None
+                cells.append(f" {_pair(ours, width)} {_pair(theirs, width)} ")
+            lines.append(f"{amplitude:>7.1f} {frequency:>6.2f} |" + "|".join(cells) + "|")
+        lines.append(rule)
+    failures = [r for r in records if not r.ok]
+    for r in failures:
+        lines.append(f"{r.gait} {r.amplitude_bar:g} bar {r.frequency_hz:g} Hz: {r.status}")
+    return "\n".join(lines)

@@ -1,0 +1,341 @@
+"""``srs_sweep``: the paper's experiments in one command, to Table I, on the simulated robot or a real rig.
+
+``srs_sweep [--gait G ...] [--amplitudes 1 2 3 4] [--frequencies 0.25 0.5 0.75 1] [--duration-s 15] --out DIR``
+runs every cell offline on the simulated robot (faster than real time, one process per core, progress
+on stderr), writes ``DIR/table.csv`` (with the paper's Table I values beside each cell), ``DIR/table.png``
+and ``DIR/paths_<gait>.png``, and prints the table in the paper's layout. Without ``--gait`` it runs the
+paper's three gaits (48 runs).
+
+``--ros``: the same sweep against running nodes (any rig; start them first, e.g. ``srs_bringup``), each
+run recorded as a rosbag2 directory in ``DIR/bags/``. On a rig with real regulators every run waits for
+the operator's go (a prompt, or ``--yes``) before the hardware is armed; a run aborts on an e-stop or a
+hardware error; ``--on-failure stop`` ends the sweep at the first failed run; Ctrl-C vents and keeps
+what was recorded.
+
+``--calibrate TABLE``: fit the simulation's uncertain parameters to a measured table
+(``config/paper_table1.yaml`` or a lab's own in that format), print each cell's error before and after,
+and write ``DIR/sim.yaml``.
+
+Exit status: 0 done, 1 done with failed runs, 2 bad input or a rig that cannot be driven (nothing
+written), 130 interrupted (what was done is written).
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import signal
+import sys
+import tempfile
+import time
+from collections.abc import Sequence
+from pathlib import Path
+
+from tqdm import tqdm
+
+from srs_ros.core.errors import ConfigurationError, SrsError
+from srs_ros.core.gaits import list_gaits
+from srs_ros.experiments.calibration import (
+    DEFAULT_MAX_EVALUATIONS,
+    FIT_PARAMETERS,
+    calibrate,
+    fit_parameters,
+    format_cell_errors,
+    model_limits,
+    target_report,
+    write_sim_yaml,
+)
+from srs_ros.experiments.plots import plot_paths, plot_table
+from srs_ros.experiments.sweep import (
+    PAPER_AMPLITUDES_BAR,
+    PAPER_DURATION_S,
+    PAPER_FREQUENCIES_HZ,
+    SweepGrid,
+    default_workers,
+    run_offline_sweep,
+)
+from srs_ros.experiments.table import (
+    MeasuredTable,
+    RunRecord,
+    format_table,
+    load_measured_table,
+    write_atomically,
+    write_table_csv,
+)
+from srs_ros.sim.config import SimConfig, load_sim_config, with_friction
+
+PROG = "srs_sweep"
+#: The paper's gaits, the default of ``--gait``.
+PAPER_GAITS = ("serpentine", "inward_rolling", "outward_rolling")
+#: Run time of the calibration's search runs by default (s): long enough for several cycles at 0.25 Hz.
+DEFAULT_FIT_DURATION_S = 8.0
+EXIT_OK, EXIT_FAILED_RUNS, EXIT_BAD_INPUT, EXIT_INTERRUPTED = 0, 1, 2, 130
+
+
+def _number(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+    if not math.isfinite(value):
+        raise argparse.ArgumentTypeError(f"{text!r} is not a finite number")
+    return value
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog=PROG, description=__doc__.splitlines()[0],
+                                     formatter_class=argparse.RawDescriptionHelpFormatter,
+                                     epilog="\n".join(__doc__.splitlines()[2:]))
+    grid = parser.add_argument_group("the grid")
+    grid.add_argument("--gait", action="append", dest="gaits", metavar="GAIT",
+                      help=f"a gait to run (repeat for several; default the paper's {', '.join(PAPER_GAITS)})")
+    grid.add_argument("--amplitudes", nargs="*", type=_number, default=list(PAPER_AMPLITUDES_BAR), metavar="BAR",
+                      help="pressure amplitudes, bar (default 1 2 3 4)")
+    grid.add_argument("--frequencies", nargs="*", type=_number, default=list(PAPER_FREQUENCIES_HZ), metavar="HZ",
+                      help="cycle frequencies, Hz (default 0.25 0.5 0.75 1)")
+    grid.add_argument("--duration-s", type=_number, default=PAPER_DURATION_S, help="run time, s (default 15)")
+    parser.add_argument("--out", required=True, help="output folder (created if missing)")
+    parser.add_argument("--reference", help="measured table shown beside the runs (default the paper's Table I, "
+                                            "config/paper_table1.yaml)")
+    sim = parser.add_argument_group("offline (the simulated robot)")
+    sim.add_argument("--sim-config", help="simulation YAML (default config/sim.yaml)")
+    sim.add_argument("--friction", help="floor friction: isotropic | anisotropic | MU | ALONG,ACROSS (as srs_sim)")
+    sim.add_argument("--workers", type=int, default=None, help=f"worker processes (default {default_workers()}, "
+                                                               "one per core)")
+    sim.add_argument("--no-progress", action="store_true", help="no progress bar")
+    ros = parser.add_argument_group("--ros (running nodes on any rig)")
+    ros.add_argument("--ros", action="store_true", help="drive running nodes instead of the offline simulation")
+    ros.add_argument("--yes", action="store_true", help="the operator's go for every run on a rig with real "
+                                                        "regulators (default: ask before each run)")
+    ros.add_argument("--on-failure", choices=("continue", "stop"), default="continue",
+                     help="after a failed run: go on with the next (default) or stop the sweep")
+    ros.add_argument("--settle-s", type=_number, default=2.0, help="wait after the vent before the end pose, s")
+    ros.add_argument("--namespace", default="", help="namespace of the rig's nodes (e.g. snake1)")
+    ros.add_argument("--no-sim-reset", action="store_true",
+                     help="on the simulated rig, do not put the robot back at its start before each run")
+    cal = parser.add_argument_group("--calibrate (fit the simulation to a measured table)")
+    cal.add_argument("--calibrate", metavar="TABLE", help="measured table to fit (e.g. config/paper_table1.yaml)")
+    cal.add_argument("--fit", nargs="+", metavar="PARAM",
+                     help=f"parameters to fit (default: friction, skin_radius_m, pressure_time_constant_s, "
+                          f"transport_delay_s, deadzone_bar); any of {', '.join(FIT_PARAMETERS)}")
+    cal.add_argument("--fit-duration-s", type=_number, default=DEFAULT_FIT_DURATION_S,
+                     help=f"run time of the search's runs, s (default {DEFAULT_FIT_DURATION_S:g}; before and "
+                          "after use the table's)")
+    cal.add_argument("--max-evaluations", type=int, default=DEFAULT_MAX_EVALUATIONS,
+                     help=f"largest number of cost evaluations (default {DEFAULT_MAX_EVALUATIONS})")
+    return parser
+
+
+def prepare_output(path: str) -> Path:
+    """The output folder, created and proven writable; :class:`ConfigurationError` otherwise."""
+    out = Path(path)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        with tempfile.NamedTemporaryFile(dir=out, prefix=".srs_sweep_probe_"):
+            pass
+    except OSError as exc:
+        raise ConfigurationError(f"--out {path}: cannot write there ({exc.strerror or exc}); choose a writable "
+                                 "folder.") from None
+    return out
+
+
+def _sim_config(args: argparse.Namespace) -> SimConfig:
+    config = load_sim_config(args.sim_config)
+    return with_friction(config, args.friction) if args.friction else config
+
+
+def _progress(total: int, args: argparse.Namespace, desc: str) -> tqdm:
+    return tqdm(total=total, desc=desc, unit="run", file=sys.stderr, disable=args.no_progress, dynamic_ncols=True)
+
+
+def _write_outputs(out: Path, records: Sequence[RunRecord], reference: MeasuredTable, label: str) -> list[Path]:
+    written = [write_table_csv(out / "table.csv", records, reference),
+               plot_table(out / "table.png", records, reference, label)]
+    for gait in dict.fromkeys(r.gait for r in records):
+        written.append(plot_paths(out / f"paths_{gait}.png", records, gait))
+    return written
+
+
+def _finish(records: Sequence[RunRecord], reference: MeasuredTable, out: Path, label: str, wall_s: float,
+            how: str) -> int:
+    written = _write_outputs(out, records, reference, label)
+    print(format_table(records, reference, label="sim" if label == "simulated" else label))
+    failed = sum(not r.ok for r in records)
+    print(f"\n{len(records)} runs ({how}) in {wall_s:.1f} s wall time; {failed} failed")
+    print("written: " + ", ".join(str(p) for p in written))
+    return EXIT_FAILED_RUNS if failed else EXIT_OK
+
+
+def _offline(args: argparse.Namespace, grid: SweepGrid, reference: MeasuredTable, out: Path) -> int:
+    config = _sim_config(args)
+    workers = args.workers or default_workers()
+    started = time.perf_counter()
+    with _progress(len(grid), args, "simulated runs") as bar:
+        records = run_offline_sweep(grid, config, workers, on_result=lambda _r: bar.update())
+    how = f"simulated offline, {grid.duration_s:g} s each, {workers} workers, {config.contact.describe()}"
+    return _finish(records, reference, out, "simulated", time.perf_counter() - started, how)
+
+
+def _calibrate(args: argparse.Namespace, out: Path) -> int:
+    reference = load_measured_table(args.calibrate)
+    config = _sim_config(args)
+    if args.fit:
+        fit_parameters(args.fit)  # bad names: exit 2 before anything runs
+    if args.max_evaluations < 1:
+        raise ConfigurationError(f"--max-evaluations {args.max_evaluations}: expected 1 or more.")
+    bar: tqdm | None = None
+
+    def stage(text: str) -> None:
+        nonlocal bar
+        if bar is not None:
+            bar.close()
+            bar = None
+        print(f"{PROG}: {text}", file=sys.stderr, flush=True)
+        if text.startswith(("before", "after")):
+            bar = _progress(len(reference.cells), args, text.split(":")[0])
+
+    def evaluation(e) -> None:
+        values = ", ".join(f"{k} {v:g}" for k, v in e.values.items())
+        print(f"  evaluation {e.index}/{args.max_evaluations}: error {e.error:.4f}  ({values}; {e.wall_time_s:.1f} s)",
+              file=sys.stderr, flush=True)
+
+    try:
+        result = calibrate(reference, config, args.fit, args.fit_duration_s, args.max_evaluations, args.workers,
+                           on_evaluation=evaluation, on_stage=stage, on_result=lambda _r: bar and bar.update())
+    finally:
+        if bar is not None:
+            bar.close()
+    lines = [f"Calibration of {config.source} to {reference.name} ({len(reference.cells)} cells, "
+             f"{reference.duration_s:g} s runs)", "", format_cell_errors(reference, result.before, result.after), ""]
+    lines.append(f"RMS log speed error: {result.error_before:.4f} before, {result.error_after:.4f} after "
+                 f"({len(result.history)} evaluations of {len(result.fit_cells)} cells x {result.fit_duration_s:g} s; "
+                 f"{result.wall_time_s:.0f} s wall time)")
+    fitted = ", ".join(f"{k} {result.initial_values[k]:g} -> {v:g}" for k, v in result.fitted_values.items())
+    lines.append(f"fitted: {fitted}" if result.accepted else
+                 f"the best fit ({result.history and min(result.history, key=lambda e: e.error).values}) did not "
+                 "lower the error of full-length runs: the starting values are kept")
+    for name, records in (("before", result.before), ("after", result.after)):
+        lines.append(f"\ngoals ({name}):")
+        checks = target_report(records, reference)
+        lines += [f"  [{'met' if c.met else 'NOT met'}] {c.goal}: {c.detail}" for c in checks]
+    limits = model_limits(result.after, reference, result.config)
+    if limits:
+        lines.append("\nwhere the model cannot follow the measurements (a body rolling without slip covers "
+                     "2 pi r per cycle at any frequency):")
+        lines += [f"  {note}" for note in limits]
+    report = "\n".join(lines)
+    sim_yaml = write_sim_yaml(out / "sim.yaml", result, reference)
+    written = [sim_yaml, write_table_csv(out / "table_before.csv", result.before, reference),
+               write_table_csv(out / "table_after.csv", result.after, reference),
+               write_atomically(out / "calibration.txt", report + "\n")]
+    print(report)
+    print("\nwritten: " + ", ".join(str(p) for p in written))
+    return EXIT_OK
+
+
+def _ros(args: argparse.Namespace, grid: SweepGrid, reference: MeasuredTable, out: Path) -> int:
+    from srs_ros.experiments.ros_sweep import RosSweep, RosSweepOptions, SweepStopped
+
+    options = RosSweepOptions(settle_s=args.settle_s, namespace=args.namespace, reset_sim=not args.no_sim_reset)
+    sweep = RosSweep(options, log=lambda text: tqdm.write(text, file=sys.stderr))
+    sweep.install_interrupt_handler()
+    records: list[RunRecord] = []
+    cells = grid.cells()
+    started = time.perf_counter()
+    code = EXIT_OK
+    try:
+        try:
+            rig = sweep.discover()
+        except SweepStopped as exc:
+            raise ConfigurationError(str(exc)) from None
+        print(f"{PROG}: rig {rig.rig!r}: " + ("real regulators: each run needs the operator's go"
+                                              + (" (--yes given)" if args.yes else "") if rig.requires_arm
+                                              else "no arm needed") + ("; simulated world" if rig.simulated else ""),
+              file=sys.stderr, flush=True)
+        bags = out / "bags"
+        bags.mkdir(exist_ok=True)
+        with _progress(len(cells), args, "runs") as bar:
+            def go(cell) -> bool:
+                if args.yes:
+                    return True
+                bar.clear()
+                handler = signal.signal(signal.SIGINT, signal.default_int_handler)  # Ctrl-C at the prompt: quit
+                try:
+                    answer = input(f"{PROG}: run {cell[0]} {cell[1]:g} bar {cell[2]:g} Hz for {grid.duration_s:g} s "
+                                   "on the real rig? Place the robot, then [y]es / [n]o, skip / [q]uit: ")
+                except (EOFError, KeyboardInterrupt):
+                    answer = "q"
+                finally:
+                    signal.signal(signal.SIGINT, handler)
+                bar.refresh()
+                if answer.strip().lower() in ("q", "quit"):
+                    raise SweepStopped("the operator stopped the sweep")
+                return answer.strip().lower() in ("y", "yes")
+
+            for index, cell in enumerate(cells, start=1):
+                bag = bags / f"{index:02d}_{cell[0]}_{cell[1]:g}bar_{cell[2]:g}hz"
+                if bag.exists():
+                    raise ConfigurationError(f"{bag} exists already; use a new --out folder.")
+                try:
+                    record = sweep.run(cell, grid.duration_s, bag, go)
+                except SweepStopped as exc:
+                    records.append(RunRecord.failed(cell, str(exc)))
+                    tqdm.write(f"{PROG}: stopped: {exc}", file=sys.stderr)
+                    break
+                except KeyboardInterrupt:
+                    records.append(RunRecord.failed(cell, "interrupted (Ctrl-C); its bag keeps what was recorded"))
+                    code = EXIT_INTERRUPTED
+                    break
+                records.append(record)
+                bar.update()
+                text = f"{record.speed_cm_s:.2f} cm/s" if record.ok else record.status
+                tqdm.write(f"{PROG}: {cell[0]} {cell[1]:g} bar {cell[2]:g} Hz: {text}", file=sys.stderr)
+                if not record.ok and args.on_failure == "stop":
+                    tqdm.write(f"{PROG}: stopping at the first failed run (--on-failure stop)", file=sys.stderr)
+                    break
+    finally:
+        sweep.close()
+    if not records:
+        print(f"{PROG}: no run was made; nothing written", file=sys.stderr)
+        return code or EXIT_FAILED_RUNS
+    how = f"over ROS, {grid.duration_s:g} s each, rig {sweep.rig.rig if sweep.rig else '?'}, bags in {out / 'bags'}"
+    result = _finish(records, reference, out, "tracked", time.perf_counter() - started, how)
+    if len(records) < len(cells):
+        print(f"{len(cells) - len(records)} runs of the grid were not made")
+    return code or result
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Console script ``srs_sweep``; see the module docstring for the exit status."""
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    if args.ros and args.calibrate:
+        parser.error("--ros and --calibrate: choose one (calibration runs the offline simulation)")
+    if args.workers is not None and args.workers < 1:
+        parser.error(f"--workers {args.workers}: expected 1 or more")
+    try:
+        if args.calibrate:
+            if not os.path.isfile(args.calibrate):
+                raise ConfigurationError(f"--calibrate {args.calibrate}: no such file (a measured table such as "
+                                         "config/paper_table1.yaml).")
+            load_measured_table(args.calibrate)  # a malformed table: exit 2 before the output folder is made
+            _sim_config(args)
+            return _calibrate(args, prepare_output(args.out))
+        gaits = args.gaits or [g for g in PAPER_GAITS if g in list_gaits()]
+        grid = SweepGrid.create(gaits, args.amplitudes, args.frequencies, args.duration_s)
+        reference = load_measured_table(args.reference)
+        if not args.ros:
+            _sim_config(args)
+        out = prepare_output(args.out)
+        return _ros(args, grid, reference, out) if args.ros else _offline(args, grid, reference, out)
+    except SrsError as exc:
+        print(f"{PROG}: {exc}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    except KeyboardInterrupt:
+        print(f"{PROG}: interrupted", file=sys.stderr)
+        return EXIT_INTERRUPTED
+
+
+if __name__ == "__main__":
+    sys.exit(main())

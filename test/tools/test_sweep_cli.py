@@ -1,0 +1,114 @@
+"""``srs_sweep`` offline: a small grid end to end, calibration on a tiny table, and bad input refused with exit 2."""
+
+import csv
+
+import pytest
+import yaml
+
+from srs_ros.experiments.calibration import table_error
+from srs_ros.experiments.sweep import run_cell
+from srs_ros.experiments.table import TABLE_COLUMNS, load_measured_table, read_table_csv
+from srs_ros.sim.config import load_sim_config
+from srs_ros.tools.sweep_cli import main
+
+PNG = b"\x89PNG\r\n\x1a\n"
+
+
+def test_offline_sweep_of_a_small_grid_writes_the_table_figures_and_prints_the_papers_layout(tmp_path, capsys):
+    out = tmp_path / "sweep"
+    code = main(["--gait", "inward_rolling", "--gait", "serpentine", "--amplitudes", "1", "4", "--frequencies", "1",
+                 "0.5", "--duration-s", "1.5", "--workers", "2", "--out", str(out)])
+    printed = capsys.readouterr()
+    assert code == 0, printed.err
+    with (out / "table.csv").open() as stream:
+        rows = list(csv.DictReader(stream))
+    assert list(rows[0]) == list(TABLE_COLUMNS)
+    assert [(r["gait"], r["amplitude_bar"], r["frequency_hz"]) for r in rows] == [
+        ("inward_rolling", "1", "1"), ("inward_rolling", "1", "0.5"), ("inward_rolling", "4", "1"),
+        ("inward_rolling", "4", "0.5"), ("serpentine", "1", "1"), ("serpentine", "1", "0.5"), ("serpentine", "4", "1"),
+        ("serpentine", "4", "0.5")]
+    assert (rows[2]["paper_vx_cm_s"], rows[2]["paper_vy_cm_s"]) == ("5.61", "10.11")
+    assert all(r["status"] == "ok" for r in rows)
+    assert all(float(r["vx_cm_s"]) == 0.0 == float(r["vy_cm_s"]) for r in rows if r["amplitude_bar"] == "1")  # deadzone
+    records = read_table_csv(out / "table.csv")
+    assert records[2].speed_cm_s > 2.0  # inward rolling at 4 bar, 1 Hz rolls
+    # The pool gives what one run in this process gives (deterministic, in the grid's order).
+    alone = run_cell(("inward_rolling", 4.0, 1.0), 1.5, load_sim_config(), keep_track=False)
+    assert (round(alone.vx_cm_s, 3), round(alone.vy_cm_s, 3)) == (records[2].vx_cm_s, records[2].vy_cm_s)
+    for name in ("table.png", "paths_inward_rolling.png", "paths_serpentine.png"):
+        assert (out / name).read_bytes()[:8] == PNG
+    assert "sim v_x / v_y  paper v_x / v_y" in printed.out and " 5.61 / 10.11 " in printed.out
+    assert "8 runs (simulated offline, 1.5 s each, 2 workers" in printed.out
+    assert "simulated runs" in printed.err and "8/8" in printed.err  # the progress bar, on stderr
+
+
+def _lab_table(tmp_path, rows, duration_s=1.5):
+    path = tmp_path / "lab_table.yaml"
+    path.write_text(yaml.safe_dump({"measured_table": {
+        "name": "a lab's table", "velocity_definition": "displacement / run time", "duration_s": duration_s,
+        "signed": False, "columns": ["gait", "amplitude_bar", "frequency_hz", "vx_cm_s", "vy_cm_s"], "rows": rows}}))
+    return path
+
+
+def test_calibration_on_a_tiny_table_writes_a_loadable_sim_yaml_and_the_error_does_not_grow(tmp_path, capsys):
+    table = _lab_table(tmp_path, [["inward_rolling", 4.0, 1.0, 5.61, 10.11], ["outward_rolling", 4.0, 1.0, 6.56, 6.75],
+                                  ["serpentine", 1.0, 1.0, 0.0, 0.0]])
+    out = tmp_path / "cal"
+    code = main(["--calibrate", str(table), "--fit", "friction_coefficient", "--max-evaluations", "2",
+                 "--fit-duration-s", "1", "--workers", "2", "--no-progress", "--out", str(out)])
+    printed = capsys.readouterr()
+    assert code == 0, printed.err
+    assert "evaluation 1/2" in printed.err and "evaluation 2/2" in printed.err and "evaluation 3" not in printed.err
+    config = load_sim_config(out / "sim.yaml")  # a valid sim.yaml
+    header = (out / "sim.yaml").read_text().splitlines()[0]
+    assert header.startswith("# Simulation fitted by srs_sweep --calibrate to a lab's table")
+    reference = load_measured_table(table)
+    before, after = read_table_csv(out / "table_before.csv"), read_table_csv(out / "table_after.csv")
+    assert [r.cell for r in before] == [r.cell for r in after] == list(reference.cells)
+    assert table_error(after, reference) <= table_error(before, reference) + 1e-3  # rounding of the CSV
+    fitted = next(line for line in printed.out.splitlines() if line.startswith(("fitted:", "the best fit")))
+    if fitted.startswith("fitted:"):
+        assert f"friction_coefficient 0.8 -> {config.contact.friction_coefficient:g}" in fitted
+    else:
+        assert config.contact.friction_coefficient == 0.8
+    for line in ("inward_rolling       4     1 |    11.56 |", "serpentine           1     1 |     0.00 |"):
+        assert line in printed.out  # each cell's error before and after
+    assert "RMS log speed error:" in printed.out and "[met] 1 bar cells do not move" in printed.out
+    assert (out / "calibration.txt").read_text().startswith("Calibration of ")
+
+
+@pytest.mark.parametrize("args, expected", [
+    (["--gait", "slithering"], "gait 'slithering' is unknown"),
+    (["--gait", "serpentine", "--amplitudes", "4.5"], "amplitudes: 4.5 is out of range"),
+    (["--gait", "serpentine", "--amplitudes"], "amplitudes: the list is empty"),
+    (["--gait", "serpentine", "--frequencies"], "frequencies: the list is empty"),
+    (["--gait", "serpentine", "--friction", "sticky"], "friction is 'sticky'"),
+])
+def test_bad_input_exits_2_with_the_reason_and_writes_nothing(tmp_path, capsys, args, expected):
+    out = tmp_path / "out"
+    assert main([*args, "--duration-s", "1", "--out", str(out)]) == 2
+    assert expected in capsys.readouterr().err
+    assert not out.exists()
+
+
+def test_a_malformed_measured_table_exits_2_before_anything_runs(tmp_path, capsys):
+    bad = _lab_table(tmp_path, [["serpentine", 2.0, 0.5, 1.0]])
+    out = tmp_path / "cal"
+    assert main(["--calibrate", str(bad), "--out", str(out)]) == 2
+    assert "rows[0]" in capsys.readouterr().err and not out.exists()
+    assert main(["--calibrate", str(tmp_path / "missing.yaml"), "--out", str(out)]) == 2
+    assert "no such file" in capsys.readouterr().err
+    assert main(["--reference", str(bad), "--gait", "serpentine", "--out", str(out)]) == 2
+    assert not out.exists()
+    assert main(["--calibrate", str(_lab_table(tmp_path, [["serpentine", 2.0, 0.5, 0.1, 0.1]])), "--fit", "grip",
+                 "--out", str(out)]) == 2
+    assert "unknown fit parameter 'grip'" in capsys.readouterr().err
+
+
+def test_an_unwritable_output_folder_exits_2(tmp_path, capsys):
+    blocker = tmp_path / "a_file"
+    blocker.write_text("not a folder")
+    assert main(["--gait", "serpentine", "--amplitudes", "2", "--frequencies", "1", "--duration-s", "1",
+                 "--out", str(blocker / "sweep")]) == 2
+    assert "cannot write there" in capsys.readouterr().err
+    assert blocker.read_text() == "not a folder"

@@ -1,0 +1,155 @@
+"""``srs_sweep --ros`` end to end against rigs running as separate processes over DDS.
+
+The simulated rig (sim_world, hardware_node on the sim rig, trajectory_server, gait_player, camera_tracker on
+the simulated camera): a short grid, its bags read back with rosbags (topics, message counts), its table in
+the offline sweep's layout; a run aborted by an e-stop; Ctrl-C venting and keeping the recording. A rig with
+real regulators (CAN on python-can's virtual bus): nothing is armed without the operator's go, and a go arms
+only that run.
+"""
+
+import csv
+import signal
+import subprocess
+
+from diagnostic_msgs.msg import DiagnosticArray
+from srs_testing import RosClient, ros_args, script_path
+from std_msgs.msg import Float64MultiArray
+
+from srs_ros.core.robot import config_dir
+from srs_ros.experiments.recording import bag_message_counts, bag_topic_types
+from srs_ros.experiments.table import TABLE_COLUMNS, read_table_csv
+
+SIM_RIG = str(config_dir() / "rigs" / "sim.yaml")
+
+
+def _start_sim_rig(launch_node):
+    launch_node("sim_world", ros_args({"camera_rate_hz": 15.0, "markers_rate_hz": 0.0}))
+    launch_node("hardware_node", ros_args({"autostart": True, "rig_file": SIM_RIG}))
+    launch_node("trajectory_server", ros_args({"samples": 32}))
+    launch_node("gait_player", ros_args({"ramp_time_s": 0.5}))
+    launch_node("camera_tracker", ros_args({"color_preset": "sim_bands"}))
+
+
+def _sweep(ros_env, args, stdin="", timeout_s=180.0):
+    return subprocess.run([script_path("srs_sweep"), "--ros", "--no-progress", *args], env=ros_env, input=stdin,
+                          capture_output=True, text=True, timeout=timeout_s)
+
+
+def _rows(path):
+    with path.open() as stream:
+        return list(csv.reader(stream))
+
+
+def test_ros_sweep_on_the_simulated_rig_records_bags_and_the_offline_table_layout(launch_node, ros_env, tmp_path):
+    _start_sim_rig(launch_node)
+    out = tmp_path / "ros"
+    grid = ["--gait", "inward_rolling", "--amplitudes", "3", "4", "--frequencies", "1", "--duration-s", "2.5"]
+    done = _sweep(ros_env, [*grid, "--settle-s", "0.5", "--out", str(out)])
+    assert done.returncode == 0, done.stdout + done.stderr
+    assert "no arm needed; simulated world" in done.stderr
+
+    records = read_table_csv(out / "table.csv")
+    assert [r.status for r in records] == ["ok", "ok"]
+    assert all(r.speed_cm_s > 1.0 for r in records), records  # inward rolling at 4 bar moves the tracked robot
+    bags = sorted((out / "bags").iterdir())
+    assert [b.name for b in bags] == ["01_inward_rolling_3bar_1hz", "02_inward_rolling_4bar_1hz"]
+    for bag in bags:
+        assert sorted(p.name for p in bag.iterdir()) == sorted(["metadata.yaml", f"{bag.name}.mcap"])
+        counts = bag_message_counts(bag)
+        types = bag_topic_types(bag)
+        assert types["/robot_pose"] == "geometry_msgs/msg/PoseStamped"
+        assert types["/joint_setpoints"] == "sensor_msgs/msg/JointState"
+        assert counts["/gait_trajectory"] >= 1
+        assert counts["/joint_setpoints"] > 2.5 * 100  # 200 Hz over a 2.5 s run and the ramp-out
+        assert counts["/commanded_pressure_bar"] > 2.5 * 100
+        assert counts["/actuator_state"] > 10
+        assert counts["/robot_pose"] > 2.5 * 5  # the tracker on a 15 fps camera
+        assert counts["/sim/ground_truth_pose"] > 2.5 * 20
+        assert counts["/diagnostics"] >= 3
+
+    offline = tmp_path / "offline"
+    from srs_ros.tools.sweep_cli import main
+
+    assert main([*grid, "--duration-s", "1", "--workers", "1", "--no-progress", "--out", str(offline)]) == 0
+    ros_rows, offline_rows = _rows(out / "table.csv"), _rows(offline / "table.csv")
+    assert ros_rows[0] == offline_rows[0] == list(TABLE_COLUMNS)
+    assert [r[:3] for r in ros_rows] == [r[:3] for r in offline_rows]  # the same cells in the same order
+    assert [r[7:9] for r in ros_rows] == [r[7:9] for r in offline_rows] == [["paper_vx_cm_s", "paper_vy_cm_s"],
+                                                                            ["5.23", "7.89"], ["5.61", "10.11"]]
+    for name in ("table.png", "paths_inward_rolling.png"):
+        assert (out / name).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+    # An e-stop during a run aborts it, is marked with its reason, and --on-failure stop ends the sweep.
+    output, records = _interrupted_sweep(ros_env, tmp_path / "estop", lambda client, _process: client.trigger(
+        "/hardware_node/emergency_stop").success, expected_code=1, extra=["--on-failure", "stop"])
+    assert len(records) == 1 and records[0].status.startswith("failed: e-stop latched"), output
+    assert "stopping at the first failed run" in output
+
+    # Ctrl-C vents, writes the table of what was done and keeps the bag of the interrupted run.
+    output, records = _interrupted_sweep(ros_env, tmp_path / "ctrl_c", lambda _client, process: process.send_signal(
+        signal.SIGINT) or True, expected_code=130)
+    assert len(records) == 1 and records[0].status.startswith("failed: interrupted (Ctrl-C)"), output
+    assert "Ctrl-C: venting" in output
+
+
+def _interrupted_sweep(ros_env, out, interrupt, expected_code, extra=()):
+    """A 20 s sweep of two runs, interrupted by ``interrupt(client, process)`` while the first one commands."""
+    process = subprocess.Popen([script_path("srs_sweep"), "--ros", "--no-progress", "--gait", "inward_rolling",
+                                "--amplitudes", "4", "--frequencies", "1", "0.5", "--duration-s", "20", *extra,
+                                "--out", str(out)], env=ros_env, text=True,
+                               stdout=subprocess.PIPE, stderr=subprocess.STDOUT)
+    try:
+        with RosClient(int(ros_env["ROS_DOMAIN_ID"]), "interrupting_client") as client:
+            pressures = client.subscribe(Float64MultiArray, "commanded_pressure_bar")
+            client.spin_until(lambda: pressures and max(pressures[-1].data) > 2.0, 60.0, "the first run commanding")
+            assert interrupt(client, process)
+            output, _ = process.communicate(timeout=60.0)
+            assert process.returncode == expected_code, output
+            client.spin_for(0.3)
+            assert max(pressures[-1].data) <= 0.01  # vented before the sweep ended
+            assert client.trigger("/hardware_node/reset").success  # (releases an e-stop for the next sweep)
+    finally:
+        if process.poll() is None:
+            process.kill()
+    assert bag_message_counts(out / "bags" / "01_inward_rolling_4bar_1hz")["/joint_setpoints"] > 0  # kept
+    return output, read_table_csv(out / "table.csv")
+
+
+def test_on_a_rig_with_real_regulators_nothing_is_armed_without_the_operators_go(launch_node, ros_env, ros_client,
+                                                                                  tmp_path):
+    rig = tmp_path / "can_virtual.yaml"  # a real CAN backend on python-can's in-process virtual bus
+    rig.write_text("rig: {name: can_virtual, backend: can, command_rate_hz: 100.0, setpoint_timeout_s: 0.2,\n"
+                   "      backend_options: {interface: virtual, channel: srs_sweep_test}}\n")
+    launch_node("hardware_node", ros_args({"autostart": True, "rig_file": str(rig)}))
+    launch_node("trajectory_server", ros_args({"samples": 16}))
+    launch_node("gait_player", ros_args({"ramp_time_s": 0.5}))
+    diagnostics = ros_client.subscribe(DiagnosticArray, "/diagnostics")
+    pressures = ros_client.subscribe(Float64MultiArray, "commanded_pressure_bar")
+
+    def armed_seen():
+        return [kv.value for m in diagnostics for s in m.status if s.name.startswith("hardware_node")
+                for kv in s.values if kv.key == "armed"]
+
+    out = tmp_path / "real"
+    # The operator says no to the first run and quits at the second: nothing is ever armed or pressurised.
+    done = _sweep(ros_env, ["--gait", "inward_rolling", "--amplitudes", "2", "3", "--frequencies", "1",
+                            "--duration-s", "1", "--out", str(out)], stdin="n\nq\n")
+    ros_client.spin_for(1.5)
+    assert done.returncode == 1, done.stdout + done.stderr
+    assert "real regulators: each run needs the operator's go" in done.stderr
+    assert done.stdout.count("on the real rig?") + done.stderr.count("on the real rig?") == 2
+    statuses = [r.status for r in read_table_csv(out / "table.csv")]
+    assert statuses == ["failed: skipped: no go from the operator", "failed: the operator stopped the sweep"]
+    assert "True" not in armed_seen() and pressures and max(max(m.data) for m in pressures) == 0.0
+
+    # With the go the hardware is armed for the run; with no camera there is no pose: the run fails and the
+    # sweep disarms again.
+    done = _sweep(ros_env, ["--gait", "inward_rolling", "--amplitudes", "2", "--frequencies", "1", "--duration-s",
+                            "1", "--yes", "--out", str(tmp_path / "go")])
+    ros_client.spin_for(2.5)
+    assert done.returncode == 1, done.stdout + done.stderr
+    [record] = read_table_csv(tmp_path / "go" / "table.csv")
+    assert record.status.startswith("failed: no pose on /robot_pose"), record.status
+    seen = armed_seen()
+    assert "True" in seen and seen[-1] == "False"
+    assert max(max(m.data) for m in pressures) == 0.0  # armed, but the gait never started
