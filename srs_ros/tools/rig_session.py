@@ -1,0 +1,100 @@
+"""What every tool that drives a rig directly shares: the backend from a rig file, ROS for the sim, Ctrl-C, the vent.
+
+``srs_wiring_check`` and ``srs_identify`` open a backend through the one contract (as the hardware node
+does) and must leave every regulator at 0 bar however they end: :func:`interrupts_on_sigterm` turns
+SIGTERM into the same ``KeyboardInterrupt`` as Ctrl-C, :func:`vent_and_close` vents with Ctrl-C ignored.
+A real rig (``drives_real_hardware``) needs the operator's go (:func:`operator_go`).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import signal
+import sys
+from collections.abc import Iterator, Sequence
+
+from srs_ros.backends import ActuatorBackend, create_backend
+from srs_ros.core.errors import HardwareError
+from srs_ros.core.rig import RigConfig
+from srs_ros.core.safety import VENT_FAILED
+
+EXIT_OK, EXIT_HARDWARE, EXIT_USAGE, EXIT_INTERRUPTED = 0, 1, 2, 130
+
+
+def backend_for(rig: RigConfig, name: str | None = None) -> ActuatorBackend:
+    """The rig's backend (not opened), or the backend ``name`` (its rig options apply only to the rig's own)."""
+    name = name or rig.backend
+    return create_backend(name, rig.robot, rig.backend_options if name == rig.backend else {})
+
+
+@contextlib.contextmanager
+def ros_context(backend: ActuatorBackend, ros_args: Sequence[str] = ()) -> Iterator[None]:
+    """Initialise rclpy while a backend that talks over DDS (``sim``) is in use; nothing for the others.
+
+    rclpy installs no signal handler: Ctrl-C stays a ``KeyboardInterrupt`` that the tool turns into a vent.
+    """
+    if not backend.needs_rclpy:
+        yield
+        return
+    import rclpy
+    from rclpy.signals import SignalHandlerOptions
+
+    rclpy.init(args=["srs_tool", "--ros-args", *ros_args] if ros_args else None,
+               signal_handler_options=SignalHandlerOptions.NO)
+    try:
+        yield
+    finally:
+        rclpy.try_shutdown()
+
+
+def _raise_keyboard_interrupt(signum, frame) -> None:
+    raise KeyboardInterrupt
+
+
+@contextlib.contextmanager
+def interrupts_on_sigterm() -> Iterator[None]:
+    """SIGTERM raises ``KeyboardInterrupt`` like Ctrl-C while inside (a supervisor's stop vents too)."""
+    previous = signal.signal(signal.SIGTERM, _raise_keyboard_interrupt)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+
+
+def vent_and_close(backend: ActuatorBackend) -> bool:
+    """Vent and close with Ctrl-C ignored, so a second Ctrl-C cannot cut the vent short; True if vented."""
+    if not backend.is_open:
+        return True  # never opened (or open failed): nothing of ours is pressurised
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        try:
+            backend.vent()
+            vented = True
+        except HardwareError as exc:
+            print(f"error: {VENT_FAILED} ({exc})", file=sys.stderr, flush=True)
+            vented = False
+        try:
+            backend.close()
+        except HardwareError as exc:
+            print(f"error: {VENT_FAILED} (while closing: {exc})", file=sys.stderr, flush=True)
+            vented = False
+        return vented
+    finally:
+        signal.signal(signal.SIGINT, previous)
+
+
+def operator_go(backend: ActuatorBackend, what: str, confirmed: bool, program: str) -> str:
+    """'' when the run may start; else why not. A real rig needs ``--yes`` or a typed 'yes' at a terminal."""
+    if not backend.drives_real_hardware or confirmed:
+        return ""
+    if not sys.stdin.isatty():
+        return (f"the {backend.name} rig drives real regulators with real air: {what}. Pass --yes once the robot is "
+                "clear and someone stands at the supply valve.")
+    print(f"{program}: the {backend.name} rig drives real regulators with real air: {what}.\n"
+          "Robot clear, someone at the supply valve? Type yes to start (Ctrl-C vents at any time): ",
+          end="", flush=True)
+    try:
+        answer = sys.stdin.readline().strip().lower()
+    except KeyboardInterrupt:
+        answer = ""
+    return "" if answer == "yes" else "the operator did not say yes; nothing was sent."
