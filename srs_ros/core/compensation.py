@@ -11,7 +11,8 @@ time constant ``tau`` (:mod:`srs_ros.core.muscle_model`). With compensation on, 
 per muscle, with the setpoint velocities ``dl/dt`` that ``gait_player`` publishes (or a finite
 difference of successive setpoints when a sender gives none). ``P_cmd`` ALWAYS goes through the one
 clamp (:func:`srs_ros.core.actuation.clamp_pressures_bar`): where the lead asks for more than
-``[0, max_pressure_bar]`` it is cut, never exceeded, and counted (:attr:`SetpointShaper.compensation_clamped`).
+``[0, max_pressure_bar]`` (or more than a muscle's saturation) it is cut, never exceeded, and counted
+(:attr:`SetpointShaper.compensation_clamped`).
 
 Limits: the lead is a first-order prediction, so it cannot anticipate a kink of the setpoint stream
 (a muscle leaving 0, a reversal) nor a step; a setpoint that stops arriving keeps its last
@@ -24,7 +25,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from srs_ros.core.actuation import clamp_pressures_bar, pressure_limit_bar
+from srs_ros.core.actuation import clamp_pressures_bar
 from srs_ros.core.errors import ConfigurationError
 from srs_ros.core.muscle_calibration import (
     CALIBRATED_MAP,
@@ -68,22 +69,28 @@ def compensated_pressures_bar(pressure_map: PressureMap, dynamics: LineDynamics,
                               velocities_m_per_s) -> tuple[np.ndarray, np.ndarray]:
     """Pressures (bar) that lead the line's delay and invert its lag, through the clamp, and where it cut them.
 
-    ``lengths_m`` and ``velocities_m_per_s`` are ``(..., 9)`` (m, m/s, finite). Returns the clamped
-    command and a boolean array, True where the lead asked for more than the clamp allows.
+    ``lengths_m`` and ``velocities_m_per_s`` are ``(..., 9)`` (m, m/s, finite). The setpoint is limited as
+    the map limits it; the lead from there follows the map's line beyond its top (the demand a lead
+    makes near full extension), and is then held to each muscle's top pressure (the map's at its
+    limited length) and passed through the clamp. Returns the command and a boolean array, True where
+    the lead asked for more than that (above the top, or below 0 bar while extending).
 
     Example: ``P = 100 l``, d = 0.03 s, tau = 0.08 s, l = 0.02 m rising at 0.1 m/s: the lead length is
     0.023 m, the command 2.3 + 0.08 * 100 * 0.1 = 3.1 bar.
     """
     robot = pressure_map.robot
-    lengths = finite_array("lengths_m", lengths_m, (robot.joint_count,), "m")
+    limited_m = pressure_map.limited_length_m
+    lengths = np.clip(finite_array("lengths_m", lengths_m, (robot.joint_count,), "m"), 0.0, limited_m)
     speed_limit = MAX_STROKES_PER_S * robot.max_extension_m
     velocities = np.clip(finite_array("velocities_m_per_s", velocities_m_per_s, (robot.joint_count,), "m/s"),
                          -speed_limit, speed_limit)
-    lead_m = lengths + dynamics.transport_delay_s * velocities
-    wanted_bar = (pressure_map.reference_pressures_bar(lead_m)
-                  + dynamics.pressure_time_constant_s * pressure_map.slope_bar_per_m(lead_m) * velocities)
-    cut = (wanted_bar < -CUT_TOLERANCE_BAR) | (wanted_bar > pressure_limit_bar(robot) + CUT_TOLERANCE_BAR)
-    return clamp_pressures_bar(wanted_bar, robot), cut
+    lead_m = lengths + dynamics.transport_delay_s * velocities  # finite: both terms are bounded
+    gain = pressure_map.gain_bar_per_m
+    top_bar = pressure_map.reference_pressures_bar(limited_m)
+    wanted_bar = (pressure_map.reference_pressures_bar(lead_m) + gain * np.maximum(lead_m - limited_m, 0.0)
+                  + np.where(lead_m > 0.0, dynamics.pressure_time_constant_s * gain * velocities, 0.0))
+    cut = (wanted_bar < -CUT_TOLERANCE_BAR) | (wanted_bar > top_bar + CUT_TOLERANCE_BAR)
+    return clamp_pressures_bar(np.minimum(wanted_bar, top_bar), robot), cut
 
 
 class SetpointShaper:

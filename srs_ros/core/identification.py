@@ -224,8 +224,9 @@ def fit_static_characteristic(pressure_bar, length_m, where: str = "muscle", tes
     A coarse grid over (deadzone, saturation) with the best gain in closed form, refined by least
     squares. The saturation is "seen" only if a point lies above the knee; otherwise it is the
     highest pressure measured or commanded (``tested_bar``): the muscle extends linearly up to there
-    (a read-back a hair short of a 4 bar command must not put a knee below 4 bar). Raises :class:`FitError` when fewer than two distinct pressures extend
-    the muscle (what to do: more levels, higher pressure, check the muscle).
+    (a read-back a hair short of a 4 bar command must not put a knee below 4 bar). Raises
+    :class:`FitError` when fewer than two distinct pressures extend the muscle (what to do: more
+    levels, higher pressure, check the muscle).
     """
     pressure = np.asarray(pressure_bar, dtype=float)
     length = np.asarray(length_m, dtype=float)

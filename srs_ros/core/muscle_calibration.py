@@ -187,7 +187,7 @@ def load_calibration(path: str | Path, robot: RobotDescription | None = None) ->
 
 def calibration_to_dict(calibration: MuscleCalibration) -> dict[str, Any]:
     """The file's content (plain Python types) of ``calibration``."""
-    muscles = {name: {key: round(value, 6) for key, value in calibration.muscle_values(i).items()}
+    muscles = {name: {key: float(f"{value:.7g}") for key, value in calibration.muscle_values(i).items()}
                for i, name in enumerate(calibration.joint_names)}
     return {CALIBRATION_SECTION: {**{k: v for k, v in calibration.info.items() if k != "fit"}, "muscles": muscles,
                                   **({"fit": calibration.info["fit"]} if "fit" in calibration.info else {})}}
@@ -224,9 +224,10 @@ class PressureMap(abc.ABC):
     def reference_pressures_bar(self, lengths_m) -> np.ndarray:
         """Pressures (bar) for lengths ``(..., 9)`` (m), within ``[0, limit]`` but not yet through the clamp."""
 
+    @property
     @abc.abstractmethod
-    def slope_bar_per_m(self, lengths_m) -> np.ndarray:
-        """dP/dl (bar/m) of the map at ``lengths_m``: 0 where the length is limited (at or below 0, at the top)."""
+    def gain_bar_per_m(self) -> np.ndarray:
+        """Per muscle, dP/dl (bar/m) of the map where the muscle extends (between 0 and its limited length)."""
 
     @abc.abstractmethod
     def describe(self) -> str:
@@ -238,10 +239,6 @@ class PressureMap(abc.ABC):
 
     def _lengths(self, lengths_m) -> np.ndarray:
         return finite_array("lengths_m", lengths_m, (self.robot.joint_count,), "m")
-
-    def _inside(self, lengths: np.ndarray) -> np.ndarray:
-        """Where the length is strictly inside ``(0, limited_length_m)``, i.e. the map is not flat."""
-        return (lengths > 0.0) & (lengths < self.limited_length_m)
 
 
 class PaperPressureMap(PressureMap):
@@ -258,10 +255,10 @@ class PaperPressureMap(PressureMap):
         """``P = gain * l`` (+ the deadzone offset where extending), :func:`lengths_to_pressures_bar`."""
         return lengths_to_pressures_bar(lengths_m, self.robot)
 
-    def slope_bar_per_m(self, lengths_m) -> np.ndarray:
-        """The gain (100 bar/m) inside the stroke, 0 where limited."""
-        lengths = self._lengths(lengths_m)
-        return np.where(self._inside(lengths), self.robot.pressure_per_length_bar_per_m, 0.0)
+    @property
+    def gain_bar_per_m(self) -> np.ndarray:
+        """100 bar/m for every muscle."""
+        return np.full(self.robot.joint_count, self.robot.pressure_per_length_bar_per_m)
 
     def describe(self) -> str:
         """E.g. ``P = 100 l``."""
@@ -299,10 +296,10 @@ class CalibratedPressureMap(PressureMap):
         cal = self.calibration
         return np.where(lengths > 0.0, cal.deadzone_bar + lengths / cal.extension_per_bar_m, 0.0)
 
-    def slope_bar_per_m(self, lengths_m) -> np.ndarray:
-        """``1 / extension_per_bar_m`` inside the stroke, 0 where limited."""
-        lengths = self._lengths(lengths_m)
-        return np.where(self._inside(lengths), 1.0 / self.calibration.extension_per_bar_m, 0.0)
+    @property
+    def gain_bar_per_m(self) -> np.ndarray:
+        """``1 / extension_per_bar_m`` of each muscle."""
+        return 1.0 / self.calibration.extension_per_bar_m
 
     def describe(self) -> str:
         """E.g. ``the calibrated map of sim_muscles.yaml (P = 1.00 bar + l / 0.0217 m/bar, mean of 9 muscles)``."""

@@ -317,6 +317,7 @@ class HardwareNode(LifecycleNode):
         self.gate.set_active(False)
         self.status.reason = OutputReason.INACTIVE
         self.release_hardware()
+        self.shaper = None  # the next configure reads the map and the compensation again
         for entity in self._runtime.values():
             self._destroy(entity)
         self._runtime = {}

@@ -253,10 +253,11 @@ def main(argv: Sequence[str] | None = None) -> int:
         joints = select_joints(args.channels, rig.robot.joint_names)
         out = Path(args.out or f"{rig.name}_calibration.yaml")
         table = read_length_table(args.length_table, rig.robot) if args.length_table else None
-        base = _base_values(out, rig.robot)
-        _check_complete(base, rig.robot, joints, static, dynamics, out)
         backend = backend_for(rig, args.backend)
         refusal = _refusal(backend, static, dynamics, table is not None)
+        if not refusal:
+            base = _base_values(out, rig.robot)
+            _check_complete(base, rig.robot, joints, static, dynamics, out)
     except (ConfigurationError, ValueError) as exc:
         print(f"{PROGRAM}: error: {exc}", file=sys.stderr, flush=True)
         return EXIT_USAGE
@@ -283,7 +284,7 @@ def main(argv: Sequence[str] | None = None) -> int:
                          max_delay_s=args.max_delay_s)
         info = {"rig": rig.name, "created": datetime.datetime.now().isoformat(timespec="seconds"),
                 "method": (plan.description if plan else "") + (f"; lengths from {args.length_table}" if table else ""),
-                "fit": {name: {k: (round(v, 6) if isinstance(v, float) else v) for k, v in fit.items()}
+                "fit": {name: {k: (float(f"{v:.4g}") if isinstance(v, float) else v) for k, v in fit.items()}
                         for name, fit in found.fit.items()}}
         calibration = calibration_from_values(_merged(base, found), rig.robot, info, str(out))
     except (FitError, ConfigurationError) as exc:
