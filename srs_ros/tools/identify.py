@@ -33,6 +33,7 @@ from srs_ros.core.identification import (
     CommandPlan,
     Identification,
     Measurement,
+    Recording,
     Step,
     chirp_plan,
     identify,
@@ -50,17 +51,15 @@ from srs_ros.core.muscle_calibration import (
 )
 from srs_ros.core.rig import RigConfig, default_rig_path, load_rig
 from srs_ros.core.robot import RobotDescription, load_robot
-from srs_ros.core.safety import VENT_FAILED
 from srs_ros.tools.rig_session import (
     EXIT_HARDWARE,
-    EXIT_INTERRUPTED,
     EXIT_OK,
     EXIT_USAGE,
     backend_for,
     interrupts_on_sigterm,
     operator_go,
     ros_context,
-    vent_and_close,
+    run_vented,
 )
 from srs_ros.tools.wiring_check import select_joints
 
@@ -316,38 +315,23 @@ def _wait_for_readback(backend: ActuatorBackend, rig: RigConfig, io: BackendIO, 
 
 
 def _open_and_run(backend: ActuatorBackend, rig: RigConfig, plan: CommandPlan,
-                  args: argparse.Namespace) -> tuple[int, object]:
+                  args: argparse.Namespace) -> tuple[int, Recording | None]:
     names = rig.robot.joint_names
     io = BackendIO(backend)
+    recordings = []
 
     def announce(index: int, step: Step) -> None:
         print(f"step {index + 1}/{len(plan.steps)}: {', '.join(names[j] for j in step.joints)} at "
               f"{step.level_bar:g} bar", flush=True)
 
-    try:
-        backend.open()
+    def measure() -> None:
         print(f"{PROGRAM}: rig {rig.name!r} ({backend.name} backend): {plan.description}; "
               f"{plan.duration_s:.1f} s", flush=True)
         _wait_for_readback(backend, rig, io, args.startup_timeout_s)
-        recording = run_plan(io, plan, on_step=announce)
-    except KeyboardInterrupt:
-        vented = vent_and_close(backend)
-        print("interrupted: all regulators vented (0 bar)" if vented else f"interrupted: {VENT_FAILED}", flush=True)
-        return EXIT_INTERRUPTED, None
-    except ConfigurationError as exc:
-        print(f"{PROGRAM}: error: {exc}", file=sys.stderr, flush=True)
-        vent_and_close(backend)
-        return EXIT_USAGE, None
-    except HardwareError as exc:
-        print(f"{PROGRAM}: hardware error on the {backend.name} backend: {exc}", file=sys.stderr, flush=True)
-        vent_and_close(backend)
-        return EXIT_HARDWARE, None
-    except BaseException:
-        vent_and_close(backend)  # any other way out still leaves every valve at 0 bar
-        raise
-    vented = vent_and_close(backend)
-    print("measured; all regulators vented" if vented else f"measured, but {VENT_FAILED}", flush=True)
-    return (EXIT_OK if vented else EXIT_HARDWARE), recording
+        recordings.append(run_plan(io, plan, on_step=announce))
+
+    code = run_vented(backend, PROGRAM, measure, "measured")
+    return code, (recordings[0] if recordings and code == EXIT_OK else None)
 
 
 if __name__ == "__main__":

@@ -11,10 +11,10 @@ from __future__ import annotations
 import contextlib
 import signal
 import sys
-from collections.abc import Iterator, Sequence
+from collections.abc import Callable, Iterator, Sequence
 
 from srs_ros.backends import ActuatorBackend, create_backend
-from srs_ros.core.errors import HardwareError
+from srs_ros.core.errors import ConfigurationError, HardwareError
 from srs_ros.core.rig import RigConfig
 from srs_ros.core.safety import VENT_FAILED
 
@@ -98,3 +98,33 @@ def operator_go(backend: ActuatorBackend, what: str, confirmed: bool, program: s
     except KeyboardInterrupt:
         answer = ""
     return "" if answer == "yes" else "the operator did not say yes; nothing was sent."
+
+
+def run_vented(backend: ActuatorBackend, program: str, body: Callable[[], None], done: str) -> int:
+    """Open ``backend``, run ``body``, then vent and close however it ends; return the exit code.
+
+    Ctrl-C (and SIGTERM, see :func:`interrupts_on_sigterm`) vents at once (130); a configuration error
+    exits 2, a hardware error 1, both vented; any other exception is raised after the vent. ``done`` is
+    printed after a vented end ("<done>, all vented").
+    """
+    try:
+        backend.open()
+        body()
+    except KeyboardInterrupt:
+        vented = vent_and_close(backend)
+        print("interrupted: all regulators vented (0 bar)" if vented else f"interrupted: {VENT_FAILED}", flush=True)
+        return EXIT_INTERRUPTED
+    except ConfigurationError as exc:
+        print(f"{program}: error: {exc}", file=sys.stderr, flush=True)
+        vent_and_close(backend)
+        return EXIT_USAGE
+    except HardwareError as exc:
+        print(f"{program}: hardware error on the {backend.name} backend: {exc}", file=sys.stderr, flush=True)
+        vent_and_close(backend)
+        return EXIT_HARDWARE
+    except BaseException:
+        vent_and_close(backend)  # any other way out (a broken pipe, a bug) still leaves every valve at 0 bar
+        raise
+    vented = vent_and_close(backend)
+    print(f"{done}, all vented" if vented else f"{done}, but {VENT_FAILED}", flush=True)
+    return EXIT_OK if vented else EXIT_HARDWARE

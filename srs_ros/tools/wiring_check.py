@@ -19,20 +19,10 @@ from collections.abc import Sequence
 import numpy as np
 
 from srs_ros.backends import BACKENDS, ActuatorBackend
-from srs_ros.core.errors import ConfigurationError, HardwareError
+from srs_ros.core.errors import ConfigurationError
 from srs_ros.core.rig import RigConfig, default_rig_path, load_rig
 from srs_ros.core.robot import load_robot
-from srs_ros.core.safety import VENT_FAILED
-from srs_ros.tools.rig_session import (
-    EXIT_HARDWARE,
-    EXIT_INTERRUPTED,
-    EXIT_OK,
-    EXIT_USAGE,
-    backend_for,
-    interrupts_on_sigterm,
-    ros_context,
-    vent_and_close,
-)
+from srs_ros.tools.rig_session import EXIT_USAGE, backend_for, interrupts_on_sigterm, ros_context, run_vented
 
 DEFAULT_PRESSURE_BAR = 1.5
 DEFAULT_HOLD_S = 1.0
@@ -143,30 +133,13 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 
 def _open_and_run(backend: ActuatorBackend, rig: RigConfig, joints: list[int], args: argparse.Namespace) -> int:
-    try:
-        backend.open()
+    def pulses() -> None:
         print(f"wiring check on rig {rig.name!r} ({backend.name} backend, {rig.robot.regulator.name}): "
               f"{len(joints)} pulse(s) of {args.pressure_bar:g} bar", flush=True)
         run(backend, rig, joints, args.pressure_bar, args.hold_s, args.vent_s)
-    except KeyboardInterrupt:
-        vented = vent_and_close(backend)
-        print("interrupted: all regulators vented (0 bar)" if vented else
-              f"interrupted: {VENT_FAILED}", flush=True)
-        return EXIT_INTERRUPTED
-    except ConfigurationError as exc:
-        print(f"srs_wiring_check: error: {exc}", file=sys.stderr, flush=True)
-        return EXIT_USAGE
-    except HardwareError as exc:
-        print(f"srs_wiring_check: hardware error on the {backend.name} backend: {exc}", file=sys.stderr, flush=True)
-        vent_and_close(backend)
-        return EXIT_HARDWARE
-    except BaseException:
-        vent_and_close(backend)  # any other way out (a broken pipe, a bug) still leaves every valve at 0 bar
-        raise
-    vented = vent_and_close(backend)
-    print(f"done: {len(joints)} regulator(s) pulsed, all vented" if vented else
-          f"done, but {VENT_FAILED}", flush=True)
-    return EXIT_OK if vented else EXIT_HARDWARE
+
+    return run_vented(backend, "srs_wiring_check", pulses, f"done: {len(joints)} regulator(s) pulsed")
+
 
 if __name__ == "__main__":
     sys.exit(main())
