@@ -385,8 +385,13 @@ class HardwareNode(LifecycleNode):
                                       "sender's clock runs ahead of this host's (sync the clocks); aged from arrival",
                                       throttle_duration_sec=LOG_THROTTLE_S)
         self._note_limited(lengths_m)
-        now_s = time.monotonic()
+        now_s, cut_before = time.monotonic(), self.shaper.compensation_clamped
         self.gate.accept(self.shaper.pressures_bar(lengths_m, velocities_m_per_s, now_s), now_s, age_s)
+        if self.shaper.compensation_clamped > cut_before:
+            self.get_logger().warning(
+                f"lag compensation: the lead asked for more than [0, {robot.max_pressure_bar:g}] bar (or a muscle's "
+                "saturation); cut at the clamp, never exceeded (compensation_clamped on /diagnostics)",
+                throttle_duration_sec=5.0)
         self.status.setpoints_accepted += 1
         self.status.pending_stamp_ns = stamp_ns
 

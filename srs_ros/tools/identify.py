@@ -146,8 +146,6 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--startup-timeout-s", type=float, default=20.0,
                         help="how long to wait for the rig's first read-back, s (default 20; sim_world builds first)")
     parser.add_argument("--yes", action="store_true", help="the operator's go for a rig with real regulators")
-    parser.add_argument("--ros-args", nargs=argparse.REMAINDER, default=[],
-                        help="ROS arguments for the sim backend's bus (e.g. -r __ns:=/snake1)")
     return parser
 
 
@@ -212,7 +210,7 @@ def _check_complete(base, robot: RobotDescription, joints: list[int], static: bo
     for joint in joints:
         entry = planned.values.setdefault(robot.joint_names[joint], {})
         if static:
-            entry.update(deadzone_bar=0.5, extension_per_bar_m=0.01, saturation_bar=robot.max_pressure_bar)
+            entry.update(deadzone_bar=0.0, extension_per_bar_m=0.01, saturation_bar=robot.max_pressure_bar)
         if dynamics:
             entry.update(transport_delay_s=0.0, pressure_time_constant_s=0.0)
     try:
@@ -274,7 +272,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         if refusal:
             print(f"{PROGRAM}: refused: {refusal}", file=sys.stderr, flush=True)
             return EXIT_USAGE
-        with interrupts_on_sigterm(), ros_context(backend, args.ros_args):
+        with interrupts_on_sigterm(), ros_context(backend):
             code, recording = _open_and_run(backend, rig, plan, args)
         if code != EXIT_OK:
             return code

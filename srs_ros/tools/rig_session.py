@@ -11,7 +11,7 @@ from __future__ import annotations
 import contextlib
 import signal
 import sys
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Iterator
 
 from srs_ros.backends import ActuatorBackend, create_backend
 from srs_ros.core.errors import ConfigurationError, HardwareError
@@ -28,10 +28,11 @@ def backend_for(rig: RigConfig, name: str | None = None) -> ActuatorBackend:
 
 
 @contextlib.contextmanager
-def ros_context(backend: ActuatorBackend, ros_args: Sequence[str] = ()) -> Iterator[None]:
+def ros_context(backend: ActuatorBackend) -> Iterator[None]:
     """Initialise rclpy while a backend that talks over DDS (``sim``) is in use; nothing for the others.
 
-    rclpy installs no signal handler: Ctrl-C stays a ``KeyboardInterrupt`` that the tool turns into a vent.
+    The domain is ``ROS_DOMAIN_ID``'s; the topics are the backend's options. rclpy installs no signal
+    handler: Ctrl-C stays a ``KeyboardInterrupt`` that the tool turns into a vent.
     """
     if not backend.needs_rclpy:
         yield
@@ -39,8 +40,7 @@ def ros_context(backend: ActuatorBackend, ros_args: Sequence[str] = ()) -> Itera
     import rclpy
     from rclpy.signals import SignalHandlerOptions
 
-    rclpy.init(args=["srs_tool", "--ros-args", *ros_args] if ros_args else None,
-               signal_handler_options=SignalHandlerOptions.NO)
+    rclpy.init(signal_handler_options=SignalHandlerOptions.NO)
     try:
         yield
     finally:

@@ -447,6 +447,7 @@ def test_lag_compensation_switches_live_leads_and_never_leaves_the_clamp(hardwar
     rig.stream(jump, until=lambda: int(rig.diagnostic("compensation_clamped") or 0) > 0,
                what="the cut lead counted on /diagnostics")
     assert rig.commanded([4, 4, 4, 3.5, 4, 4, 4, 4, 4]) and rig.diagnostic("lag_compensation") == "True"
+    assert "lag compensation: the lead asked for more than [0, 4] bar" in proc.output()
     assert max(max(m.data) for m in rig.pressure[count:]) <= 4.0
 
     bad = JointState(name=NAMES, position=[0.02] * 9, velocity=[float("nan")] + [0.1] * 8)
