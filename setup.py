@@ -65,6 +65,7 @@ setup(
             "srs_track = srs_ros.tools.track_cli:main",
             "srs_calibrate_camera = srs_ros.tools.calibrate_camera:main",
             "srs_wiring_check = srs_ros.tools.wiring_check:main",
+            "srs_identify = srs_ros.tools.identify:main",
             "sim_world = srs_ros.nodes.sim_world:main",
             "srs_sim = srs_ros.tools.sim_cli:main",
             "srs_sweep = srs_ros.tools.sweep_cli:main",

@@ -53,6 +53,12 @@ class ActuatorBackend(abc.ABC):
     #: True where the backend drives real regulators with real air: the hardware node then commands
     #: nothing above 0 bar until an operator arms it (``~/arm``). Simulated backends set it False.
     drives_real_hardware: bool = True
+    #: What ``read_state`` reports once open: the regulators' pressure read-back (``measured_pressure_bar``)
+    #: and the muscles' lengths (``measured_length_m``). ``srs_identify`` refuses to measure what a rig cannot.
+    measures_pressure: bool = False
+    measures_length: bool = False
+    #: True where the backend talks over rclpy/DDS (``sim``): a tool outside a ROS node initialises rclpy first.
+    needs_rclpy: bool = False
     #: Seconds the hardware holds the last command without a new one before it vents by itself (a CAN
     #: board's alive-counter timeout, an NI watchdog), or None where it holds it for ever if the host dies.
     host_loss_timeout_s: float | None = None

@@ -132,6 +132,7 @@ class CanBackend(ActuatorBackend):
         if not isinstance(readback, bool):
             raise _fail("readback", readback, "true or false")
         self._monitor_layout = self._monitor_signals() if readback else {}
+        self.measures_pressure = bool(self._monitor_layout)
         self._bus = None
         self._measured_bar = np.full(self.robot.joint_count, np.nan)
         self._measured_stamp_s = np.full(self.robot.joint_count, np.nan)

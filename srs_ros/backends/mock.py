@@ -8,6 +8,9 @@ Options (``backend_options`` of a rig file, each validated with the key named on
 - ``deadzone_bar`` (default: the robot's ``deadzone_bar``): no extension below this pressure;
 - ``max_extension_m`` (default: the robot's ``max_extension_m``): extension reached at the robot's
   ``max_pressure_bar`` and never exceeded;
+- ``per_muscle``: muscles that differ from the others, ``{joint name: {option: value}}`` with the options
+  above (e.g. ``{m2_pma1: {deadzone_bar: 1.3, transport_delay_s: 0.05}}``), as the muscles of a real
+  robot do (``srs_identify`` tells them apart);
 - fault injection, for tests only: ``fail_after_writes`` (int >= 0, default off): every write after
   the first N since ``open()`` raises :class:`~srs_ros.core.errors.HardwareError`, as a dead bus would;
   ``fail_on_open`` (bool): ``open()`` raises :class:`~srs_ros.core.errors.HardwareError`.
@@ -23,10 +26,11 @@ import numpy as np
 
 from srs_ros.backends.base import ActuatorBackend
 from srs_ros.core.errors import ConfigurationError, HardwareError
-from srs_ros.core.muscle_model import MuscleModel, muscle_parameters_from_options
+from srs_ros.core.muscle_model import MuscleModel, MuscleParameters, muscle_parameters_from_options
 from srs_ros.core.robot import RobotDescription
 
 _FAULT_OPTIONS = ("fail_after_writes", "fail_on_open")
+_PER_MUSCLE = "per_muscle"
 
 
 class MockBackend(ActuatorBackend):
@@ -37,6 +41,8 @@ class MockBackend(ActuatorBackend):
 
     name = "mock"
     drives_real_hardware = False
+    measures_pressure = True
+    measures_length = True
 
     def __init__(self, robot: RobotDescription | None = None, options: Mapping[str, Any] | None = None,
                  clock: Callable[[], float] = time.monotonic):
@@ -44,32 +50,61 @@ class MockBackend(ActuatorBackend):
         super().__init__(robot, options)
         self.clock = clock
         self.params = muscle_parameters_from_options(self.options, self.robot, "mock backend_options",
-                                                     extra_keys=_FAULT_OPTIONS)
+                                                     extra_keys=(*_FAULT_OPTIONS, _PER_MUSCLE))
+        self.muscle_params = _per_muscle_parameters(self.options, self.robot)
         self.fail_after_writes = _fault_count(self.options.get("fail_after_writes"))
         self.fail_on_open = _flag(self.options, "fail_on_open")
         self.write_count = 0
-        self.model: MuscleModel | None = None
+        self.models: list[tuple[list[int], MuscleModel]] = []  # (joint indices, their muscles), per parameter set
 
     def _open(self) -> None:
         if self.fail_on_open:
             raise HardwareError("mock backend: open failed (fault injection option 'fail_on_open' is set).")
         self.write_count = 0
-        self.model = MuscleModel(self.params, self.robot.joint_count, start_s=self.clock())
+        groups: dict[MuscleParameters, list[int]] = {}
+        for joint, params in enumerate(self.muscle_params):
+            groups.setdefault(params, []).append(joint)
+        self.models = [(joints, MuscleModel(params, len(joints), start_s=self.clock()))
+                       for params, joints in groups.items()]
 
     def _write(self, pressure_bar: np.ndarray, command_v: np.ndarray) -> None:
         if self.fail_after_writes is not None and self.write_count >= self.fail_after_writes:
             raise HardwareError(f"mock backend: write {self.write_count + 1} failed (fault injection option "
                                 f"'fail_after_writes' is {self.fail_after_writes}); reconfigure to reopen.")
-        self.model.command(pressure_bar, self.clock())
+        now_s = self.clock()
+        for joints, model in self.models:
+            model.command(pressure_bar[joints], now_s)
         self.write_count += 1
 
     def _close(self) -> None:
-        self.model = None
+        self.models = []
 
     def _measure(self) -> dict[str, Any]:
-        pressure_bar, length_m = self.model.state(self.clock())
+        now_s = self.clock()
+        pressure_bar, length_m = np.empty(self.robot.joint_count), np.empty(self.robot.joint_count)
+        for joints, model in self.models:
+            pressure_bar[joints], length_m[joints] = model.state(now_s)
         return {"measured_pressure_bar": pressure_bar, "measured_length_m": length_m,
                 "details": {"simulated": True, "writes": self.write_count}}
+
+
+def _per_muscle_parameters(options: Mapping[str, Any], robot: RobotDescription) -> list[MuscleParameters]:
+    """Each joint's muscle parameters: the shared options, overridden by its ``per_muscle`` entry."""
+    per_muscle = options.get(_PER_MUSCLE) or {}
+    where = f"mock backend_options '{_PER_MUSCLE}'"
+    if not isinstance(per_muscle, Mapping):
+        raise ConfigurationError(f"{where} is {per_muscle!r}; expected a mapping of joint name: {{option: value}}.")
+    unknown = sorted(set(per_muscle) - set(robot.joint_names), key=str)
+    if unknown:
+        raise ConfigurationError(f"{where}: unknown joint {unknown[0]!r}; expected some of {list(robot.joint_names)}.")
+    shared = {key: value for key, value in options.items() if key not in (*_FAULT_OPTIONS, _PER_MUSCLE)}
+    params = []
+    for name in robot.joint_names:
+        own = per_muscle.get(name) or {}
+        if not isinstance(own, Mapping):
+            raise ConfigurationError(f"{where}.{name} is {own!r}; expected a mapping of option: value.")
+        params.append(muscle_parameters_from_options({**shared, **own}, robot, f"{where}.{name}"))
+    return params
 
 
 def _fault_count(value: Any) -> int | None:

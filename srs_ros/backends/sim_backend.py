@@ -58,6 +58,9 @@ class SimBackend(ActuatorBackend):
 
     name = "sim"
     drives_real_hardware = False
+    measures_pressure = True
+    measures_length = True
+    needs_rclpy = True
 
     def __init__(self, robot: RobotDescription | None = None, options: Mapping[str, Any] | None = None):
         """Validate the options (``ConfigurationError`` naming the key); nothing connects before ``open()``."""

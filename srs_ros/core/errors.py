@@ -14,7 +14,7 @@ class InvalidInputError(SrsError, ValueError):
 
 
 class FitError(SrsError, RuntimeError):
-    """A shape fit did not converge to an acceptable joint-space solution."""
+    """A fit did not reach an acceptable solution (a gait shape, a muscle's characteristic or dynamics)."""
 
 
 class HardwareError(SrsError, RuntimeError):

@@ -1,6 +1,7 @@
 """What the hardware node may send, decided without ROS: setpoint checks, staleness and the e-stop latch.
 
-:func:`setpoint_lengths_m` turns a named setpoint into joint-ordered lengths or rejects it;
+:func:`setpoint_lengths_m` (and :func:`setpoint_velocities_m_per_s`) turn a named setpoint into joint-ordered
+lengths (rates) or reject it;
 :class:`CommandGate` decides on every command tick between the latest accepted command and 0 bar.
 """
 
@@ -41,24 +42,46 @@ def setpoint_lengths_m(names: Sequence[str], positions: Sequence[float], robot: 
     duplicates = sorted({name for name in names if names.count(name) > 1})
     if duplicates:
         raise InvalidInputError(f"setpoint: duplicate joint names {duplicates}; expected each actuator once.")
-    values = finite_array("setpoint positions", positions, (count,), "m")
-    lengths = np.empty(count)
-    lengths[[index[name] for name in names]] = values
-    return lengths
+    return _joint_ordered(names, finite_array("setpoint positions", positions, (count,), "m"), robot)
+
+
+def setpoint_velocities_m_per_s(names: Sequence[str], velocities: Sequence[float],
+                                robot: RobotDescription) -> np.ndarray | None:
+    """Joint-ordered length rates (m/s) of a setpoint whose names :func:`setpoint_lengths_m` accepted; None if empty.
+
+    Raises :class:`InvalidInputError` for a names/velocities size mismatch or NaN/inf.
+    """
+    if len(velocities) == 0:
+        return None
+    names = list(names)
+    if len(velocities) != len(names):
+        raise InvalidInputError(f"setpoint: {len(names)} names but {len(velocities)} velocities; expected one length "
+                                "rate (m/s) per name, or none.")
+    return _joint_ordered(names, finite_array("setpoint velocities", velocities, (robot.joint_count,), "m/s"), robot)
+
+
+def _joint_ordered(names: list[str], values: np.ndarray, robot: RobotDescription) -> np.ndarray:
+    """``values`` given in the order of ``names`` (each joint once), rearranged into joint order."""
+    ordered = np.empty(robot.joint_count)
+    ordered[[robot.joint_index[name] for name in names]] = values
+    return ordered
 
 
 #: Lengths within this of the clamp's bounds (m) are limited without a warning (0.01 bar with P = 100 l).
 CLAMP_SLACK_M = 1e-4
 
 
-def clamped_joints(lengths_m: np.ndarray, robot: RobotDescription) -> list[str]:
+def clamped_joints(lengths_m: np.ndarray, robot: RobotDescription, limited_length_m=None) -> list[str]:
     """Names of the actuators whose length the one clamp changes: below 0, or longer than the pressure limit allows.
 
-    With ``P = 100 l`` and 4 bar that is above 0.04 m, although the muscles extend to 0.065 m.
+    ``limited_length_m`` (m, scalar or per actuator): the longest length the selected pressure map commands
+    within the limit (:attr:`srs_ros.core.muscle_calibration.PressureMap.limited_length_m`); default the
+    paper's map: with ``P = 100 l`` and 4 bar that is 0.04 m, although the muscles extend to 0.065 m.
     """
+    limit_m = pressure_limited_length_m(robot) if limited_length_m is None else np.asarray(limited_length_m)
     # 0.1 mm (0.01 bar) of slack: a cycle scaled to exactly the limit (0.04 m at 4 bar) comes out of the
     # player's spline a hair above it; that is not a request the operator should be warned about.
-    outside = (lengths_m < -CLAMP_SLACK_M) | (lengths_m > pressure_limited_length_m(robot) + CLAMP_SLACK_M)
+    outside = (lengths_m < -CLAMP_SLACK_M) | (lengths_m > limit_m + CLAMP_SLACK_M)
     return [name for name, bad in zip(robot.joint_names, outside) if bad]
 
 

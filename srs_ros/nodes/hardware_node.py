@@ -27,20 +27,26 @@ Interfaces (relative names, remappable):
   unknown or duplicate names, NaN/inf, a stamp older than the timeout (stale on arrival). A stamp
   from the future (a sender whose clock runs ahead) is aged from its arrival and reported on
   /diagnostics as a clock offset. Finite lengths outside ``[0, max_extension_m]`` or above what the
-  pressure limit allows (0.04 m at 4 bar with ``P = 100 l``) are limited by the one clamp, with a
-  throttled warning and a counter.
+  pressure limit allows under the selected map (0.04 m at 4 bar with ``P = 100 l``, about 0.065 m with
+  a calibrated map) are limited by the one clamp, with a throttled warning and a counter. ``velocity``
+  (m/s, optional; gait_player sends it) feeds the lag compensation.
+- lengths become pressures through ``pressure_map``: ``paper`` (``P = 100 l``) or ``calibrated`` (each
+  muscle's inverted static characteristic from ``calibration_file``, written by ``srs_identify``); with
+  ``lag_compensation`` (live) commands lead the supply line's delay and invert its lag
+  (:mod:`srs_ros.core.compensation`), always through the one clamp.
 - publishes ``commanded_pressure_bar`` and ``command_voltage_v`` (std_msgs/Float64MultiArray, dim 0
   labelled with the comma-joined joint names): what the backend was sent, on each command while
   configured (zeros when inactive, disarmed, stale or e-stopped); ``actuator_state`` (sensor_msgs/JointState)
   at ``state_publish_rate_hz``: ``position`` = measured length (m), ``effort`` = measured pressure (bar),
   empty where the backend cannot measure; ``/diagnostics`` (diagnostic_msgs/DiagnosticArray, 1 Hz, in
-  every state), with counters of setpoints received, rejected, limited and written.
+  every state), with counters of setpoints received, rejected, limited and written, the pressure map and
+  ``compensation_clamped`` (setpoints whose lead the clamp cut).
 - services ``~/emergency_stop`` (std_srvs/Trigger: vents at once and latches, in any state; the latch
   survives deactivate/cleanup/configure), ``~/reset`` (releases the latch; output resumes with the
   next fresh setpoint, after a new ``~/arm`` on a real rig), ``~/arm`` and ``~/disarm``; the lifecycle
   services.
-- parameters: :data:`PARAMETERS`; all but ``max_pressure_bar`` take effect at the next configure;
-  ``max_pressure_bar`` is read-only (start-up only) and can only lower the robot's limit.
+- parameters: :data:`PARAMETERS`; ``lag_compensation`` takes effect at once, ``max_pressure_bar`` is
+  read-only (start-up only) and can only lower the robot's limit, the others take effect at the next configure.
 """
 
 from __future__ import annotations
@@ -60,8 +66,10 @@ from std_msgs.msg import Float64MultiArray
 from std_srvs.srv import Trigger
 
 from srs_ros.backends import BACKENDS, ActuatorBackend, create_backend
-from srs_ros.core.actuation import lengths_to_pressures_bar, pressure_limited_length_m, pressures_to_command_v
+from srs_ros.core.actuation import pressures_to_command_v
+from srs_ros.core.compensation import SetpointShaper, setpoint_shaper
 from srs_ros.core.errors import ConfigurationError, InvalidInputError
+from srs_ros.core.muscle_calibration import CALIBRATED_MAP, PAPER_MAP
 from srs_ros.core.playback import DEFAULT_RAMP_TIME_S
 from srs_ros.core.rig import RigConfig, load_rig
 from srs_ros.core.robot import ABSOLUTE_MAX_PRESSURE_BAR, load_robot
@@ -70,10 +78,10 @@ from srs_ros.core.safety import (
     CommandGate,
     OutputReason,
     StampCheck,
-    clamped_joints,
     min_setpoint_rate_hz,
     setpoint_age_s,
     setpoint_lengths_m,
+    setpoint_velocities_m_per_s,
 )
 from srs_ros.nodes.common import (
     ACTUATOR_STATE_TOPIC,
@@ -110,6 +118,16 @@ PARAMETERS = (
                   "pressure limit (bar); only lowers the robot's; read-only: set it at start-up",
                   0.1, ABSOLUTE_MAX_PRESSURE_BAR, read_only=True),
     ParameterSpec("autostart", False, "configure and activate at start-up (a real rig still waits for ~/arm)"),
+    ParameterSpec("pressure_map", PAPER_MAP, f"how lengths become pressures: '{PAPER_MAP}' (P = 100 l) or "
+                  f"'{CALIBRATED_MAP}' (each muscle's characteristic from calibration_file)",
+                  additional_constraints=f"'{PAPER_MAP}' or '{CALIBRATED_MAP}'"),
+    ParameterSpec("calibration_file", "", "the rig's muscle calibration (srs_identify); '' = none"),
+    ParameterSpec("lag_compensation", False, "lead the supply line's delay and invert its lag (live; needs the "
+                  "calibration's dynamics or the two compensation_* parameters)"),
+    ParameterSpec("compensation_delay_s", 0.0, "supply-line delay led by the compensation (s); 0 = the "
+                  "calibration file's", 0.0, 2.0),
+    ParameterSpec("compensation_time_constant_s", 0.0, "pressure time constant the compensation inverts (s); 0 = "
+                  "the calibration file's", 0.0, 10.0),
 )
 
 
@@ -159,9 +177,11 @@ class HardwareNode(LifecycleNode):
         """Declare parameters, diagnostics and the e-stop/arm services; configure+activate if ``autostart``."""
         super().__init__(NODE_NAME, **kwargs)
         self.specs = declare_parameters(self, PARAMETERS)
-        self.add_on_set_parameters_callback(lambda params: check_parameters(self.specs, params, _check_backend))
+        self.add_on_set_parameters_callback(lambda params: check_parameters(self.specs, params, self._check_value))
+        self.add_post_set_parameters_callback(self._apply_parameters)
         self.rig: RigConfig | None = None
         self.backend: ActuatorBackend | None = None
+        self.shaper: SetpointShaper | None = None  # lengths -> pressures (map, compensation), from configure
         self.gate = CommandGate(joint_count=0, setpoint_timeout_s=0.0)
         self.status = HardwareStatus()
         self._runtime: dict = {}
@@ -194,7 +214,8 @@ class HardwareNode(LifecycleNode):
                else "simulated: no arm needed")
         self.get_logger().info(f"configured: rig {self.rig.name!r}, backend {self.backend.name!r} ({arm}), "
                                f"{self._command_rate_hz():g} Hz, setpoint timeout {self.gate.setpoint_timeout_s:g} s, "
-                               f"limit {self.rig.robot.max_pressure_bar:g} bar")
+                               f"limit {self.rig.robot.max_pressure_bar:g} bar, {self.shaper.map.describe()}, "
+                               f"lag compensation {'on' if self.shaper.compensation else 'off'}")
         return TransitionCallbackReturn.SUCCESS
 
     def on_activate(self, state: LifecycleState) -> TransitionCallbackReturn:
@@ -248,6 +269,10 @@ class HardwareNode(LifecycleNode):
             raise ConfigurationError(f"command_rate_hz is {rate_hz:g} Hz with setpoint_timeout_s {timeout_s:g} s; "
                                      f"expected at least {min_setpoint_rate_hz(timeout_s):g} Hz (two commands per "
                                      "timeout).")
+        param = self.get_parameter
+        self.shaper = setpoint_shaper(rig.robot, param("pressure_map").value, param("calibration_file").value,
+                                      param("compensation_delay_s").value, param("compensation_time_constant_s").value,
+                                      param("lag_compensation").value)
         backend = create_backend(self.get_parameter("backend").value or rig.backend, rig.robot, rig.backend_options)
         backend.open()
         self._check_host_loss(backend, rate_hz)
@@ -292,6 +317,7 @@ class HardwareNode(LifecycleNode):
         self.gate.set_active(False)
         self.status.reason = OutputReason.INACTIVE
         self.release_hardware()
+        self.shaper = None  # the next configure reads the map and the compensation again
         for entity in self._runtime.values():
             self._destroy(entity)
         self._runtime = {}
@@ -335,6 +361,12 @@ class HardwareNode(LifecycleNode):
             self.get_logger().error(f"rejected setpoint, not sent (the previous command continues until stale): "
                                     f"{exc}", throttle_duration_sec=LOG_THROTTLE_S)
             return
+        try:
+            velocities_m_per_s = setpoint_velocities_m_per_s(msg.name, msg.velocity, robot)
+        except InvalidInputError as exc:
+            self.status.rejected_setpoints += 1
+            self.get_logger().error(f"rejected setpoint, not sent: {exc}", throttle_duration_sec=LOG_THROTTLE_S)
+            return
         stamp_ns = msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
         age_s, check = setpoint_age_s(stamp_ns, self.get_clock().now().nanoseconds, self.gate.setpoint_timeout_s)
         if check is StampCheck.STALE:
@@ -353,24 +385,31 @@ class HardwareNode(LifecycleNode):
                                       "sender's clock runs ahead of this host's (sync the clocks); aged from arrival",
                                       throttle_duration_sec=LOG_THROTTLE_S)
         self._note_limited(lengths_m)
-        self.gate.accept(lengths_to_pressures_bar(lengths_m, robot), time.monotonic(), age_s)
+        now_s, cut_before = time.monotonic(), self.shaper.compensation_clamped
+        self.gate.accept(self.shaper.pressures_bar(lengths_m, velocities_m_per_s, now_s), now_s, age_s)
+        if self.shaper.compensation_clamped > cut_before:
+            self.get_logger().warning(
+                f"lag compensation: the lead asked for more than [0, {robot.max_pressure_bar:g}] bar (or a muscle's "
+                "saturation); cut at the clamp, never exceeded (compensation_clamped on /diagnostics)",
+                throttle_duration_sec=5.0)
         self.status.setpoints_accepted += 1
         self.status.pending_stamp_ns = stamp_ns
 
     def _note_limited(self, lengths_m: np.ndarray) -> None:
         """Say out loud when the clamp changes a setpoint: outside [0, max extension] or above the pressure limit."""
         robot = self.rig.robot
-        names = clamped_joints(lengths_m, robot)
+        names = self.shaper.limited_joints(lengths_m)
         if not names:
             return
         self.status.limited_setpoints += 1
-        asked = [round(float(lengths_m[robot.joint_index[name]]), 4) for name in names]
-        limit_m = pressure_limited_length_m(robot)
+        indices = [robot.joint_index[name] for name in names]
+        asked = [round(float(lengths_m[i]), 4) for i in indices]
+        limits = [round(float(self.shaper.map.limited_length_m[i]), 4) for i in indices]
         self.get_logger().warning(
-            f"setpoint limited by the clamp: {names} ask {asked} m; lengths are "
-            f"commanded within [0, {limit_m:.4g}] m, i.e. [0, {robot.max_pressure_bar:g}] bar with "
-            f"P = {robot.pressure_per_length_bar_per_m:g} l (the muscles' largest extension is "
-            f"{robot.max_extension_m:g} m); lower the gait amplitude to avoid it", throttle_duration_sec=5.0)
+            f"setpoint limited by the clamp: {names} ask {asked} m; they are commanded within [0, {limits}] m, "
+            f"i.e. [0, {robot.max_pressure_bar:g}] bar with {self.shaper.map.describe()} (the muscles' largest "
+            f"extension is {robot.max_extension_m:g} m); lower the gait amplitude to avoid it",
+            throttle_duration_sec=5.0)
 
     def _on_command_tick(self) -> None:
         """At the command rate, on the steady clock: write the gate's decision (newest setpoint or 0 bar)."""
@@ -435,6 +474,23 @@ class HardwareNode(LifecycleNode):
         if state.measured_pressure_bar is not None:
             msg.effort = [float(v) for v in state.measured_pressure_bar]
         return msg
+
+    # -- parameters --------------------------------------------------------------------------
+    def _check_value(self, name: str, value) -> str:
+        """Why a new parameter value is refused ('' if it is not): the static checks, and a live compensation."""
+        if name == "lag_compensation" and value and self.shaper is not None:
+            refusal = self.shaper.compensation_refusal()
+            if refusal:
+                return f"lag_compensation: {refusal} (then configure again)"
+        return _check_choice(name, value)
+
+    def _apply_parameters(self, params) -> None:
+        """Switch the lag compensation live; every other parameter waits for the next configure."""
+        for param in params:
+            if param.name == "lag_compensation" and self.shaper is not None:
+                self.shaper.compensation = param.value
+                self.get_logger().info(f"lag compensation {'on' if param.value else 'off'} "
+                                       f"({self.shaper.map.describe()})")
 
     # -- services ----------------------------------------------------------------------------
     def _on_emergency_stop(self, request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
@@ -515,6 +571,9 @@ class HardwareNode(LifecycleNode):
             "future_stamped": str(status.future_stamped),
             "clock_offset_s": f"{status.clock_offset_s:.3f}",
             "limited_setpoints": str(status.limited_setpoints),
+            "pressure_map": self.shaper.map.name if self.shaper else "none",
+            "lag_compensation": str(bool(self.shaper and self.shaper.compensation)),
+            "compensation_clamped": str(self.shaper.compensation_clamped if self.shaper else 0),
             "backend_writes": str(status.ticks),
             **self._latency_summary(),
             "last_error": status.last_error or "none",
@@ -565,9 +624,11 @@ class HardwareNode(LifecycleNode):
         self.get_logger().error(text)
 
 
-def _check_backend(name: str, value) -> str:
+def _check_choice(name: str, value) -> str:
     if name == "backend" and value and value not in BACKENDS:
         return f"backend: unknown backend {value!r}; expected '' (the rig's) or one of {sorted(BACKENDS)}."
+    if name == "pressure_map" and value not in (PAPER_MAP, CALIBRATED_MAP):
+        return f"pressure_map: {value!r}; expected '{PAPER_MAP}' (P = 100 l) or '{CALIBRATED_MAP}' (calibration_file)."
     return ""
 
 

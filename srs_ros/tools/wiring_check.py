@@ -12,20 +12,18 @@ from __future__ import annotations
 
 import argparse
 import math
-import signal
 import sys
 import time
 from collections.abc import Sequence
 
 import numpy as np
 
-from srs_ros.backends import BACKENDS, ActuatorBackend, create_backend
-from srs_ros.core.errors import ConfigurationError, HardwareError
+from srs_ros.backends import BACKENDS, ActuatorBackend
+from srs_ros.core.errors import ConfigurationError
 from srs_ros.core.rig import RigConfig, default_rig_path, load_rig
 from srs_ros.core.robot import load_robot
-from srs_ros.core.safety import VENT_FAILED
+from srs_ros.tools.rig_session import EXIT_USAGE, backend_for, interrupts_on_sigterm, ros_context, run_vented
 
-EXIT_OK, EXIT_HARDWARE, EXIT_USAGE, EXIT_INTERRUPTED = 0, 1, 2, 130
 DEFAULT_PRESSURE_BAR = 1.5
 DEFAULT_HOLD_S = 1.0
 DEFAULT_VENT_S = 0.5
@@ -110,32 +108,6 @@ def run(backend: ActuatorBackend, rig: RigConfig, joints: list[int], pressure_ba
         print(f"  vented {names[joint]} (0 V)", flush=True)
 
 
-def _raise_keyboard_interrupt(signum, frame) -> None:
-    raise KeyboardInterrupt
-
-
-def _vent_and_close(backend: ActuatorBackend) -> bool:
-    """Vent and close with Ctrl-C ignored, so a second Ctrl-C cannot cut the vent short; True if vented."""
-    if not backend.is_open:
-        return True  # never opened (or open failed): nothing of ours is pressurised
-    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
-    try:
-        try:
-            backend.vent()
-            vented = True
-        except HardwareError as exc:
-            print(f"error: {VENT_FAILED} ({exc})", file=sys.stderr, flush=True)
-            vented = False
-        try:
-            backend.close()
-        except HardwareError as exc:
-            print(f"error: {VENT_FAILED} (while closing: {exc})", file=sys.stderr, flush=True)
-            vented = False
-        return vented
-    finally:
-        signal.signal(signal.SIGINT, previous)
-
-
 def main(argv: Sequence[str] | None = None) -> int:
     """Console entry point; returns the exit code."""
     parser = build_parser()
@@ -151,44 +123,23 @@ def main(argv: Sequence[str] | None = None) -> int:
             if not (math.isfinite(value) and 0.0 < value <= MAX_HOLD_S):
                 parser.error(f"{flag} {value:g}: expected seconds in (0, {MAX_HOLD_S:g}]")
         joints = select_joints(args.channels, rig.robot.joint_names)
-        name = args.backend or rig.backend
-        backend = create_backend(name, rig.robot, rig.backend_options if name == rig.backend else {})
+        backend = backend_for(rig, args.backend)
     except (ConfigurationError, ValueError) as exc:
         print(f"srs_wiring_check: error: {exc}", file=sys.stderr, flush=True)
         return EXIT_USAGE
 
-    previous_term = signal.signal(signal.SIGTERM, _raise_keyboard_interrupt)
-    try:
+    with interrupts_on_sigterm(), ros_context(backend):
         return _open_and_run(backend, rig, joints, args)
-    finally:
-        signal.signal(signal.SIGTERM, previous_term)
 
 
 def _open_and_run(backend: ActuatorBackend, rig: RigConfig, joints: list[int], args: argparse.Namespace) -> int:
-    try:
-        backend.open()
+    def pulses() -> None:
         print(f"wiring check on rig {rig.name!r} ({backend.name} backend, {rig.robot.regulator.name}): "
               f"{len(joints)} pulse(s) of {args.pressure_bar:g} bar", flush=True)
         run(backend, rig, joints, args.pressure_bar, args.hold_s, args.vent_s)
-    except KeyboardInterrupt:
-        vented = _vent_and_close(backend)
-        print("interrupted: all regulators vented (0 bar)" if vented else
-              f"interrupted: {VENT_FAILED}", flush=True)
-        return EXIT_INTERRUPTED
-    except ConfigurationError as exc:
-        print(f"srs_wiring_check: error: {exc}", file=sys.stderr, flush=True)
-        return EXIT_USAGE
-    except HardwareError as exc:
-        print(f"srs_wiring_check: hardware error on the {backend.name} backend: {exc}", file=sys.stderr, flush=True)
-        _vent_and_close(backend)
-        return EXIT_HARDWARE
-    except BaseException:
-        _vent_and_close(backend)  # any other way out (a broken pipe, a bug) still leaves every valve at 0 bar
-        raise
-    vented = _vent_and_close(backend)
-    print(f"done: {len(joints)} regulator(s) pulsed, all vented" if vented else
-          f"done, but {VENT_FAILED}", flush=True)
-    return EXIT_OK if vented else EXIT_HARDWARE
+
+    return run_vented(backend, "srs_wiring_check", pulses, f"done: {len(joints)} regulator(s) pulsed")
+
 
 if __name__ == "__main__":
     sys.exit(main())

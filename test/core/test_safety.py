@@ -13,6 +13,7 @@ from srs_ros.core.safety import (
     min_setpoint_rate_hz,
     setpoint_age_s,
     setpoint_lengths_m,
+    setpoint_velocities_m_per_s,
 )
 
 ROBOT = default_robot()
@@ -141,3 +142,13 @@ def test_setpoint_age_from_the_stamp_or_the_arrival(stamp_ns, now_ns, age_s, che
 
 def test_the_slowest_stream_that_keeps_the_watchdog_fed():
     assert min_setpoint_rate_hz(0.2) == pytest.approx(10.0)
+
+
+def test_setpoint_velocities_follow_the_names_order_and_are_optional():
+    names = list(ROBOT.joint_names)[::-1]
+    assert setpoint_velocities_m_per_s(names, [], ROBOT) is None  # a sender without rates
+    assert setpoint_velocities_m_per_s(names, list(range(9)), ROBOT) == pytest.approx(np.arange(9)[::-1])
+    with pytest.raises(InvalidInputError, match="9 names but 8 velocities"):
+        setpoint_velocities_m_per_s(names, [0.0] * 8, ROBOT)
+    with pytest.raises(InvalidInputError, match="finite"):
+        setpoint_velocities_m_per_s(names, [float("nan")] + [0.0] * 8, ROBOT)

@@ -1,0 +1,167 @@
+"""srs_identify: measures each muscle on the mock and simulated rigs, refuses what a rig cannot measure, vents."""
+
+import dataclasses
+import signal
+import subprocess
+import textwrap
+import time
+import uuid
+
+import can
+import cantools
+import numpy as np
+import pytest
+from srs_testing import ros_args, script_path
+
+from srs_ros.core.muscle_calibration import calibration_from_values, load_calibration, save_calibration
+from srs_ros.core.robot import config_dir, default_robot
+from srs_ros.sim.config import load_sim_config
+from srs_ros.tools.identify import main
+
+ROBOT = default_robot()
+RIGS = config_dir() / "rigs"
+FAST = ["--together", "--levels", "0.5", "1.5", "2.5", "4", "--hold-s", "0.6", "--vent-s", "0.3"]
+
+
+def rig_file(tmp_path, backend: str, options: str, name: str = "test_rig"):
+    path = tmp_path / f"{name}.yaml"
+    path.write_text(textwrap.dedent(f"""\
+        rig:
+          name: {name}
+          backend: {backend}
+          regulator_model: ITV3050
+          command_rate_hz: 100.0
+          setpoint_timeout_s: 0.2
+          backend_options: {options}
+        """))
+    return path
+
+
+def assert_recovers(calibration, index, deadzone_bar, gain_m_per_bar, delay_s, tau_s):
+    assert calibration.deadzone_bar[index] == pytest.approx(deadzone_bar, rel=0.2)
+    assert calibration.extension_per_bar_m[index] == pytest.approx(gain_m_per_bar, rel=0.2)
+    assert calibration.transport_delay_s[index] == pytest.approx(delay_s, rel=0.2)
+    assert calibration.pressure_time_constant_s[index] == pytest.approx(tau_s, rel=0.2)
+
+
+def test_the_mock_rig_is_identified_per_muscle_and_written(tmp_path, capsys):
+    rig = rig_file(tmp_path, "mock", "{transport_delay_s: 0.04, pressure_time_constant_s: 0.06, per_muscle: "
+                                     "{m3_pma1: {deadzone_bar: 1.4, max_extension_m: 0.05}}}")
+    out = tmp_path / "cal.yaml"
+    assert main(["--rig", str(rig), "--out", str(out), *FAST]) == 0
+    printed = capsys.readouterr().out
+    assert "step 4/4: m1_pma1, m1_pma2" in printed and f"wrote {out}" in printed and "65.0mm       +62%" in printed
+    calibration = load_calibration(out, ROBOT)
+    assert calibration.info["rig"] == "test_rig" and "steps to [0.5, 1.5, 2.5, 4] bar" in calibration.info["method"]
+    assert_recovers(calibration, 0, 1.0, 0.065 / 3.0, 0.04, 0.06)
+    assert_recovers(calibration, 6, 1.4, 0.05 / 2.6, 0.04, 0.06)  # the odd muscle, told apart
+    assert "calibration_file:=" in out.read_text().splitlines()[1]
+
+
+def test_part_of_the_muscles_is_merged_into_an_existing_file(tmp_path, capsys):
+    out = tmp_path / "cal.yaml"
+    mock = str(RIGS / "mock.yaml")
+    assert main(["--rig", mock, "--out", str(out), "--channels", "m2_pma2", *FAST]) == 2
+    assert "cannot complete the calibration file" in capsys.readouterr().err and not out.exists()
+    known = {"deadzone_bar": 0.7, "extension_per_bar_m": 0.01, "saturation_bar": 3.0, "transport_delay_s": 0.2,
+             "pressure_time_constant_s": 0.3}
+    save_calibration(calibration_from_values({name: known for name in ROBOT.joint_names}, ROBOT), out)
+    assert main(["--rig", mock, "--out", str(out), "--channels", "m2_pma2", "--static-only", *FAST]) == 0
+    merged = load_calibration(out, ROBOT)
+    assert merged.deadzone_bar[4] == pytest.approx(1.0, rel=0.05) and merged.transport_delay_s[4] == 0.2  # kept
+    assert merged.deadzone_bar[0] == 0.7 and "(kept from the file)" in capsys.readouterr().out
+
+
+def test_a_rig_that_cannot_measure_is_refused_before_any_air(tmp_path, capsys):
+    out = tmp_path / "cal.yaml"
+    assert main(["--rig", str(RIGS / "can.yaml"), "--out", str(out), "--yes"]) == 2
+    assert "measures no muscle lengths" in capsys.readouterr().err
+    assert main(["--rig", str(RIGS / "daq.yaml"), "--out", str(out), "--dynamics-only", "--yes"]) == 2
+    assert "no pressure read-back" in capsys.readouterr().err and not out.exists()
+
+
+def test_a_ruler_table_calibrates_a_rig_without_length_sensors_and_sends_nothing(tmp_path, capsys):
+    table = tmp_path / "ruler.csv"
+    table.write_text("joint,pressure_bar,length_m\n" + "".join(
+        f"{name},{p},{0.018 * max(p - 0.9, 0.0)}\n" for name in ROBOT.joint_names for p in (0.5, 1.5, 2.5, 3.5, 4.0)))
+    out = tmp_path / "cal.yaml"
+    # can0 does not exist here: opening the rig would fail, so exit 0 proves nothing was sent.
+    assert main(["--rig", str(RIGS / "can.yaml"), "--out", str(out), "--static-only", "--length-table",
+                 str(table)]) == 0, capsys.readouterr().err
+    calibration = load_calibration(out, ROBOT)
+    assert calibration.deadzone_bar == pytest.approx(np.full(9, 0.9), abs=1e-3) and not calibration.has_dynamics
+
+
+DBC = cantools.database.load_file(str(config_dir() / "srs_dac.dbc"))
+
+
+def command_volts(board) -> list[float]:
+    """Every command voltage seen on the virtual bus."""
+    volts = []
+    while (message := board.recv(timeout=0.0)) is not None:
+        if message.arbitration_id in (0x100, 0x101, 0x102):
+            volts += [v for k, v in DBC.decode_message(message.arbitration_id, message.data).items()
+                      if k.startswith("CMD_CH")]
+    return volts
+
+
+def test_a_real_rig_needs_the_operators_go_and_vents_while_it_waits(tmp_path, capsys):
+    channel = f"srs_identify_{uuid.uuid4().hex[:8]}"
+    rig = rig_file(tmp_path, "can", f"{{interface: virtual, channel: {channel}}}", name="bench_can")
+    out = tmp_path / "c.yaml"  # the static part, from an earlier ruler table
+    static = {"deadzone_bar": 1.0, "extension_per_bar_m": 0.02, "saturation_bar": 4.0}
+    save_calibration(calibration_from_values({name: static for name in ROBOT.joint_names}, ROBOT), out)
+    board = can.Bus(interface="virtual", channel=channel)
+    try:
+        assert main(["--rig", str(rig), "--out", str(out), "--dynamics-only"]) == 2
+        assert "Pass --yes" in capsys.readouterr().err and command_volts(board) == []  # nothing sent
+        assert main(["--rig", str(rig), "--out", str(out), "--dynamics-only", "--yes",
+                     "--startup-timeout-s", "0.3"]) == 1  # no board answers with the regulators' monitor
+        assert "no read-back from the can rig" in capsys.readouterr().err
+        volts = command_volts(board)
+        assert len(volts) > 9 and max(volts) == 0.0  # vented at the command rate while waiting; no step sent
+    finally:
+        board.shutdown()
+
+
+def test_ctrl_c_vents_at_once(tmp_path):
+    process = subprocess.Popen([script_path("srs_identify"), "--rig", str(RIGS / "mock.yaml"), "--out",
+                                str(tmp_path / "c.yaml"), "--hold-s", "30"], stdout=subprocess.PIPE,
+                               stderr=subprocess.STDOUT, text=True)
+    try:
+        lines = []
+        while not (lines and lines[-1].startswith("step 1/")):
+            lines.append(process.stdout.readline())
+            assert lines[-1], f"ended before the first step: {lines}"
+        sent = time.monotonic()
+        process.send_signal(signal.SIGINT)
+        output, _ = process.communicate(timeout=15)
+    finally:
+        if process.poll() is None:
+            process.kill()
+            process.wait()
+    assert process.returncode == 130, output
+    assert "interrupted: all regulators vented" in output and "Traceback" not in output
+    assert time.monotonic() - sent < 10.0 and not (tmp_path / "c.yaml").exists()
+
+
+def test_the_simulated_rig_is_identified_end_to_end_over_dds(launch_node, ros_env, tmp_path):
+    world = launch_node("sim_world", ros_args({"camera_rate_hz": 0.0, "markers_rate_hz": 0.0}))
+    # The simulated rig, with a read-back timeout that a machine busy with other tests cannot trip.
+    rig = tmp_path / "sim.yaml"
+    rig.write_text((RIGS / "sim.yaml").read_text().replace("readback_timeout_s: 0.2", "readback_timeout_s: 1.0"))
+    trials = []
+    for trial in range(3):  # the delay includes this host's scheduling: the median of three runs
+        out = tmp_path / f"sim_calibration_{trial}.yaml"
+        run = subprocess.run([script_path("srs_identify"), "--rig", str(rig), "--out", str(out), *FAST],
+                             env=ros_env, capture_output=True, text=True, timeout=120)
+        assert run.returncode == 0, run.stdout + run.stderr + world.output()
+        trials.append(load_calibration(out, ROBOT))
+    muscles = load_sim_config(robot=ROBOT).muscles
+    gain = muscles.max_extension_m / (muscles.full_extension_pressure_bar - muscles.deadzone_bar)
+    median = {key: np.median([getattr(c, key) for c in trials], axis=0) for key in (
+        "deadzone_bar", "extension_per_bar_m", "transport_delay_s", "pressure_time_constant_s")}
+    calibration = dataclasses.replace(trials[0], **median)
+    for index in range(9):
+        assert_recovers(calibration, index, muscles.deadzone_bar, gain, muscles.transport_delay_s,
+                        muscles.pressure_time_constant_s)
