@@ -114,6 +114,9 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--arm", action="store_true",
                         help="the operator's go for a rig with real regulators: command pressures at once "
                              "(without it such a rig stays at 0 bar until ~/arm is called)")
+    parser.add_argument("--realtime-priority", type=int, default=0, choices=range(0, 99), metavar="0-98",
+                        help="SCHED_FIFO priority of the process, so CPU load cannot delay setpoints (needs an "
+                             "rtprio limit or CAP_SYS_NICE; default 0 = the normal scheduler)")
     parser.add_argument("--duration-s", type=float, default=0.0, help="stop after this long; 0 = until Ctrl-C")
     parser.add_argument("--status-period-s", type=float, default=1.0, help="status line period, s (default 1)")
     return parser
@@ -125,8 +128,9 @@ def _params_file(args: argparse.Namespace) -> str:
     params = {
         "trajectory_server": {"gait": args.gait, "amplitude_bar": args.amplitude_bar,
                               "frequency_hz": args.frequency_hz, "samples": args.samples},
-        "gait_player": {"autostart": True, "rate_hz": args.rate_hz},
-        "hardware_node": {"autostart": True, "rig_file": args.rig, "backend": args.backend},
+        "gait_player": {"autostart": True, "rate_hz": args.rate_hz, "realtime_priority": args.realtime_priority},
+        "hardware_node": {"autostart": True, "rig_file": args.rig, "backend": args.backend,
+                          "realtime_priority": args.realtime_priority},
     }
     with tempfile.NamedTemporaryFile("w", prefix="srs_bringup_", suffix=".yaml", delete=False) as stream:
         yaml.safe_dump({name: {"ros__parameters": values} for name, values in params.items()}, stream)

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import gc
 import math
+import os
 import signal
 import sys
 import time
@@ -133,6 +134,39 @@ def steady_timer(node: Node, period_s: float, callback: Callable[[], None], call
     system clock, and would leave the last pressure on the valves.
     """
     return node.create_timer(period_s, callback, callback_group, clock=Clock(clock_type=ClockType.STEADY_TIME))
+
+
+#: The parameter that puts a real-time node (gait_player, hardware_node) on the SCHED_FIFO scheduler.
+REALTIME_PRIORITY = ParameterSpec(
+    "realtime_priority", 0, "SCHED_FIFO priority 1-98 for every thread of this process, so CPU load cannot delay "
+    "setpoints; 0 = the normal scheduler; needs an rtprio limit or CAP_SYS_NICE (README)", 0, 98, read_only=True)
+
+
+def request_realtime_priority(priority: int, logger) -> bool:
+    """Put every thread of this process (and those it starts later) on SCHED_FIFO at ``priority`` (1-98).
+
+    Under CPU load the normal scheduler lets other processes delay the setpoint stream by tens of ms
+    (benchmarks/bench_cpu_load.py); a real-time priority removes that. It needs the right to (an
+    ``rtprio`` limit in /etc/security/limits.conf, or CAP_SYS_NICE): without it the node says so and
+    runs on. The kernel's real-time throttling (95 % of each second) keeps a runaway thread from
+    locking the machine. ``priority`` 0 does nothing. Returns True when the priority is in place.
+    """
+    if priority <= 0:
+        return False
+    try:
+        for task in sorted(os.listdir("/proc/self/task")):
+            try:
+                os.sched_setscheduler(int(task), os.SCHED_FIFO, os.sched_param(priority))
+            except ProcessLookupError:  # a thread that ended meanwhile
+                continue
+    except OSError as exc:
+        logger.warning(f"realtime_priority {priority}: SCHED_FIFO refused ({exc.strerror}); running on the normal "
+                       "scheduler, where CPU load can delay setpoints. Allow it with an rtprio limit (e.g. "
+                       "'@realtime - rtprio 98' in /etc/security/limits.conf, user in group realtime) or "
+                       "CAP_SYS_NICE, or set realtime_priority to 0.")
+        return False
+    logger.info(f"real-time scheduling: every thread on SCHED_FIFO priority {priority}")
+    return True
 
 
 class ShutdownSignals:

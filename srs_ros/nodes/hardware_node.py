@@ -39,8 +39,8 @@ Interfaces (relative names, remappable):
   survives deactivate/cleanup/configure), ``~/reset`` (releases the latch; output resumes with the
   next fresh setpoint, after a new ``~/arm`` on a real rig), ``~/arm`` and ``~/disarm``; the lifecycle
   services.
-- parameters: :data:`PARAMETERS`; all but ``max_pressure_bar`` take effect at the next configure;
-  ``max_pressure_bar`` is read-only (start-up only) and can only lower the robot's limit.
+- parameters: :data:`PARAMETERS`; all but ``max_pressure_bar`` and ``realtime_priority`` take effect at the
+  next configure; those two are read-only (start-up only); ``max_pressure_bar`` can only lower the robot's limit.
 """
 
 from __future__ import annotations
@@ -77,6 +77,7 @@ from srs_ros.core.safety import (
 )
 from srs_ros.nodes.common import (
     ACTUATOR_STATE_TOPIC,
+    REALTIME_PRIORITY,
     COMMAND_VOLTAGE_TOPIC,
     COMMANDED_PRESSURE_TOPIC,
     DIAGNOSTICS_TOPIC,
@@ -85,6 +86,7 @@ from srs_ros.nodes.common import (
     check_parameters,
     declare_parameters,
     labelled_array,
+    request_realtime_priority,
     run_node,
     setpoint_qos,
     steady_timer,
@@ -110,6 +112,7 @@ PARAMETERS = (
                   "pressure limit (bar); only lowers the robot's; read-only: set it at start-up",
                   0.1, ABSOLUTE_MAX_PRESSURE_BAR, read_only=True),
     ParameterSpec("autostart", False, "configure and activate at start-up (a real rig still waits for ~/arm)"),
+    REALTIME_PRIORITY,
 )
 
 
@@ -124,6 +127,8 @@ class HardwareStatus:
     stale_on_arrival: int = 0
     future_stamped: int = 0
     limited_setpoints: int = 0  # accepted, but some length needed more than the pressure limit
+    stale_vents: int = 0  # times the output went from commanding to 0 bar because setpoints went stale
+    arrival_age_max_s: float = 0.0  # oldest stamp age at arrival since the last diagnostics message
     clock_offset_s: float = 0.0  # the latest stamp-vs-clock difference that was out of bounds
     last_error: str = ""
     fault: str = ""  # set by a backend failure, cleared by the next successful configure
@@ -159,6 +164,7 @@ class HardwareNode(LifecycleNode):
         """Declare parameters, diagnostics and the e-stop/arm services; configure+activate if ``autostart``."""
         super().__init__(NODE_NAME, **kwargs)
         self.specs = declare_parameters(self, PARAMETERS)
+        request_realtime_priority(self.get_parameter("realtime_priority").value, self.get_logger())
         self.add_on_set_parameters_callback(lambda params: check_parameters(self.specs, params, _check_backend))
         self.rig: RigConfig | None = None
         self.backend: ActuatorBackend | None = None
@@ -337,6 +343,7 @@ class HardwareNode(LifecycleNode):
             return
         stamp_ns = msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
         age_s, check = setpoint_age_s(stamp_ns, self.get_clock().now().nanoseconds, self.gate.setpoint_timeout_s)
+        self.status.arrival_age_max_s = max(self.status.arrival_age_max_s, age_s)
         if check is StampCheck.STALE:
             self.status.rejected_setpoints += 1
             self.status.stale_on_arrival += 1
@@ -419,6 +426,8 @@ class HardwareNode(LifecycleNode):
     def _note_reason(self, reason: OutputReason) -> None:
         if reason is self.status.reason:
             return
+        if reason is OutputReason.STALE and self.status.reason in (OutputReason.COMMANDING, OutputReason.RAMPING):
+            self.status.stale_vents += 1
         self.status.reason = reason
         if reason is OutputReason.STALE:  # rclpy fixes a call site's severity, hence two calls
             self.get_logger().warning(f"output: {reason.value} (older than {self.gate.setpoint_timeout_s:g} s) "
@@ -494,6 +503,7 @@ class HardwareNode(LifecycleNode):
         setpoint_rate_hz = (status.setpoints_received - then_received) / span_s
         problems = status.stale_on_arrival + status.future_stamped
         status.rate_window = (now_s, status.ticks, status.setpoints_received, problems)
+        arrival_age_max_s, status.arrival_age_max_s = status.arrival_age_max_s, 0.0
         level, message = self._diagnostic_summary(setpoint_rate_hz, problems - then_problems)
         values = {
             "backend": self.backend.name if self.backend else "none",
@@ -515,6 +525,8 @@ class HardwareNode(LifecycleNode):
             "future_stamped": str(status.future_stamped),
             "clock_offset_s": f"{status.clock_offset_s:.3f}",
             "limited_setpoints": str(status.limited_setpoints),
+            "stale_vents": str(status.stale_vents),
+            "setpoint_arrival_age_max_ms": f"{arrival_age_max_s * 1e3:.3f}",
             "backend_writes": str(status.ticks),
             **self._latency_summary(),
             "last_error": status.last_error or "none",
@@ -529,9 +541,11 @@ class HardwareNode(LifecycleNode):
     def _latency_summary(self) -> dict[str, str]:
         """Setpoint stamp -> backend write latency over the last 2000 written setpoints (ms)."""
         if not self.status.latency_ms:
-            return {"command_latency_p50_ms": "n/a", "command_latency_p99_ms": "n/a", "command_latency_count": "0"}
-        p50, p99 = np.percentile(np.fromiter(self.status.latency_ms, float), [50, 99])
+            return {"command_latency_p50_ms": "n/a", "command_latency_p99_ms": "n/a", "command_latency_max_ms": "n/a",
+                    "command_latency_count": "0"}
+        p50, p99, worst = np.percentile(np.fromiter(self.status.latency_ms, float), [50, 99, 100])
         return {"command_latency_p50_ms": f"{p50:.3f}", "command_latency_p99_ms": f"{p99:.3f}",
+                "command_latency_max_ms": f"{worst:.3f}",
                 "command_latency_count": str(len(self.status.latency_ms))}
 
     def _diagnostic_summary(self, setpoint_rate_hz: float, stamp_problems: int) -> tuple[bytes, str]:

@@ -1,0 +1,194 @@
+"""One measured run of the setpoint stream, shared by the soak, CPU-load and multi-host benchmarks.
+
+:func:`run_stream` starts trajectory_server, gait_player and hardware_node as processes (each on a
+host of its own when a :class:`Placement` says so: a network namespace and its environment), with the
+mock backend recording every command it is given (``record_file``), lets :mod:`stream_probe` start
+the gait, play it for ``duration_s`` and stop it, and returns the figures:
+
+- setpoints published (the player's count at exit), delivered (the hardware node's
+  ``setpoints_received``), accepted, written to the backend (``backend_writes`` and the record);
+- vents while playing, seen at the backend: runs of 0 bar commands in the record between the probe's
+  PLAYING and STOPPING, with their durations, and the node's own ``stale_vents``;
+- latency from a setpoint's stamp to its backend write (p50 / p99 / max of the per-second windows),
+  the oldest setpoint at arrival, ``stale_on_arrival``;
+- RSS (MiB, at PLAYING, at the end, largest) and CPU (% of one core) of every process.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import re
+import signal
+import sys
+import tempfile
+import threading
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT / "test"))
+from srs_testing import NodeProcess, recorded_rig, ros_args  # noqa: E402
+
+from srs_ros.backends.mock import read_record  # noqa: E402
+
+PROBE = Path(__file__).resolve().with_name("stream_probe.py")
+ROLES = ("trajectory_server", "hardware_node", "gait_player", "camera_tracker", "probe")
+
+
+@dataclass
+class Placement:
+    """Where each role runs: a command prefix (``ip netns exec NS``) and its environment; default: here."""
+
+    env: dict[str, str]
+    prefixes: dict[str, list[str]] = field(default_factory=dict)
+    envs: dict[str, dict[str, str]] = field(default_factory=dict)
+
+    def start(self, role: str, script: str, args: list[str], log_dir: Path) -> NodeProcess:
+        return NodeProcess(script, args, env=self.envs.get(role, self.env), log_dir=log_dir,
+                           prefix=self.prefixes.get(role, []))
+
+
+class Sampler:
+    """RSS and CPU time of some processes, sampled every ``period_s`` in a thread."""
+
+    def __init__(self, pids: dict[str, int], period_s: float = 2.0):
+        self.pids = pids
+        self.samples: dict[str, list[tuple[float, float, float]]] = {name: [] for name in pids}  # (t, rss MiB, cpu s)
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._run, args=(period_s,), daemon=True)
+        self._thread.start()
+
+    def _run(self, period_s: float) -> None:
+        while not self._stop.is_set():
+            self.sample()
+            self._stop.wait(period_s)
+
+    def sample(self) -> None:
+        for name, pid in self.pids.items():
+            try:
+                status = Path(f"/proc/{pid}/status").read_text()
+                stat = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+            except OSError:
+                continue
+            rss_mib = int(re.search(r"VmRSS:\s+(\d+)", status).group(1)) / 1024.0
+            cpu_s = (int(stat[11]) + int(stat[12])) / os.sysconf("SC_CLK_TCK")
+            self.samples[name].append((time.monotonic(), rss_mib, cpu_s))
+
+    def close(self) -> None:
+        self._stop.set()
+        self._thread.join(5.0)
+
+    def summary(self, start_s: float, end_s: float) -> dict[str, dict[str, float]]:
+        """Per process: RSS at start and end of the window, the largest, and CPU % of one core in it."""
+        result = {}
+        for name, samples in self.samples.items():
+            window = [s for s in samples if start_s - 3.0 <= s[0] <= end_s + 3.0]
+            if len(window) < 2:
+                continue
+            (t0, rss0, cpu0), (t1, rss1, cpu1) = window[0], window[-1]
+            result[name] = {"rss_start_mib": rss0, "rss_end_mib": rss1, "rss_max_mib": max(s[1] for s in window),
+                            "cpu_pct": 100.0 * (cpu1 - cpu0) / (t1 - t0)}
+        return result
+
+
+def vents_in(record_file: Path, start_s: float, end_s: float) -> dict:
+    """0 bar runs in the backend record between ``start_s`` and ``end_s`` (monotonic s): count and durations."""
+    times, pressures, _ = read_record(record_file)
+    inside = (times >= start_s) & (times <= end_s)
+    times, zero = times[inside], ~pressures[inside].any(axis=1)
+    edges = np.diff(np.r_[False, zero, False].astype(int))
+    starts, ends = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)  # ends: the first write after
+    durations = [float(times[min(end, times.size - 1)] - times[start]) for start, end in zip(starts, ends)]
+    written = times.size
+    return {"vents": len(durations), "vent_durations_s": [round(d, 3) for d in durations],
+            "writes_in_window": written, "max_bar": float(pressures[inside].max()) if written else float("nan"),
+            "finite": bool(np.isfinite(pressures).all())}
+
+
+def run_stream(placement: Placement, rate_hz: float, duration_s: float, *, log_dir: Path | None = None,
+               camera_source: str = "", during=None, sample_period_s: float = 2.0) -> dict:
+    """One run: start the nodes, play ``duration_s`` at ``rate_hz`` and return the figures (see module doc).
+
+    ``during(playing_s)`` is called once the gait plays (e.g. to cut a link); ``camera_source`` (a video
+    file) adds a camera_tracker reading it and the probe counts its poses.
+    """
+    log_dir = Path(log_dir or tempfile.mkdtemp(prefix="srs_stream_"))
+    rig, record = recorded_rig(log_dir)
+    procs = {
+        "trajectory_server": placement.start("trajectory_server", "trajectory_server",
+                                             ros_args({"gait": "inward_rolling"}), log_dir),
+        "hardware_node": placement.start("hardware_node", "hardware_node",
+                                         ros_args({"autostart": True, "rig_file": str(rig)}), log_dir),
+        "gait_player": placement.start("gait_player", "gait_player", ros_args({"rate_hz": rate_hz}), log_dir),
+    }
+    if camera_source:
+        procs["camera_tracker"] = placement.start("camera_tracker", "camera_tracker", ros_args(
+            {"source": camera_source, "loop": True}), log_dir)
+    probe_args = [str(PROBE), "--duration-s", str(duration_s), "--rate-hz", str(rate_hz), "--setpoints"]
+    probe = placement.start("probe", "python", probe_args + (["--poses"] if camera_source else []), log_dir)
+    sampler = Sampler({name: p.process.pid for name, p in procs.items()}, sample_period_s)
+    try:
+        playing_s = _wait_line(probe, "PLAYING", 180.0)
+        if during is not None:
+            during(playing_s)
+        result = json.loads(_wait_line(probe, "RESULT", duration_s + 120.0, raw=True))
+        player = procs["gait_player"]
+        player.process.send_signal(signal.SIGINT)
+        player.process.wait(20.0)
+        published = int(re.search(r"published (\d+) setpoints", player.output()).group(1))
+    finally:
+        sampler.close()
+        for proc in (probe, *procs.values()):
+            proc.stop()
+    result["published"] = published
+    result["record"] = vents_in(record, result["playing_s"], result["stopping_s"])
+    result["processes"] = sampler.summary(result["playing_s"], result["stopping_s"])
+    result["log_dir"] = str(log_dir)
+    return result
+
+
+def _wait_line(proc: NodeProcess, tag: str, timeout_s: float, raw: bool = False):
+    end = time.monotonic() + timeout_s
+    while time.monotonic() < end:
+        for line in proc.output().splitlines():
+            if line.startswith(tag + " "):
+                value = line[len(tag) + 1:]
+                return value if raw else float(value)
+        if not proc.alive():
+            raise RuntimeError(f"the stream probe ended without {tag}:\n{proc.output()[-3000:]}")
+        time.sleep(0.2)
+    raise RuntimeError(f"no {tag} from the stream probe within {timeout_s} s:\n{proc.output()[-3000:]}")
+
+
+def summary_lines(name: str, r: dict) -> list[str]:
+    """The figures of one run as printed lines."""
+    series = r["series"]
+
+    def worst(key):
+        return max(series[key]) if series.get(key) else float("nan")
+
+    def median(key):
+        return float(np.median(series[key])) if series.get(key) else float("nan")
+
+    final, before = r["final"], r["before"]
+    lines = [
+        f"{name}: published {r['published']}, delivered {final['setpoints_received']} "
+        f"(lost {r['published'] - final['setpoints_received']}), accepted {final['setpoints_accepted']}, "
+        f"stale on arrival {final['stale_on_arrival']}, backend writes {final['backend_writes']}",
+        f"{name}: while playing: vents at the backend {r['record']['vents']} {r['record']['vent_durations_s']}, "
+        f"stale_vents {r['during']['stale_vents'] - before['stale_vents']}, largest command "
+        f"{r['record']['max_bar']:.3f} bar, all finite {r['record']['finite']}, "
+        f"{r['record']['writes_in_window']} writes",
+        f"{name}: latency stamp->write p50 {median('command_latency_p50_ms'):.2f} ms, p99 (worst second) "
+        f"{worst('command_latency_p99_ms'):.2f} ms, max {worst('command_latency_max_ms'):.1f} ms; oldest at "
+        f"arrival {worst('setpoint_arrival_age_max_ms'):.1f} ms; player stamp gaps > 50 ms "
+        f"{r['stamp_gaps_over_50ms']}, largest {r['stamp_gap_max_ms']:.1f} ms",
+    ]
+    for proc, figures in r["processes"].items():
+        lines.append(f"{name}: {proc}: RSS {figures['rss_start_mib']:.1f} -> {figures['rss_end_mib']:.1f} MiB "
+                     f"(max {figures['rss_max_mib']:.1f}), CPU {figures['cpu_pct']:.0f} %")
+    return lines
