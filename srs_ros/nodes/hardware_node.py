@@ -77,10 +77,10 @@ from srs_ros.core.safety import (
 )
 from srs_ros.nodes.common import (
     ACTUATOR_STATE_TOPIC,
-    REALTIME_PRIORITY,
     COMMAND_VOLTAGE_TOPIC,
     COMMANDED_PRESSURE_TOPIC,
     DIAGNOSTICS_TOPIC,
+    REALTIME_PRIORITY,
     SETPOINT_TOPIC,
     ParameterSpec,
     check_parameters,

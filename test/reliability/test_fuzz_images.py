@@ -11,7 +11,7 @@ import math
 
 import numpy as np
 from geometry_msgs.msg import PoseStamped, TwistStamped
-from hypothesis import HealthCheck, Phase, given, settings
+from hypothesis import HealthCheck, Phase, example, given, settings
 from hypothesis import strategies as st
 from sensor_msgs.msg import Image
 from srs_testing import ros_args
@@ -37,7 +37,8 @@ def hostile_images(draw, good_frame: np.ndarray):
             msg.encoding = draw(st.sampled_from(["rgba8", "mono8", "16UC1", ""]))
             msg.step = draw(st.sampled_from([0, msg.step - 1, msg.step * 2, 2**32 - 1]))
     else:
-        encoding = draw(st.one_of(st.sampled_from(ENCODINGS + ["16UC1", "bayer_rggb8", "", "BGR8"]), st.text(max_size=8)))
+        encoding = draw(st.one_of(st.sampled_from(ENCODINGS + ["16UC1", "bayer_rggb8", "", "BGR8"]),
+                                  st.text(max_size=8)))
         height = draw(st.one_of(st.sampled_from([0, 1, 2, 2**31, 2**32 - 1]), st.integers(0, 200)))
         width = draw(st.one_of(st.sampled_from([0, 1, 2, 2**31, 2**32 - 1]), st.integers(0, 200)))
         row = width * CHANNELS.get(encoding, 1)
@@ -86,6 +87,9 @@ def test_hostile_images_are_refused_and_tracking_goes_on(tmp_path, launch_node, 
 
     @SETTINGS
     @given(hostile_images(frame))
+    @example(Image(height=0, width=0, encoding="bgr8"))  # an empty frame once stopped the tracker (cv2.error)
+    @example(Image(height=0, width=320, encoding="mono8", step=320))
+    @example(Image(height=240, width=320, encoding="bgr8", step=960, data=bytes(10)))  # data short of the size
     def one_hostile_image(msg):
         for _ in range(2):
             publisher.publish(msg)
