@@ -45,6 +45,7 @@ from srs_ros.nodes.common import (
     COMMANDED_PRESSURE_TOPIC,
     SETPOINT_TOPIC,
     CleanExit,
+    guard_parameter_services,
     init_ros,
     setpoint_qos,
     spin_until_shutdown,
@@ -142,18 +143,23 @@ def main(argv: list[str] | None = None) -> int:
     ros_args = argv[argv.index("--ros-args"):] if "--ros-args" in argv else []
     args = build_parser().parse_args(argv[:len(argv) - len(ros_args)])
     ros_args = ros_args or ["--ros-args"]
-    init_ros(["srs_bringup", *ros_args, "--params-file", _params_file(args)])
+    outcome = CleanExit()
+    with outcome:
+        init_ros(["srs_bringup", *ros_args, "--params-file", _params_file(args)])
+    if outcome.exit_code:
+        return outcome.exit_code
     sys.setswitchinterval(0.0005)
     realtime = EventsExecutor()
     fitting = MultiThreadedExecutor(num_threads=2)
     fitting_thread = threading.Thread(target=_spin_quietly, args=(fitting,), name="trajectory_server", daemon=True)
     nodes: list[Node] = []
     hardware = server = None
-    outcome = CleanExit()
     try:
         with outcome:
             server, player, hardware = TrajectoryServer(), GaitPlayer(), HardwareNode()
             nodes = [server, player, hardware, StatusMonitor(player, server, hardware, args.status_period_s)]
+            for node in nodes:
+                guard_parameter_services(node)
             _check_hardware(hardware, args)
             outcome.started = True
             fitting.add_node(server)

@@ -20,35 +20,18 @@ from builtin_interfaces.msg import Duration
 from hypothesis import HealthCheck, Phase, example, given, settings
 from hypothesis import strategies as st
 from sensor_msgs.msg import JointState
-from srs_testing import BackendRecord, recorded_rig, ros_args
+from srs_testing import JOINT_NAMES, BackendRecord, recorded_rig, rolling_cycle, ros_args, trajectory
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
 from srs_ros.core.interpolation import PeriodicTrajectory
 from srs_ros.nodes.common import SETPOINT_TOPIC, TRAJECTORY_TOPIC, latched_qos, setpoint_qos
 
-NAMES = [f"m{module}_pma{muscle}" for module in (1, 2, 3) for muscle in (1, 2, 3)]
+NAMES = JOINT_NAMES
 MAX_EXTENSION_M = 0.065
 MAX_POINTS = 2049
 SETTINGS = settings(max_examples=12, deadline=None, database=None, phases=[Phase.explicit, Phase.generate],
                     suppress_health_check=list(HealthCheck), report_multiple_bugs=False)
 ANSWER = re.compile(r"ignored the trajectory|trajectory (?:loaded|taking over)")
-
-
-def rolling_cycle(count: int, amplitude_m: float, shift: float) -> np.ndarray:
-    phase = np.arange(count)[:, None] / count + shift
-    offsets = np.arange(9)[None, :] * 2 * np.pi / 3 + np.repeat([0.0, 1.0, 2.0], 3)[None, :] * np.pi / 3
-    return 0.5 * amplitude_m * (1 + np.cos(2 * np.pi * phase - offsets))
-
-
-def trajectory(names, samples, frequency_hz) -> JointTrajectory:
-    """One closed period as trajectory_server publishes it (``samples`` columns in ``names`` order)."""
-    msg = JointTrajectory(joint_names=list(names))
-    count = len(samples)
-    for i in range(count + 1):
-        t_ns = round(1e9 / frequency_hz) * i // count
-        msg.points.append(JointTrajectoryPoint(positions=samples[i % count].tolist(),
-                                               time_from_start=Duration(sec=t_ns // 10**9, nanosec=t_ns % 10**9)))
-    return msg
 
 
 #: mutation -> True when it must make the player refuse the message.
@@ -68,10 +51,10 @@ def hostile_trajectory(mutations: list[str], seed: int):
     """
     rng = random.Random(seed)
     count = rng.randint(8, 64)
-    samples = rolling_cycle(count, rng.uniform(0.005, MAX_EXTENSION_M), rng.random())
+    samples = rolling_cycle(count, shift=rng.random(), amplitude_m=rng.uniform(0.005, MAX_EXTENSION_M))
     frequency_hz = rng.uniform(0.2, 3.0)
     order = rng.sample(range(9), 9)
-    msg = trajectory([NAMES[i] for i in order], samples[:, order], frequency_hz)
+    msg = trajectory(samples[:, order], frequency_hz, names=[NAMES[i] for i in order])
     ordered = sorted(mutations, key=lambda m: m in ("too_few", "too_many"))
     applied = [m for m in ordered if mutate(msg, m, rng)]
     return msg, applied, (samples, frequency_hz)
@@ -163,8 +146,8 @@ def test_hostile_trajectories_are_refused_or_played_and_nothing_unsafe_reaches_t
     publisher = client.node.create_publisher(JointTrajectory, TRAJECTORY_TOPIC, latched_qos())
     setpoints = client.subscribe(JointState, SETPOINT_TOPIC, setpoint_qos(depth=1000))
     record = BackendRecord(record_path)
-    good_samples = rolling_cycle(64, MAX_EXTENSION_M, 0.0)
-    good = trajectory(NAMES, good_samples, 1.0)
+    good_samples = rolling_cycle()
+    good = trajectory(good_samples, 1.0)
 
     def answers() -> int:
         return len(ANSWER.findall(player.output()))
