@@ -261,6 +261,9 @@ class HardwareNode(LifecycleNode):
         self.gate.setpoint_timeout_s = timeout_s
         self.gate.ramp_time_s = self.get_parameter("ramp_time_s").value
         self.gate.requires_arm = backend.drives_real_hardware
+        # after a stall longer than this, the hardware may have vented: output restarts with a ramp
+        self.gate.max_gap_s = min(timeout_s, backend.host_loss_timeout_s or math.inf)
+        self.gate.restart_stall_watch()
         return rig, backend
 
     def _check_host_loss(self, backend: ActuatorBackend, rate_hz: float) -> None:
@@ -384,7 +387,12 @@ class HardwareNode(LifecycleNode):
         if self.backend is None:  # released (cleanup, shutdown) while a callback was already queued
             return
         now_s = time.monotonic()
+        stalls = self.gate.stalls
         pressure_bar, reason = self.gate.decide(now_s)
+        if self.gate.stalls > stalls:
+            self.get_logger().warning(f"command ticks stalled longer than {self.gate.max_gap_s:g} s (this process was "
+                                      "frozen or starved of CPU; see realtime_priority): output restarts with a "
+                                      "ramp from 0 bar", throttle_duration_sec=LOG_THROTTLE_S)
         try:
             sent_bar = self.backend.write_pressures(pressure_bar)
             state = self.backend.read_state() if self.status.ticks % self._state_every_ticks == 0 else None
@@ -526,6 +534,7 @@ class HardwareNode(LifecycleNode):
             "clock_offset_s": f"{status.clock_offset_s:.3f}",
             "limited_setpoints": str(status.limited_setpoints),
             "stale_vents": str(status.stale_vents),
+            "command_stalls": str(self.gate.stalls),
             "setpoint_arrival_age_max_ms": f"{arrival_age_max_s * 1e3:.3f}",
             "backend_writes": str(status.ticks),
             **self._latency_summary(),
