@@ -16,9 +16,8 @@ import os
 import subprocess
 import sys
 
-from stream_bench import Placement, run_stream, summary_lines
-
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "test"))
+from srs_stream import Placement, run_stream, summary_lines  # noqa: E402
 from srs_testing import allocate_domain, fastdds_shm_clean, release_domain  # noqa: E402
 
 HOG = "while True: pass"

@@ -8,12 +8,15 @@ discovery settings of the environment):
 2. waits for the hardware node to command (ramp-in done), prints ``PLAYING <time.monotonic()>``;
 3. for ``--duration-s`` collects the hardware node's /diagnostics (counters, arrival ages, latency),
    with ``--setpoints`` the setpoint stamps (gaps in the player's stream, age at this observer), with
-   ``--poses`` the camera tracker's ``robot_pose`` count;
-4. prints ``STOPPING <time.monotonic()>``, calls ``/gait_player/stop``, waits for the stream to end and
-   two more diagnostics messages, and prints ``RESULT <json>``.
+   ``--poses`` the camera tracker's ``robot_pose`` count (``--setpoints`` also counts every setpoint
+   from before ``~/start`` to the end of the stream: what DDS delivered here);
+4. prints ``MEASURED <time.monotonic()>``, lets the gait play ``--then-play-s`` longer (e.g. while a
+   test cuts a link), prints ``STOPPING <time.monotonic()>``, calls ``/gait_player/stop``, waits for
+   the stream to end and two more diagnostics messages, and prints ``RESULT <json>``.
 
 Monotonic times are comparable with the mock backend's ``record_file`` (one kernel clock, also across
-network namespaces). Usage: ``python benchmarks/stream_probe.py --duration-s 60 --rate-hz 500``.
+network namespaces). Usage: ``python test/stream_probe.py --duration-s 60 --rate-hz 500``
+(test/srs_stream.py runs it).
 """
 
 from __future__ import annotations
@@ -49,6 +52,7 @@ class Probe:
         self.diagnostics: list[tuple[float, dict[str, str]]] = []
         self.latest: dict[str, str] = {}
         self.stamps_ns: list[int] = []
+        self.setpoints_total = 0  # every setpoint seen, from before ~/start to after the stream ended
         self.ages_ms: list[float] = []
         self.poses = 0
         self.node.create_subscription(DiagnosticArray, DIAGNOSTICS_TOPIC, self._on_diagnostics, 50)
@@ -66,6 +70,7 @@ class Probe:
                 self.diagnostics.append((time.monotonic(), self.latest))
 
     def _on_setpoint(self, msg: JointState) -> None:
+        self.setpoints_total += 1
         if self.recording:
             stamp_ns = msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
             self.stamps_ns.append(stamp_ns)
@@ -112,6 +117,7 @@ def main() -> None:
     parser.add_argument("--ramp-s", type=float, default=1.0, help="the player's ramp_time_s")
     parser.add_argument("--setpoints", action="store_true", help="also subscribe to joint_setpoints")
     parser.add_argument("--poses", action="store_true", help="also count robot_pose messages")
+    parser.add_argument("--then-play-s", type=float, default=0.0, help="play on this long after the measurement")
     parser.add_argument("--discovery-timeout-s", type=float, default=60.0)
     args = parser.parse_args()
 
@@ -128,9 +134,11 @@ def main() -> None:
     print(f"PLAYING {playing_s:.6f}", flush=True)
     probe.spin_for(args.duration_s)
     probe.recording = False
-    stopping_s = time.monotonic()
-    print(f"STOPPING {stopping_s:.6f}", flush=True)
+    measured_s = time.monotonic()
     during = counters(probe.latest)
+    print(f"MEASURED {measured_s:.6f}", flush=True)
+    probe.spin_for(args.then_play_s)
+    print(f"STOPPING {time.monotonic():.6f}", flush=True)
     probe.call(probe.stop)
     seen = len(probe.diagnostics)
     stamps, ages, poses = probe.stamps_ns, probe.ages_ms, probe.poses
@@ -139,14 +147,14 @@ def main() -> None:
                      args.ramp_s + 30.0, "the stream to end after ~/stop")
     probe.spin_until(lambda: len(probe.diagnostics) >= seen + 2, 10.0, "two more diagnostics messages")
     final = counters(probe.latest)
-    window = [v for t, v in probe.diagnostics if playing_s < t <= stopping_s]
+    window = [v for t, v in probe.diagnostics if playing_s < t <= measured_s]
     series = {key: [float(v[key]) for v in window if v.get(key, "n/a") != "n/a"] for key in SERIES_KEYS}
     period_ns = 1e9 / args.rate_hz
     gaps_ms = np.diff(np.array(stamps, dtype=np.int64)) * 1e-6 if len(stamps) > 1 else np.zeros(0)
     result = {
-        "response": response.message, "playing_s": playing_s, "stopping_s": stopping_s,
+        "response": response.message, "playing_s": playing_s, "measured_s": measured_s,
         "before": before, "during": during, "final": final, "series": series, "poses": poses,
-        "setpoints_seen": len(stamps),
+        "setpoints_seen": len(stamps), "setpoints_total": probe.setpoints_total,
         "stamp_gap_max_ms": float(gaps_ms.max()) if gaps_ms.size else float("nan"),
         "stamp_gaps_over_3_periods": int(np.sum(gaps_ms > 3 * period_ns * 1e-6)),
         "stamp_gaps_over_50ms": int(np.sum(gaps_ms > 50.0)),

@@ -1,12 +1,14 @@
-"""One measured run of the setpoint stream, shared by the soak, CPU-load and multi-host benchmarks.
+"""One measured run of the setpoint stream, shared by the soak, CPU-load and multi-host benchmarks and tests.
 
 :func:`run_stream` starts trajectory_server, gait_player and hardware_node as processes (each on a
 host of its own when a :class:`Placement` says so: a network namespace and its environment), with the
 mock backend recording every command it is given (``record_file``), lets :mod:`stream_probe` start
 the gait, play it for ``duration_s`` and stop it, and returns the figures:
 
-- setpoints published (the player's count at exit), delivered (the hardware node's
-  ``setpoints_received``), accepted, written to the backend (``backend_writes`` and the record);
+- setpoints published (the player's count at exit), delivered to the probe (a deep best-effort
+  queue, beside the hardware node: what DDS delivered), taken by the hardware node (its
+  ``setpoints_received``: its queue has depth 1, so a setpoint superseded before it was taken is
+  not counted there), accepted, and the backend writes (``backend_writes``, the record);
 - vents while playing, seen at the backend: runs of 0 bar commands in the record between the probe's
   PLAYING and STOPPING, with their durations, and the node's own ``stale_vents``;
 - latency from a setpoint's stamp to its backend write (p50 / p99 / max of the per-second windows),
@@ -20,7 +22,6 @@ import json
 import os
 import re
 import signal
-import sys
 import tempfile
 import threading
 import time
@@ -28,15 +29,19 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
+from srs_testing import NetnsLab, NodeProcess, recorded_rig, ros_args
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT / "test"))
-from srs_testing import NodeProcess, recorded_rig, ros_args  # noqa: E402
-
-from srs_ros.backends.mock import read_record  # noqa: E402
+from srs_ros.backends.mock import read_record
+from srs_ros.core.camera_calibration import save_calibration
+from srs_ros.tools.synthetic_scene import (
+    RobotAppearance,
+    SyntheticCamera,
+    SyntheticScene,
+    constant_velocity_poses,
+    write_video,
+)
 
 PROBE = Path(__file__).resolve().with_name("stream_probe.py")
-ROLES = ("trajectory_server", "hardware_node", "gait_player", "camera_tracker", "probe")
 
 
 @dataclass
@@ -95,6 +100,25 @@ class Sampler:
         return result
 
 
+HOSTS = {"trajectory_server": "operator", "gait_player": "operator", "hardware_node": "robot", "probe": "robot",
+         "camera_tracker": "camera"}
+
+
+def lab_placement(lab: NetnsLab, base_env: dict[str, str]) -> Placement:
+    """Every role on its host, with that host's DDS settings."""
+    return Placement(base_env, prefixes={role: lab.prefix(host) for role, host in HOSTS.items()},
+                     envs={role: lab.env(host, base_env) for role, host in HOSTS.items()})
+
+
+def camera_video(folder) -> tuple[str, str]:
+    """A looping video of the robot moving and its floor calibration (the camera PC's input)."""
+    scene = SyntheticScene(camera=SyntheticCamera(width_px=320, height_px=240, height_m=0.6),
+                           robot=RobotAppearance(marker_spacing_m=0.25))
+    _, truth = constant_velocity_poses(1.0, 10.0, (-0.05, 0.0, -0.4), np.array([0.05, 0.02]))
+    return (str(write_video(folder / "camera.avi", scene, truth, 10.0)),
+            str(save_calibration(scene.camera.calibration(), folder / "camera_calibration.yaml")))
+
+
 def vents_in(record_file: Path, start_s: float, end_s: float) -> dict:
     """0 bar runs in the backend record between ``start_s`` and ``end_s`` (monotonic s): count and durations."""
     times, pressures, _ = read_record(record_file)
@@ -110,13 +134,17 @@ def vents_in(record_file: Path, start_s: float, end_s: float) -> dict:
 
 
 def run_stream(placement: Placement, rate_hz: float, duration_s: float, *, log_dir: Path | None = None,
-               camera_source: str = "", during=None, sample_period_s: float = 2.0) -> dict:
+               camera_source: str = "", camera_args: dict | None = None, then_play_s: float = 0.0, after_measure=None,
+               sample_period_s: float = 2.0) -> dict:
     """One run: start the nodes, play ``duration_s`` at ``rate_hz`` and return the figures (see module doc).
 
-    ``during(playing_s)`` is called once the gait plays (e.g. to cut a link); ``camera_source`` (a video
-    file) adds a camera_tracker reading it and the probe counts its poses.
+    After the measurement the gait plays ``then_play_s`` longer, and ``after_measure(measured_s,
+    record_path)`` is called meanwhile (e.g. to cut a link); its return value is ``result["after"]``.
+    ``camera_source`` (a video file) adds a camera_tracker reading it (more parameters in
+    ``camera_args``, e.g. its calibration file); the probe counts its poses.
     """
     log_dir = Path(log_dir or tempfile.mkdtemp(prefix="srs_stream_"))
+    log_dir.mkdir(parents=True, exist_ok=True)
     rig, record = recorded_rig(log_dir)
     procs = {
         "trajectory_server": placement.start("trajectory_server", "trajectory_server",
@@ -127,15 +155,17 @@ def run_stream(placement: Placement, rate_hz: float, duration_s: float, *, log_d
     }
     if camera_source:
         procs["camera_tracker"] = placement.start("camera_tracker", "camera_tracker", ros_args(
-            {"source": camera_source, "loop": True}), log_dir)
-    probe_args = [str(PROBE), "--duration-s", str(duration_s), "--rate-hz", str(rate_hz), "--setpoints"]
+            {"source": camera_source, "loop": True, **(camera_args or {})}), log_dir)
+    probe_args = [str(PROBE), "--duration-s", str(duration_s), "--rate-hz", str(rate_hz), "--setpoints",
+                  "--then-play-s", str(then_play_s)]
     probe = placement.start("probe", "python", probe_args + (["--poses"] if camera_source else []), log_dir)
     sampler = Sampler({name: p.process.pid for name, p in procs.items()}, sample_period_s)
     try:
-        playing_s = _wait_line(probe, "PLAYING", 180.0)
-        if during is not None:
-            during(playing_s)
-        result = json.loads(_wait_line(probe, "RESULT", duration_s + 120.0, raw=True))
+        _wait_line(probe, "PLAYING", 180.0)
+        measured_s = _wait_line(probe, "MEASURED", duration_s + 60.0)
+        after = after_measure(measured_s, record) if after_measure is not None else None
+        result = json.loads(_wait_line(probe, "RESULT", then_play_s + 120.0, raw=True))
+        result["after"] = after
         player = procs["gait_player"]
         player.process.send_signal(signal.SIGINT)
         player.process.wait(20.0)
@@ -145,8 +175,8 @@ def run_stream(placement: Placement, rate_hz: float, duration_s: float, *, log_d
         for proc in (probe, *procs.values()):
             proc.stop()
     result["published"] = published
-    result["record"] = vents_in(record, result["playing_s"], result["stopping_s"])
-    result["processes"] = sampler.summary(result["playing_s"], result["stopping_s"])
+    result["record"] = vents_in(record, result["playing_s"], result["measured_s"])
+    result["processes"] = sampler.summary(result["playing_s"], result["measured_s"])
     result["log_dir"] = str(log_dir)
     return result
 
@@ -176,9 +206,10 @@ def summary_lines(name: str, r: dict) -> list[str]:
 
     final, before = r["final"], r["before"]
     lines = [
-        f"{name}: published {r['published']}, delivered {final['setpoints_received']} "
-        f"(lost {r['published'] - final['setpoints_received']}), accepted {final['setpoints_accepted']}, "
-        f"stale on arrival {final['stale_on_arrival']}, backend writes {final['backend_writes']}",
+        f"{name}: setpoints published {r['published']}, delivered to the probe {r['setpoints_total']} "
+        f"(lost {r['published'] - r['setpoints_total']}), taken by the hardware node {final['setpoints_received']} "
+        f"(depth 1: the newest wins), accepted {final['setpoints_accepted']}, stale on arrival "
+        f"{final['stale_on_arrival']}; backend writes {final['backend_writes']}",
         f"{name}: while playing: vents at the backend {r['record']['vents']} {r['record']['vent_durations_s']}, "
         f"stale_vents {r['during']['stale_vents'] - before['stale_vents']}, largest command "
         f"{r['record']['max_bar']:.3f} bar, all finite {r['record']['finite']}, "
