@@ -22,8 +22,8 @@ import tempfile
 from pathlib import Path
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "test"))
-from srs_stream import Placement, camera_video, lab_placement, run_stream, summary_lines  # noqa: E402
-from srs_testing import NetnsLab, allocate_domain, fastdds_shm_clean, release_domain  # noqa: E402
+from srs_stream import Placement, bench_env, camera_video, lab_placement, run_stream, summary_lines  # noqa: E402
+from srs_testing import NetnsLab, fastdds_shm_clean  # noqa: E402
 
 
 def main() -> None:
@@ -34,15 +34,9 @@ def main() -> None:
     folder = Path(tempfile.mkdtemp(prefix="srs_multi_host_"))
     video, calibration = camera_video(folder)
     camera = {"camera_source": video, "camera_args": {"calibration_file": calibration}}
-    domain = allocate_domain()
-    env = dict(os.environ, ROS_DOMAIN_ID=str(domain), ROS_LOG_DIR=os.environ.get("ROS_LOG_DIR", str(folder)),
-               PYTHONUNBUFFERED="1")
-    env.pop("ROS_STATIC_PEERS", None)
-    os.environ["ROS_LOG_DIR"] = env["ROS_LOG_DIR"]
-    loopback = dict(env, ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST")
-    try:
-        runs = [("loopback shm", Placement(loopback)),
-                ("loopback UDP", Placement(dict(loopback, FASTDDS_BUILTIN_TRANSPORTS="UDPv4")))]
+    with bench_env() as env:
+        runs = [("loopback shm", Placement(env)),
+                ("loopback UDP", Placement(dict(env, FASTDDS_BUILTIN_TRANSPORTS="UDPv4")))]
         for name, placement in runs:
             result = run_stream(placement, args.rate_hz, args.duration_s, log_dir=folder / name.split()[1],
                                 **camera)
@@ -52,9 +46,6 @@ def main() -> None:
             result = run_stream(lab_placement(lab, env), args.rate_hz, args.duration_s, log_dir=folder / "hosts",
                                 **camera)
         print("\n".join(summary_lines("3 hosts UDP", result)), flush=True)
-    finally:
-        release_domain(domain)
-        fastdds_shm_clean()
 
 
 if __name__ == "__main__":

@@ -18,8 +18,7 @@ import sys
 import numpy as np
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "test"))
-from srs_stream import Placement, run_stream, summary_lines  # noqa: E402
-from srs_testing import allocate_domain, fastdds_shm_clean, release_domain  # noqa: E402
+from srs_stream import Placement, bench_env, run_stream, summary_lines  # noqa: E402
 
 
 def main() -> None:
@@ -27,15 +26,8 @@ def main() -> None:
     parser.add_argument("--minutes", type=float, default=10.0)
     parser.add_argument("--rate-hz", type=float, default=500.0)
     args = parser.parse_args()
-    domain = allocate_domain()
-    env = dict(os.environ, ROS_DOMAIN_ID=str(domain), ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST",
-               ROS_LOG_DIR=os.environ.get("ROS_LOG_DIR", "/tmp/srs_bench_logs"), PYTHONUNBUFFERED="1")
-    os.environ.update({k: env[k] for k in ("ROS_AUTOMATIC_DISCOVERY_RANGE", "ROS_LOG_DIR")})
-    try:
+    with bench_env() as env:
         result = run_stream(Placement(env), args.rate_hz, 60.0 * args.minutes, sample_period_s=5.0)
-    finally:
-        release_domain(domain)
-        fastdds_shm_clean()
     for line in summary_lines(f"soak {args.minutes:g} min at {args.rate_hz:g} Hz", result):
         print(line)
     ages = np.array(result["series"]["setpoint_arrival_age_max_ms"])

@@ -18,6 +18,7 @@ the gait, play it for ``duration_s`` and stop it, and returns the figures:
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import re
@@ -29,7 +30,15 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-from srs_testing import NetnsLab, NodeProcess, recorded_rig, ros_args
+from srs_testing import (
+    NetnsLab,
+    NodeProcess,
+    allocate_domain,
+    fastdds_shm_clean,
+    recorded_rig,
+    release_domain,
+    ros_args,
+)
 
 from srs_ros.backends.mock import read_record
 from srs_ros.core.camera_calibration import save_calibration
@@ -42,6 +51,22 @@ from srs_ros.tools.synthetic_scene import (
 )
 
 PROBE = Path(__file__).resolve().with_name("stream_probe.py")
+
+
+@contextlib.contextmanager
+def bench_env(**overrides: str):
+    """A private DDS domain and environment for a benchmark run (localhost discovery); released afterwards."""
+    domain = allocate_domain()
+    env = dict(os.environ, ROS_DOMAIN_ID=str(domain), ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST",
+               ROS_LOG_DIR=os.environ.get("ROS_LOG_DIR", tempfile.mkdtemp(prefix="srs_bench_logs_")),
+               PYTHONUNBUFFERED="1", **overrides)
+    env.pop("ROS_STATIC_PEERS", None)
+    os.environ.update({key: env[key] for key in ("ROS_AUTOMATIC_DISCOVERY_RANGE", "ROS_LOG_DIR")})
+    try:
+        yield env
+    finally:
+        release_domain(domain)
+        fastdds_shm_clean()
 
 
 @dataclass
@@ -135,27 +160,31 @@ def vents_in(record_file: Path, start_s: float, end_s: float) -> dict:
 
 def run_stream(placement: Placement, rate_hz: float, duration_s: float, *, log_dir: Path | None = None,
                camera_source: str = "", camera_args: dict | None = None, then_play_s: float = 0.0, after_measure=None,
-               sample_period_s: float = 2.0) -> dict:
+               sample_period_s: float = 2.0, params: dict[str, dict] | None = None) -> dict:
     """One run: start the nodes, play ``duration_s`` at ``rate_hz`` and return the figures (see module doc).
 
     After the measurement the gait plays ``then_play_s`` longer, and ``after_measure(measured_s,
     record_path)`` is called meanwhile (e.g. to cut a link); its return value is ``result["after"]``.
     ``camera_source`` (a video file) adds a camera_tracker reading it (more parameters in
-    ``camera_args``, e.g. its calibration file); the probe counts its poses.
+    ``camera_args``, e.g. its calibration file); the probe counts its poses. ``params`` adds parameters
+    per node (e.g. ``{"gait_player": {"realtime_priority": 50}}``).
     """
+    params = params or {}
     log_dir = Path(log_dir or tempfile.mkdtemp(prefix="srs_stream_"))
     log_dir.mkdir(parents=True, exist_ok=True)
     rig, record = recorded_rig(log_dir)
     procs = {
-        "trajectory_server": placement.start("trajectory_server", "trajectory_server",
-                                             ros_args({"gait": "inward_rolling"}), log_dir),
-        "hardware_node": placement.start("hardware_node", "hardware_node",
-                                         ros_args({"autostart": True, "rig_file": str(rig)}), log_dir),
-        "gait_player": placement.start("gait_player", "gait_player", ros_args({"rate_hz": rate_hz}), log_dir),
+        "trajectory_server": placement.start("trajectory_server", "trajectory_server", ros_args(
+            {"gait": "inward_rolling", **params.get("trajectory_server", {})}), log_dir),
+        "hardware_node": placement.start("hardware_node", "hardware_node", ros_args(
+            {"autostart": True, "rig_file": str(rig), **params.get("hardware_node", {})}), log_dir),
+        "gait_player": placement.start("gait_player", "gait_player", ros_args(
+            {"rate_hz": rate_hz, **params.get("gait_player", {})}), log_dir),
     }
     if camera_source:
         procs["camera_tracker"] = placement.start("camera_tracker", "camera_tracker", ros_args(
-            {"source": camera_source, "loop": True, **(camera_args or {})}), log_dir)
+            {"source": camera_source, "loop": True, **(camera_args or {}), **params.get("camera_tracker", {})}),
+            log_dir)
     probe_args = [str(PROBE), "--duration-s", str(duration_s), "--rate-hz", str(rate_hz), "--setpoints",
                   "--then-play-s", str(then_play_s)]
     probe = placement.start("probe", "python", probe_args + (["--poses"] if camera_source else []), log_dir)
@@ -217,7 +246,8 @@ def summary_lines(name: str, r: dict) -> list[str]:
         f"{name}: latency stamp->write p50 {median('command_latency_p50_ms'):.2f} ms, p99 (worst second) "
         f"{worst('command_latency_p99_ms'):.2f} ms, max {worst('command_latency_max_ms'):.1f} ms; oldest at "
         f"arrival {worst('setpoint_arrival_age_max_ms'):.1f} ms; player stamp gaps > 50 ms "
-        f"{r['stamp_gaps_over_50ms']}, largest {r['stamp_gap_max_ms']:.1f} ms",
+        f"{r['stamp_gaps_over_50ms']}, largest {r['stamp_gap_max_ms']:.1f} ms; hardware_node command stalls "
+        f"{r['during']['command_stalls'] - r['before']['command_stalls']}",
     ]
     for proc, figures in r["processes"].items():
         lines.append(f"{name}: {proc}: RSS {figures['rss_start_mib']:.1f} -> {figures['rss_end_mib']:.1f} MiB "

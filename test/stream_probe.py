@@ -106,7 +106,7 @@ class Probe:
 
 def counters(values: dict[str, str]) -> dict[str, int]:
     keys = ("setpoints_received", "setpoints_accepted", "rejected_setpoints", "stale_on_arrival", "backend_writes",
-            "stale_vents", "future_stamped")
+            "stale_vents", "future_stamped", "command_stalls")
     return {key: int(values.get(key, 0)) for key in keys}
 
 

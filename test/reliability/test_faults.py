@@ -91,14 +91,22 @@ def freeze(proc, seconds: float, client, backend: BackendRecord | None = None) -
         os.killpg(proc.process.pid, signal.SIGCONT)
 
 
-def test_killing_and_restarting_each_node_of_the_gait(launch_node, ros_client, tmp_path):
-    rig, record_path = recorded_rig(tmp_path)
-    client = ros_client
+def start_gait(launch_node, client, folder):
+    """trajectory_server, hardware_node (recorded mock rig) and gait_player as processes, the gait playing."""
+    rig, record_path = recorded_rig(folder)
     backend = Backend(record_path, client)
     server = launch_node(*SERVER)
     hardware = launch_node("hardware_node", hardware_args(rig))
     player = launch_node(*PLAYER)
-    backend.wait(lambda: backend.commanding_above(2.0), "the gait at the backend", 60.0)
+    setpoints = client.subscribe(JointState, SETPOINT_TOPIC, setpoint_qos(depth=1000))
+    backend.wait(lambda: backend.commanding_above(2.0) and len(setpoints) > 50, "the gait here and at the backend",
+                 60.0)
+    return rig, record_path, backend, (server, hardware, player), setpoints
+
+
+def test_killing_and_restarting_each_node_of_the_gait(launch_node, ros_client, tmp_path):
+    client = ros_client
+    rig, record_path, backend, (server, hardware, player), _ = start_gait(launch_node, client, tmp_path)
 
     # gait_player dies: the valves vent within the timeout; a new player ramps the gait back in from 0 bar
     player.kill()
@@ -135,15 +143,8 @@ def test_killing_and_restarting_each_node_of_the_gait(launch_node, ros_client, t
 
 
 def test_freezing_each_node_of_the_gait(launch_node, ros_client, tmp_path):
-    rig, record_path = recorded_rig(tmp_path)
     client = ros_client
-    backend = Backend(record_path, client)
-    server = launch_node(*SERVER)
-    hardware = launch_node("hardware_node", hardware_args(rig))
-    player = launch_node(*PLAYER)
-    setpoints = client.subscribe(JointState, SETPOINT_TOPIC, setpoint_qos(depth=1000))
-    backend.wait(lambda: backend.commanding_above(2.0) and len(setpoints) > 50, "the gait here and at the backend",
-                 60.0)
+    _, _, backend, (server, hardware, player), setpoints = start_gait(launch_node, client, tmp_path)
 
     # gait_player frozen for 0.6 s: the valves vent; resumed, it goes on where it was and the output ramps up
     start, count = len(backend), len(setpoints)
