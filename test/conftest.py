@@ -50,13 +50,14 @@ def ros_client(ros_domain):
 def launch_node(ros_env, tmp_path):
     """Start console-script nodes on the test's domain; every one is stopped in teardown, pass or fail.
 
-    Usage: ``proc = launch_node("gait_player", ros_args({"rate_hz": 200}))``.
+    Usage: ``proc = launch_node("gait_player", ros_args({"rate_hz": 200}))``; ``prefix`` runs it through a
+    command that execs it (e.g. ``ip netns exec NS``).
     """
     started: list[NodeProcess] = []
 
-    def _launch(script: str, args=(), env_overrides: dict[str, str] | None = None) -> NodeProcess:
+    def _launch(script: str, args=(), env_overrides: dict[str, str] | None = None, prefix=()) -> NodeProcess:
         env = dict(ros_env, **(env_overrides or {}))
-        proc = NodeProcess(script, args, env=env, log_dir=tmp_path)
+        proc = NodeProcess(script, args, env=env, log_dir=tmp_path, prefix=prefix)
         started.append(proc)
         return proc
 

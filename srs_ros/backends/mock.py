@@ -13,13 +13,21 @@ Options (``backend_options`` of a rig file, each validated with the key named on
   robot do (``srs_identify`` tells them apart);
 - fault injection, for tests only: ``fail_after_writes`` (int >= 0, default off): every write after
   the first N since ``open()`` raises :class:`~srs_ros.core.errors.HardwareError`, as a dead bus would;
-  ``fail_on_open`` (bool): ``open()`` raises :class:`~srs_ros.core.errors.HardwareError`.
+  ``fail_on_open`` (bool): ``open()`` raises :class:`~srs_ros.core.errors.HardwareError`;
+- observation, for tests and benchmarks only: ``record_file`` (path, default off): every command the
+  backend is given (vents included) is appended to this file as it is written, one line
+  ``<time.monotonic() s> <p1> ... <p9>`` (bar, full precision), plus ``# open <s>`` / ``# close <s>``
+  lines; each line is one unbuffered ``os.write``, so another process sees it at once and a SIGKILL
+  loses nothing. :func:`read_record` parses it (also while it grows). The file must be a regular file
+  (or not exist yet).
 """
 
 from __future__ import annotations
 
+import os
 import time
 from collections.abc import Callable, Mapping
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -29,7 +37,7 @@ from srs_ros.core.errors import ConfigurationError, HardwareError
 from srs_ros.core.muscle_model import MuscleModel, MuscleParameters, muscle_parameters_from_options
 from srs_ros.core.robot import RobotDescription
 
-_FAULT_OPTIONS = ("fail_after_writes", "fail_on_open")
+_FAULT_OPTIONS = ("fail_after_writes", "fail_on_open", "record_file")
 _PER_MUSCLE = "per_muscle"
 
 
@@ -54,6 +62,8 @@ class MockBackend(ActuatorBackend):
         self.muscle_params = _per_muscle_parameters(self.options, self.robot)
         self.fail_after_writes = _fault_count(self.options.get("fail_after_writes"))
         self.fail_on_open = _flag(self.options, "fail_on_open")
+        self.record_path = _record_path(self.options.get("record_file"))
+        self._record_fd: int | None = None
         self.write_count = 0
         self.models: list[tuple[list[int], MuscleModel]] = []  # (joint indices, their muscles), per parameter set
 
@@ -66,6 +76,13 @@ class MockBackend(ActuatorBackend):
             groups.setdefault(params, []).append(joint)
         self.models = [(joints, MuscleModel(params, len(joints), start_s=self.clock()))
                        for params, joints in groups.items()]
+        if self.record_path is not None:
+            try:
+                self._record_fd = os.open(self.record_path, os.O_WRONLY | os.O_APPEND | os.O_CREAT | os.O_NONBLOCK,
+                                          0o644)
+            except OSError as exc:
+                raise HardwareError(f"mock backend: cannot open 'record_file' {self.record_path} ({exc}).") from exc
+            self._record(f"# open {time.monotonic():.6f}")
 
     def _write(self, pressure_bar: np.ndarray, command_v: np.ndarray) -> None:
         if self.fail_after_writes is not None and self.write_count >= self.fail_after_writes:
@@ -75,9 +92,18 @@ class MockBackend(ActuatorBackend):
         for joints, model in self.models:
             model.command(pressure_bar[joints], now_s)
         self.write_count += 1
+        if self._record_fd is not None:
+            self._record(f"{time.monotonic():.6f} " + " ".join(format(float(v), ".17g") for v in pressure_bar))
 
     def _close(self) -> None:
         self.models = []
+        if self._record_fd is not None:
+            self._record(f"# close {time.monotonic():.6f}")
+            os.close(self._record_fd)
+            self._record_fd = None
+
+    def _record(self, line: str) -> None:
+        os.write(self._record_fd, (line + "\n").encode())
 
     def _measure(self) -> dict[str, Any]:
         now_s = self.clock()
@@ -114,6 +140,33 @@ def _fault_count(value: Any) -> int | None:
         raise ConfigurationError(f"mock backend_options: 'fail_after_writes' is {value!r}; expected an integer >= 0 "
                                  "(writes that succeed before every later one fails), or leave it out.")
     return value
+
+
+def _record_path(value: Any) -> Path | None:
+    if value is None:
+        return None
+    path = Path(value) if isinstance(value, str) and value else None
+    if path is None or not path.parent.is_dir() or (path.exists() and not path.is_file()):
+        raise ConfigurationError(f"mock backend_options: 'record_file' is {value!r}; expected the path of a regular "
+                                 "file (or of a new file) in an existing folder, or leave it out.")
+    return path
+
+
+def read_record(path: str | Path, offset: int = 0) -> tuple[np.ndarray, np.ndarray, int]:
+    """The commands a ``record_file`` holds from byte ``offset`` on: times, pressures and the next offset.
+
+    Times are ``time.monotonic()`` seconds, shape (n,); pressures are bar, shape (n, 9); read on from the
+    returned offset next time. A line still being written (no newline yet) is left for the next read;
+    ``#`` lines are skipped.
+    """
+    with open(path, "rb") as stream:
+        stream.seek(offset)
+        data = stream.read()
+    complete = data[:data.rfind(b"\n") + 1]
+    rows = [[float(v) for v in line.split()] for line in complete.decode().splitlines()
+            if line and not line.startswith("#")]
+    table = np.array(rows, dtype=np.float64).reshape(len(rows), -1) if rows else np.zeros((0, 1))
+    return table[:, 0], table[:, 1:], offset + len(complete)
 
 
 def _flag(options: Mapping[str, Any], key: str) -> bool:

@@ -151,6 +151,11 @@ class CommandGate:
     setpoints) the command ramps up from 0 bar over ``ramp_time_s``. Activation, deactivation, the
     e-stop and its reset forget the stored command, so output resumes only with a setpoint that
     arrives afterwards; deactivation and the e-stop also disarm.
+
+    A gap between two decisions longer than ``max_gap_s`` (the caller itself stalled: frozen, starved
+    of CPU) also restarts the ramp: no watchdog ran meanwhile, and hardware that vents by itself
+    when the host falls silent (a CAN board, an NI watchdog) has vented; jumping back to the command
+    would step the pressure. Such gaps are counted in ``stalls``.
     """
 
     joint_count: int
@@ -160,6 +165,9 @@ class CommandGate:
     active: bool = False
     armed: bool = False
     estop_latched: bool = False
+    max_gap_s: float = math.inf
+    stalls: int = 0
+    _last_decision_s: float | None = None
     _pressure_bar: np.ndarray | None = field(default=None, repr=False)
     _fresh_s: float = math.nan  # when the stored command was fresh (its arrival less its age at arrival)
     _output_since_s: float | None = None  # when output last went from 0 bar to commanding
@@ -212,8 +220,16 @@ class CommandGate:
         """Seconds since the stored setpoint was fresh (``inf`` if none is stored)."""
         return now_s - self._fresh_s if self._pressure_bar is not None else math.inf
 
+    def restart_stall_watch(self) -> None:
+        """Forget the previous decision (at configure: a pause while unconfigured is no stall)."""
+        self._last_decision_s = None
+
     def decide(self, now_s: float) -> tuple[np.ndarray, OutputReason]:
         """The pressures (bar) to send at ``now_s`` and why."""
+        if self._last_decision_s is not None and now_s - self._last_decision_s > self.max_gap_s:
+            self.stalls += 1
+            self._output_since_s = None
+        self._last_decision_s = now_s
         if self.estop_latched:
             reason = OutputReason.ESTOP
         elif not self.active:

@@ -59,6 +59,7 @@ from srs_ros.nodes.common import (
     POSE_TOPIC,
     SETPOINT_TOPIC,
     CleanExit,
+    guard_parameter_services,
     init_ros,
     setpoint_qos,
     spin_until_shutdown,
@@ -198,6 +199,9 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--arm", action="store_true",
                         help="the operator's go for a rig with real regulators: command pressures at once "
                              "(without it such a rig stays at 0 bar until ~/arm is called)")
+    parser.add_argument("--realtime-priority", type=int, default=0, choices=range(0, 99), metavar="0-98",
+                        help="SCHED_FIFO priority of the process, so CPU load cannot delay setpoints (needs an "
+                             "rtprio limit or CAP_SYS_NICE; default 0 = the normal scheduler)")
     parser.add_argument("--duration-s", type=float, default=0.0, help="stop after this long; 0 = until Ctrl-C")
     parser.add_argument("--status-period-s", type=float, default=1.0, help="status line period, s (default 1)")
     return parser
@@ -216,8 +220,9 @@ def _params_file(args: argparse.Namespace, ros_args: list[str]) -> str:
     params = {
         "trajectory_server": {"gait": args.gait, "amplitude_bar": args.amplitude_bar,
                               "frequency_hz": args.frequency_hz, "samples": args.samples},
-        "gait_player": {"autostart": True, "rate_hz": args.rate_hz},
-        "hardware_node": {"autostart": True, "rig_file": args.rig, "backend": args.backend},
+        "gait_player": {"autostart": True, "rate_hz": args.rate_hz, "realtime_priority": args.realtime_priority},
+        "hardware_node": {"autostart": True, "rig_file": args.rig, "backend": args.backend,
+                          "realtime_priority": args.realtime_priority},
         "sim_world": {"sim_config_file": args.sim_config},
         "camera_tracker": {"color_preset": "sim_bands"},
     }
@@ -232,10 +237,14 @@ def main(argv: list[str] | None = None) -> int:
     ros_args = argv[argv.index("--ros-args"):] if "--ros-args" in argv else []
     args = build_parser().parse_args(argv[:len(argv) - len(ros_args)])
     params_file = _params_file(args, ros_args)
+    outcome = CleanExit()
     try:
-        init_ros(["srs_bringup", "--ros-args", "--params-file", params_file, *ros_args[1:]])
+        with outcome:
+            init_ros(["srs_bringup", "--ros-args", "--params-file", params_file, *ros_args[1:]])
     finally:
         os.unlink(params_file)  # rcl has parsed it in init
+    if outcome.exit_code:
+        return outcome.exit_code
     sys.setswitchinterval(0.0005)
     realtime = EventsExecutor()
     fitting = MultiThreadedExecutor(num_threads=2)
@@ -245,7 +254,6 @@ def main(argv: list[str] | None = None) -> int:
     world_thread = threading.Thread(target=_spin_until, args=(world, world_stop), name="sim_world", daemon=True)
     nodes: list[Node] = []
     hardware = server = recorder = None
-    outcome = CleanExit()
     try:
         with outcome:
             simulated = _rig_backend(args) == "sim"
@@ -254,6 +262,8 @@ def main(argv: list[str] | None = None) -> int:
             status = StatusMonitor(player, server, hardware, args.status_period_s, simulated)
             recorder = next((n for n in world_nodes if isinstance(n, VideoRecorder)), None)
             nodes = [server, player, hardware, status, *world_nodes]
+            for node in nodes:
+                guard_parameter_services(node)
             _check_hardware(hardware, args)
             outcome.started = True
             fitting.add_node(server)

@@ -93,6 +93,9 @@ def image_msg_to_array(msg: Image) -> np.ndarray:
         raise InvalidInputError(
             f"image encoding {msg.encoding!r} is not supported; expected one of {sorted(_CHANNELS)}."
         )
+    if msg.width == 0 or msg.height == 0:
+        raise InvalidInputError(f"image {msg.width}x{msg.height} {msg.encoding} is empty; expected at least 1x1 "
+                                "pixels.")
     row_bytes = msg.width * channels
     if msg.step < row_bytes or len(msg.data) < msg.step * msg.height:
         raise InvalidInputError(
@@ -247,13 +250,17 @@ class CameraTrackerNode(Node):
         self.track(frame, stamp)
 
     def on_image(self, msg: Image) -> None:
-        """Track one received image."""
+        """Track one received image; a malformed one is refused with the reason and tracking goes on."""
         try:
             frame = image_msg_to_array(msg)
         except InvalidInputError as exc:
-            self.get_logger().error(str(exc), throttle_duration_sec=5.0)
+            self.get_logger().error(f"image refused: {exc}", throttle_duration_sec=5.0)
             return
-        self.track(frame, msg.header.stamp)
+        try:
+            self.track(frame, msg.header.stamp)
+        except Exception as exc:  # a callback must never stop the tracker; this frame is skipped
+            self.get_logger().error(f"image refused (unexpected error, please report): {type(exc).__name__}: {exc}",
+                                    throttle_duration_sec=5.0)
 
     # -- outputs -----------------------------------------------------------------------------------
     def track(self, frame: np.ndarray, stamp: Time) -> None:

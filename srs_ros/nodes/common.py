@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import gc
 import math
+import os
 import signal
 import sys
 import time
@@ -27,13 +28,14 @@ from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescri
 from rclpy.clock import Clock, ClockType
 from rclpy.exceptions import InvalidParameterValueException, ParameterException
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.signals import SignalHandlerOptions
 from std_msgs.msg import Float64MultiArray, MultiArrayDimension
 
-from srs_ros.core.errors import SrsError
+from srs_ros.core.errors import ConfigurationError, SrsError
 
 TRAJECTORY_TOPIC = "gait_trajectory"
 SETPOINT_TOPIC = "joint_setpoints"
@@ -145,6 +147,54 @@ def check_parameters(specs: dict[str, ParameterSpec], params: Sequence,
     return SetParametersResult(successful=True)
 
 
+def guard_parameter_services(node: Node) -> None:
+    """Make malformed ``set_parameters`` requests refusals instead of the end of the node or a new parameter.
+
+    rclpy's own parameter services raise on a value of an unknown type (e.g. type 99 sent by a broken
+    or hostile client), and the exception stops the node's executor: for the hardware node, a vent and
+    an exit. They also create a parameter named '' although the nodes declare every parameter they
+    take. The guarded services answer such a parameter with ``successful=False`` and the reason, and
+    handle every other parameter of the request as before.
+    """
+    from rcl_interfaces.srv import SetParameters
+
+    def refusal(parameter) -> SetParametersResult | None:
+        if not node.has_parameter(parameter.name):
+            return SetParametersResult(successful=False, reason=f"{node.get_name()} has no parameter "
+                                       f"{parameter.name!r}; `ros2 param list` shows them.")
+        try:
+            Parameter.from_parameter_msg(parameter)
+        except (ValueError, TypeError) as exc:
+            return SetParametersResult(successful=False, reason=f"{parameter.name}: malformed value refused "
+                                       f"({type(exc).__name__}: {exc}); expected a value of a ROS parameter type.")
+        return None
+
+    def one_at_a_time(callback):
+        def guarded(request, response):
+            response.results = []
+            for parameter in request.parameters:
+                refused = refusal(parameter)
+                response.results.append(refused or callback(SetParameters.Request(parameters=[parameter]),
+                                                            SetParameters.Response()).results[0])
+            return response
+        return guarded
+
+    def all_or_nothing(callback):
+        def guarded(request, response):
+            refused = next(filter(None, map(refusal, request.parameters)), None)
+            if refused is not None:
+                response.result = refused
+                return response
+            return callback(request, response)
+        return guarded
+
+    for service in node.services:
+        if service.srv_name.endswith("/set_parameters"):
+            service.callback = one_at_a_time(service.callback)
+        elif service.srv_name.endswith("/set_parameters_atomically"):
+            service.callback = all_or_nothing(service.callback)
+
+
 def labelled_array(labels: Sequence[str], values) -> Float64MultiArray:
     """A Float64MultiArray whose one dimension is labelled with the comma-joined joint names."""
     msg = Float64MultiArray()
@@ -161,6 +211,39 @@ def steady_timer(node: Node, period_s: float, callback: Callable[[], None], call
     system clock, and would leave the last pressure on the valves.
     """
     return node.create_timer(period_s, callback, callback_group, clock=Clock(clock_type=ClockType.STEADY_TIME))
+
+
+#: The parameter that puts a real-time node (gait_player, hardware_node) on the SCHED_FIFO scheduler.
+REALTIME_PRIORITY = ParameterSpec(
+    "realtime_priority", 0, "SCHED_FIFO priority 1-98 for every thread of this process, so CPU load cannot delay "
+    "setpoints; 0 = the normal scheduler; needs an rtprio limit or CAP_SYS_NICE (README)", 0, 98, read_only=True)
+
+
+def request_realtime_priority(priority: int, logger) -> bool:
+    """Put every thread of this process (and those it starts later) on SCHED_FIFO at ``priority`` (1-98).
+
+    Under CPU load the normal scheduler lets other processes delay the setpoint stream by tens of ms
+    (benchmarks/bench_cpu_load.py); a real-time priority removes that. It needs the right to (an
+    ``rtprio`` limit in /etc/security/limits.conf, or CAP_SYS_NICE): without it the node says so and
+    runs on. The kernel's real-time throttling (95 % of each second) keeps a runaway thread from
+    locking the machine. ``priority`` 0 does nothing. Returns True when the priority is in place.
+    """
+    if priority <= 0:
+        return False
+    try:
+        for task in sorted(os.listdir("/proc/self/task")):
+            try:
+                os.sched_setscheduler(int(task), os.SCHED_FIFO, os.sched_param(priority))
+            except ProcessLookupError:  # a thread that ended meanwhile
+                continue
+    except OSError as exc:
+        logger.warning(f"realtime_priority {priority}: SCHED_FIFO refused ({exc.strerror}); running on the normal "
+                       "scheduler, where CPU load can delay setpoints. Allow it with an rtprio limit (e.g. "
+                       "'@realtime - rtprio 98' in /etc/security/limits.conf, user in group realtime) or "
+                       "CAP_SYS_NICE, or set realtime_priority to 0.")
+        return False
+    logger.info(f"real-time scheduling: every thread on SCHED_FIFO priority {priority}")
+    return True
 
 
 class ShutdownSignals:
@@ -193,8 +276,14 @@ SHUTDOWN = ShutdownSignals()
 
 
 def init_ros(args: list[str] | None) -> None:
-    """``rclpy.init`` for a node process, with :data:`SHUTDOWN` handling SIGINT/SIGTERM instead of rclpy."""
-    rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
+    """``rclpy.init`` for a node process, with :data:`SHUTDOWN` handling SIGINT/SIGTERM instead of rclpy.
+
+    Raises :class:`ConfigurationError` when rcl cannot parse the ROS arguments (e.g. ``-p name:=[.nan, 1]``).
+    """
+    try:
+        rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
+    except _rclpy.RCLError as exc:
+        raise ConfigurationError(f"the ROS arguments cannot be parsed: {str(exc).strip()}") from None
     SHUTDOWN.install()
 
 
@@ -205,13 +294,17 @@ def run_node(node_factory: Callable[[], Node], args: list[str] | None = None, ex
     ``on_shutdown(node)`` runs before the node is destroyed (e.g. to vent the hardware); no signal
     interrupts it.
     """
-    init_ros(args if args is not None else sys.argv)
+    outcome = CleanExit()
+    with outcome:
+        init_ros(args if args is not None else sys.argv)
+    if outcome.exit_code:
+        return outcome.exit_code
     node = None
     executor = executor_factory()
-    outcome = CleanExit()
     try:
         with outcome:
             node = node_factory()
+            guard_parameter_services(node)
             executor.add_node(node)
             outcome.started = True
             spin_until_shutdown(executor)

@@ -7,7 +7,7 @@ Interface (relative names)::
                                                                     position (m), velocity (m/s), stamp = now
     services    ~/start, ~/stop   std_srvs/Trigger
     parameters  rate_hz, cycles, amplitude_scale, frequency_hz, ramp_time_s, blend_time_s, autostart,
-                zero_hold_s, robot_description_file (read-only)
+                zero_hold_s, robot_description_file and realtime_priority (read-only)
 
 Behaviour, as a robotics user expects it:
 
@@ -49,12 +49,14 @@ from srs_ros.core.playback import (
 )
 from srs_ros.core.robot import CYCLE_FREQUENCY_RANGE_HZ, load_robot
 from srs_ros.nodes.common import (
+    REALTIME_PRIORITY,
     SETPOINT_TOPIC,
     TRAJECTORY_TOPIC,
     ParameterSpec,
     check_parameters,
     declare_parameters,
     latched_qos,
+    request_realtime_priority,
     run_node,
     setpoint_qos,
     steady_timer,
@@ -82,6 +84,7 @@ PARAMETERS = (
     ParameterSpec("zero_hold_s", 0.5, "zero lengths are published this long after a ramp-out, in s", 0.0, 10.0),
     ParameterSpec("robot_description_file", "", "robot description YAML; '' = the package's config/robot.yaml",
                   read_only=True),
+    REALTIME_PRIORITY,
 )
 
 
@@ -91,6 +94,7 @@ class GaitPlayer(Node):
     def __init__(self, **kwargs):
         super().__init__("gait_player", **kwargs)
         self._specs = declare_parameters(self, PARAMETERS)
+        request_realtime_priority(self._param("realtime_priority"), self.get_logger())
         self._robot = load_robot(self._param("robot_description_file") or None)
         self._playback = GaitPlayback(self._param("ramp_time_s"), self._param("blend_time_s"),
                                       max_length_m=self._robot.max_extension_m)

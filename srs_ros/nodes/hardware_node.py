@@ -45,8 +45,9 @@ Interfaces (relative names, remappable):
   survives deactivate/cleanup/configure), ``~/reset`` (releases the latch; output resumes with the
   next fresh setpoint, after a new ``~/arm`` on a real rig), ``~/arm`` and ``~/disarm``; the lifecycle
   services.
-- parameters: :data:`PARAMETERS`; ``lag_compensation`` takes effect at once, ``max_pressure_bar`` is
-  read-only (start-up only) and can only lower the robot's limit, the others take effect at the next configure.
+- parameters: :data:`PARAMETERS`; ``lag_compensation`` takes effect at once; ``max_pressure_bar`` and
+  ``realtime_priority`` are read-only (start-up only), ``max_pressure_bar`` can only lower the robot's limit;
+  the others take effect at the next configure.
 """
 
 from __future__ import annotations
@@ -88,11 +89,13 @@ from srs_ros.nodes.common import (
     COMMAND_VOLTAGE_TOPIC,
     COMMANDED_PRESSURE_TOPIC,
     DIAGNOSTICS_TOPIC,
+    REALTIME_PRIORITY,
     SETPOINT_TOPIC,
     ParameterSpec,
     check_parameters,
     declare_parameters,
     labelled_array,
+    request_realtime_priority,
     run_node,
     setpoint_qos,
     steady_timer,
@@ -128,6 +131,7 @@ PARAMETERS = (
                   "calibration file's", 0.0, 2.0),
     ParameterSpec("compensation_time_constant_s", 0.0, "pressure time constant the compensation inverts (s); 0 = "
                   "the calibration file's", 0.0, 10.0),
+    REALTIME_PRIORITY,
 )
 
 
@@ -142,6 +146,8 @@ class HardwareStatus:
     stale_on_arrival: int = 0
     future_stamped: int = 0
     limited_setpoints: int = 0  # accepted, but some length needed more than the pressure limit
+    stale_vents: int = 0  # times the output went from commanding to 0 bar because setpoints went stale
+    arrival_age_max_s: float = 0.0  # oldest stamp age at arrival since the last diagnostics message
     clock_offset_s: float = 0.0  # the latest stamp-vs-clock difference that was out of bounds
     last_error: str = ""
     fault: str = ""  # set by a backend failure, cleared by the next successful configure
@@ -177,6 +183,7 @@ class HardwareNode(LifecycleNode):
         """Declare parameters, diagnostics and the e-stop/arm services; configure+activate if ``autostart``."""
         super().__init__(NODE_NAME, **kwargs)
         self.specs = declare_parameters(self, PARAMETERS)
+        request_realtime_priority(self.get_parameter("realtime_priority").value, self.get_logger())
         self.add_on_set_parameters_callback(lambda params: check_parameters(self.specs, params, self._check_value))
         self.add_post_set_parameters_callback(self._apply_parameters)
         self.rig: RigConfig | None = None
@@ -280,6 +287,9 @@ class HardwareNode(LifecycleNode):
         self.gate.setpoint_timeout_s = timeout_s
         self.gate.ramp_time_s = self.get_parameter("ramp_time_s").value
         self.gate.requires_arm = backend.drives_real_hardware
+        # after a stall longer than this, the hardware may have vented: output restarts with a ramp
+        self.gate.max_gap_s = min(timeout_s, backend.host_loss_timeout_s or math.inf)
+        self.gate.restart_stall_watch()
         return rig, backend
 
     def _check_host_loss(self, backend: ActuatorBackend, rate_hz: float) -> None:
@@ -369,6 +379,7 @@ class HardwareNode(LifecycleNode):
             return
         stamp_ns = msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
         age_s, check = setpoint_age_s(stamp_ns, self.get_clock().now().nanoseconds, self.gate.setpoint_timeout_s)
+        self.status.arrival_age_max_s = max(self.status.arrival_age_max_s, age_s)
         if check is StampCheck.STALE:
             self.status.rejected_setpoints += 1
             self.status.stale_on_arrival += 1
@@ -416,7 +427,12 @@ class HardwareNode(LifecycleNode):
         if self.backend is None:  # released (cleanup, shutdown) while a callback was already queued
             return
         now_s = time.monotonic()
+        stalls = self.gate.stalls
         pressure_bar, reason = self.gate.decide(now_s)
+        if self.gate.stalls > stalls:
+            self.get_logger().warning(f"command ticks stalled longer than {self.gate.max_gap_s:g} s (this process was "
+                                      "frozen or starved of CPU; see realtime_priority): output restarts with a "
+                                      "ramp from 0 bar", throttle_duration_sec=LOG_THROTTLE_S)
         try:
             sent_bar = self.backend.write_pressures(pressure_bar)
             state = self.backend.read_state() if self.status.ticks % self._state_every_ticks == 0 else None
@@ -458,6 +474,8 @@ class HardwareNode(LifecycleNode):
     def _note_reason(self, reason: OutputReason) -> None:
         if reason is self.status.reason:
             return
+        if reason is OutputReason.STALE and self.status.reason in (OutputReason.COMMANDING, OutputReason.RAMPING):
+            self.status.stale_vents += 1
         self.status.reason = reason
         if reason is OutputReason.STALE:  # rclpy fixes a call site's severity, hence two calls
             self.get_logger().warning(f"output: {reason.value} (older than {self.gate.setpoint_timeout_s:g} s) "
@@ -550,6 +568,7 @@ class HardwareNode(LifecycleNode):
         setpoint_rate_hz = (status.setpoints_received - then_received) / span_s
         problems = status.stale_on_arrival + status.future_stamped
         status.rate_window = (now_s, status.ticks, status.setpoints_received, problems)
+        arrival_age_max_s, status.arrival_age_max_s = status.arrival_age_max_s, 0.0
         level, message = self._diagnostic_summary(setpoint_rate_hz, problems - then_problems)
         values = {
             "backend": self.backend.name if self.backend else "none",
@@ -574,6 +593,9 @@ class HardwareNode(LifecycleNode):
             "pressure_map": self.shaper.map.name if self.shaper else "none",
             "lag_compensation": str(bool(self.shaper and self.shaper.compensation)),
             "compensation_clamped": str(self.shaper.compensation_clamped if self.shaper else 0),
+            "stale_vents": str(status.stale_vents),
+            "command_stalls": str(self.gate.stalls),
+            "setpoint_arrival_age_max_ms": f"{arrival_age_max_s * 1e3:.3f}",
             "backend_writes": str(status.ticks),
             **self._latency_summary(),
             "last_error": status.last_error or "none",
@@ -588,9 +610,11 @@ class HardwareNode(LifecycleNode):
     def _latency_summary(self) -> dict[str, str]:
         """Setpoint stamp -> backend write latency over the last 2000 written setpoints (ms)."""
         if not self.status.latency_ms:
-            return {"command_latency_p50_ms": "n/a", "command_latency_p99_ms": "n/a", "command_latency_count": "0"}
-        p50, p99 = np.percentile(np.fromiter(self.status.latency_ms, float), [50, 99])
+            return {"command_latency_p50_ms": "n/a", "command_latency_p99_ms": "n/a", "command_latency_max_ms": "n/a",
+                    "command_latency_count": "0"}
+        p50, p99, worst = np.percentile(np.fromiter(self.status.latency_ms, float), [50, 99, 100])
         return {"command_latency_p50_ms": f"{p50:.3f}", "command_latency_p99_ms": f"{p99:.3f}",
+                "command_latency_max_ms": f"{worst:.3f}",
                 "command_latency_count": str(len(self.status.latency_ms))}
 
     def _diagnostic_summary(self, setpoint_rate_hz: float, stamp_problems: int) -> tuple[bytes, str]:

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from srs_ros.backends import create_backend
-from srs_ros.backends.mock import MockBackend
+from srs_ros.backends.mock import MockBackend, read_record
 from srs_ros.core.errors import ConfigurationError, HardwareError
 from srs_ros.core.rig import load_rig
 
@@ -72,3 +72,21 @@ def test_fail_on_open_leaves_the_backend_closed():
     with pytest.raises(HardwareError, match="fail_on_open"):
         backend.open()
     assert not backend.is_open
+
+
+def test_record_file_holds_every_command_the_backend_is_given(tmp_path):
+    record = tmp_path / "writes.txt"
+    backend = MockBackend(options={"record_file": str(record)})
+    with backend:
+        backend.write_pressures(np.r_[1.0, 2.5, 9.0, np.zeros(6)])  # 9 bar: the clamp gives the backend 4
+        times, pressures, _ = read_record(record)  # visible while the backend is open (another process reads it)
+        assert pressures.tolist() == [[1.0, 2.5, 4.0] + [0.0] * 6]
+    times, pressures, _ = read_record(record)
+    assert len(times) == 2 and np.all(np.diff(times) >= 0) and not pressures[-1].any()  # close vents
+    assert record.read_text().count("# open") == 1 and record.read_text().count("# close") == 1
+
+
+@pytest.mark.parametrize("value", ["", 3, "/no/such/folder/writes.txt", "/dev/null"])
+def test_a_bad_record_file_names_the_key(value):
+    with pytest.raises(ConfigurationError, match="'record_file'"):
+        MockBackend(options={"record_file": value})

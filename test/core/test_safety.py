@@ -99,6 +99,23 @@ def test_output_ramps_up_from_zero_whenever_it_restarts():
     assert gate.decide(2.5)[0] == pytest.approx(np.zeros(9))  # after an e-stop reset, too
 
 
+def test_a_stall_of_the_caller_restarts_output_with_a_ramp():
+    gate = CommandGate(joint_count=9, setpoint_timeout_s=0.2, ramp_time_s=1.0, active=True, max_gap_s=0.1)
+    command = np.full(9, 4.0)
+    for t in np.arange(0.0, 1.5, 0.005):
+        gate.accept(command, now_s=t)
+        pressure, reason = gate.decide(t)
+    assert reason is OutputReason.COMMANDING and gate.stalls == 0
+    gate.accept(command, now_s=1.65)  # the process was frozen 0.15 s; a fresh setpoint came in first
+    pressure, reason = gate.decide(1.65)
+    assert reason is OutputReason.RAMPING and pressure == pytest.approx(np.zeros(9)) and gate.stalls == 1
+    gate.accept(command, now_s=1.66)
+    assert 0.0 < gate.decide(1.66)[0][0] < 0.1  # rising again from 0 bar, not a step to 4 bar
+    gate.restart_stall_watch()  # (re)configured after a pause: no stall
+    gate.decide(9.0)
+    assert gate.stalls == 1
+
+
 def test_a_rig_with_real_regulators_commands_nothing_until_armed():
     gate = CommandGate(joint_count=9, setpoint_timeout_s=0.2, requires_arm=True)
     assert "activate" in gate.arm() and not gate.armed  # inactive: refused with what to do

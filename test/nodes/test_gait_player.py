@@ -6,34 +6,16 @@ so these tests do not depend on the fitter.
 
 import numpy as np
 import pytest
-from builtin_interfaces.msg import Duration
 from rcl_interfaces.msg import SetParametersResult
 from sensor_msgs.msg import JointState
-from srs_testing import ros_args
-from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
+from srs_testing import JOINT_NAMES, rolling_cycle, ros_args, trajectory
+from trajectory_msgs.msg import JointTrajectory
 
 from srs_ros.core.interpolation import PeriodicTrajectory
 from srs_ros.core.robot import config_dir
 from srs_ros.nodes.common import SETPOINT_TOPIC, TRAJECTORY_TOPIC, latched_qos, setpoint_qos
 
-NAMES = [f"m{i}_pma{j}" for i in (1, 2, 3) for j in (1, 2, 3)]
-
-
-def rolling_cycle(count=64, shift=0.0, amplitude_m=0.065):
-    phase = np.arange(count)[:, None] / count + shift
-    offsets = np.arange(9)[None, :] * 2 * np.pi / 3 + np.repeat([0.0, 1.0, 2.0], 3)[None, :] * np.pi / 3
-    return 0.5 * amplitude_m * (1 + np.cos(2 * np.pi * phase - offsets))
-
-
-def trajectory(samples, frequency_hz):
-    """One closed period, as the trajectory_server publishes it."""
-    msg = JointTrajectory(joint_names=NAMES)
-    count = len(samples)
-    for i in range(count + 1):
-        t_ns = round(1e9 / frequency_hz) * i // count
-        msg.points.append(JointTrajectoryPoint(positions=samples[i % count].tolist(),
-                                               time_from_start=Duration(sec=t_ns // 10**9, nanosec=t_ns % 10**9)))
-    return msg
+NAMES = JOINT_NAMES
 
 
 def stamps_s(msgs):

@@ -1,0 +1,59 @@
+"""Several hosts: the operator's PC, the robot PC and the camera PC as network namespaces, DDS over UDP only.
+
+gait_player and trajectory_server run on the operator's host, hardware_node and the observer on the
+robot's, camera_tracker (reading a video) on the camera's, joined by a switch on a private subnet; Fast DDS finds
+its peers by static addresses only, and shared memory is off, so every message really crosses the veth
+links. The gait streams at 500 Hz for 10 s (loss and latency are printed; the minute-long figures beside
+loopback are benchmarks/bench_multi_host.py), then the robot's cable is pulled for a second: the valves
+vent within the setpoint timeout, stay vented while the link is down, and the gait ramps back in when
+it returns. If the namespaces cannot be made (no root), this fails; it does not skip.
+"""
+
+import time
+
+from srs_stream import camera_video, lab_placement, run_stream, summary_lines
+from srs_testing import BackendRecord, NetnsLab
+
+TIMEOUT_S = 0.2  # the mock rig's setpoint_timeout_s
+
+
+def test_three_hosts_stream_the_gait_and_a_pulled_cable_vents_the_valves(ros_env, tmp_path):
+    video, calibration = camera_video(tmp_path)
+    with NetnsLab(["operator", "robot", "camera"]) as lab:
+
+        def pull_the_robots_cable(measured_s: float, record_path) -> dict:
+            record = BackendRecord(record_path)
+            assert float(record.update().pressures_bar[-1].max()) > 1.0  # the gait plays
+            lab.cut("robot")
+            cut_s = time.monotonic()
+            time.sleep(1.0)
+            lab.restore("robot")
+            restored_s = time.monotonic()
+            end = restored_s + 15.0
+            while time.monotonic() < end and not (record.update().times_s[-1] > restored_s
+                                                  and record.pressures_bar[-1].max() > 1.0):
+                time.sleep(0.05)
+            return {"cut_s": cut_s, "restored_s": restored_s}
+
+        result = run_stream(lab_placement(lab, ros_env), 500.0, 10.0, log_dir=tmp_path, camera_source=video,
+                            camera_args={"calibration_file": calibration}, then_play_s=6.0,
+                            after_measure=pull_the_robots_cable)
+    for line in summary_lines("3 hosts (UDP)", result):
+        print(line)
+    final = result["final"]
+    assert final["setpoints_received"] > 0.5 * result["published"]  # the stream crossed the link
+    assert result["poses"] > 0  # the camera host's poses reached the robot's host
+    assert result["record"]["finite"] and result["record"]["max_bar"] <= 4.0
+
+    record = BackendRecord(tmp_path / "recorded_writes.txt").update()
+    cut_s, restored_s = result["after"]["cut_s"], result["after"]["restored_s"]
+    times, peaks = record.times_s, record.pressures_bar.max(axis=1)
+    assert peaks[times < cut_s][-20:].min() > 0.0  # commanding up to the cut
+    vented_s = times[(times > cut_s) & (peaks == 0.0)][0]
+    assert vented_s - cut_s < TIMEOUT_S + 0.1, vented_s - cut_s  # vented within the timeout (+ a command period)
+    assert not peaks[(times > vented_s) & (times < restored_s)].any()  # and stayed vented while the link was down
+    back = (times > restored_s) & (peaks > 0.0)
+    assert back.any(), "the gait never came back after the link returned"
+    assert peaks[back][0] < 0.5  # ... ramping up from 0 bar
+    print(f"link cut: vented {vented_s - cut_s:.3f} s after the cut; commanding again "
+          f"{times[back][0] - restored_s:.3f} s after the link returned")
