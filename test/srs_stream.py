@@ -104,7 +104,10 @@ class Sampler:
                 stat = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
             except OSError:
                 continue
-            rss_mib = int(re.search(r"VmRSS:\s+(\d+)", status).group(1)) / 1024.0
+            rss = re.search(r"VmRSS:\s+(\d+)", status)
+            if rss is None:  # exited, not yet reaped
+                continue
+            rss_mib = int(rss.group(1)) / 1024.0
             cpu_s = (int(stat[11]) + int(stat[12])) / os.sysconf("SC_CLK_TCK")
             self.samples[name].append((time.monotonic(), rss_mib, cpu_s))
 

@@ -181,6 +181,7 @@ def test_hardware_node_parameters(launch_node, ros_client, tmp_path):
         ("command_rate_hz", value_of(ParameterType.PARAMETER_DOUBLE, math.inf)),
         ("rig_file", value_of(ParameterType.PARAMETER_STRING, str(fifo))),
         ("backend", value_of(ParameterType.PARAMETER_STRING, "can")),
+        ("ramp_time_s", value_of(ParameterType.PARAMETER_DOUBLE, 0.0)),  # taken: configures and commands
     ])
     assert len(record) > 0  # the recorded rig was configured and written at least once
 

@@ -182,10 +182,13 @@ def test_hostile_setpoints_never_reach_the_backend_and_the_last_good_command_goe
         assert np.all(np.isfinite(after)) and after.min() >= 0.0 and after.max() <= MAX_BAR, after
         if expected is None:
             refused.append(case)
-            assert all(np.allclose(row, good_bar) for row in during), (msg, during)  # G goes on, untouched
+            # G goes on, untouched (or, if this machine stalled the node past G's timeout, the vent: 0 bar)
+            assert any(np.allclose(row, good_bar) for row in during), (msg, during)
+            assert all(np.allclose(row, good_bar) or not row.any() for row in during), (msg, during)
         else:
             assert any(np.allclose(row, expected) for row in during), (msg, expected, during)
-            assert all(np.allclose(row, good_bar) or np.allclose(row, expected) for row in after), (msg, after)
+            assert all(np.allclose(row, good_bar) or np.allclose(row, expected) or not row.any() for row in after), (
+                msg, after)
 
     one_hostile_setpoint()
     assert refused, "no drawn setpoint had to be refused: the strategy is broken"

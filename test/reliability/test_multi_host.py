@@ -11,32 +11,37 @@ it returns. If the namespaces cannot be made (no root), this fails; it does not 
 
 import time
 
+import numpy as np
 from srs_stream import camera_video, lab_placement, run_stream, summary_lines
 from srs_testing import BackendRecord, NetnsLab
 
 TIMEOUT_S = 0.2  # the mock rig's setpoint_timeout_s
 
 
+CUTS = 3
+
+
 def test_three_hosts_stream_the_gait_and_a_pulled_cable_vents_the_valves(ros_env, tmp_path):
     video, calibration = camera_video(tmp_path)
     with NetnsLab(["operator", "robot", "camera"]) as lab:
 
-        def pull_the_robots_cable(measured_s: float, record_path) -> dict:
-            record = BackendRecord(record_path)
-            assert float(record.update().pressures_bar[-1].max()) > 1.0  # the gait plays
-            lab.cut("robot")
-            cut_s = time.monotonic()
-            time.sleep(1.0)
-            lab.restore("robot")
-            restored_s = time.monotonic()
-            end = restored_s + 15.0
-            while time.monotonic() < end and not (record.update().times_s[-1] > restored_s
-                                                  and record.pressures_bar[-1].max() > 1.0):
-                time.sleep(0.05)
-            return {"cut_s": cut_s, "restored_s": restored_s}
+        def pull_the_robots_cable(measured_s: float, record_path) -> list[tuple[float, float]]:
+            """Three times: wait for the gait at the backend, pull the cable for 1 s, plug it back in."""
+            record, cuts = BackendRecord(record_path), []
+            for _ in range(CUTS):
+                end = time.monotonic() + 15.0
+                while time.monotonic() < end and not (len(record) and record.pressures_bar[-1].max() > 1.0
+                                                      and record.times_s[-1] > (cuts[-1][1] if cuts else 0.0) + 1.0):
+                    time.sleep(0.05)
+                lab.cut("robot")
+                cut_s = time.monotonic()
+                time.sleep(1.0)
+                lab.restore("robot")
+                cuts.append((cut_s, time.monotonic()))
+            return cuts
 
         result = run_stream(lab_placement(lab, ros_env), 500.0, 10.0, log_dir=tmp_path, camera_source=video,
-                            camera_args={"calibration_file": calibration}, then_play_s=6.0,
+                            camera_args={"calibration_file": calibration}, then_play_s=10.0,
                             after_measure=pull_the_robots_cable)
     for line in summary_lines("3 hosts (UDP)", result):
         print(line)
@@ -46,14 +51,18 @@ def test_three_hosts_stream_the_gait_and_a_pulled_cable_vents_the_valves(ros_env
     assert result["record"]["finite"] and result["record"]["max_bar"] <= 4.0
 
     record = BackendRecord(tmp_path / "recorded_writes.txt").update()
-    cut_s, restored_s = result["after"]["cut_s"], result["after"]["restored_s"]
     times, peaks = record.times_s, record.pressures_bar.max(axis=1)
-    assert peaks[times < cut_s][-20:].min() > 0.0  # commanding up to the cut
-    vented_s = times[(times > cut_s) & (peaks == 0.0)][0]
-    assert vented_s - cut_s < TIMEOUT_S + 0.1, vented_s - cut_s  # vented within the timeout (+ a command period)
-    assert not peaks[(times > vented_s) & (times < restored_s)].any()  # and stayed vented while the link was down
-    back = (times > restored_s) & (peaks > 0.0)
-    assert back.any(), "the gait never came back after the link returned"
-    assert peaks[back][0] < 0.5  # ... ramping up from 0 bar
-    print(f"link cut: vented {vented_s - cut_s:.3f} s after the cut; commanding again "
-          f"{times[back][0] - restored_s:.3f} s after the link returned")
+    delays_s, back_s = [], []
+    for cut_s, restored_s in result["after"]:
+        assert peaks[times < cut_s][-20:].min() > 0.0  # commanding up to the cut
+        vented_s = times[(times > cut_s) & (peaks == 0.0)][0]
+        delays_s.append(float(vented_s - cut_s))
+        assert not peaks[(times > vented_s) & (times < restored_s)].any()  # vented while the link was down
+        back = (times > restored_s) & (peaks > 0.0)
+        assert back.any(), "the gait never came back after the link returned"
+        assert peaks[back][0] < 0.5  # ... ramping up from 0 bar
+        back_s.append(float(times[back][0] - restored_s))
+    # the timeout plus a command period and the last setpoint's flight: a watchdog 1.5x too slow fails
+    assert np.median(delays_s) < TIMEOUT_S + 0.08, delays_s
+    print(f"link cut {CUTS} times: vented {[round(d, 3) for d in delays_s]} s after the cut; commanding again "
+          f"{[round(b, 3) for b in back_s]} s after the link returned")
