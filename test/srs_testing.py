@@ -163,6 +163,7 @@ class RosClient:
         self.executor = SingleThreadedExecutor(context=self.context)
         self.executor.add_node(self.node)
         self._clients: dict[tuple[str, Any], Any] = {}
+        self._answered: set[tuple[str, Any]] = set()  # clients that got a reply: their discovery is complete
 
     def close(self) -> None:
         self.executor.shutdown()
@@ -202,12 +203,35 @@ class RosClient:
         return self._clients[key]
 
     def call(self, srv_type, name: str, request=None, timeout_s: float = 10.0):
-        """Call a service and return its response (like ``ros2 service call``)."""
+        """Call a service and return its response (like ``ros2 service call``).
+
+        ``service_is_ready`` says the server sees our requests; its reply writer may not have matched our
+        reply reader yet (Fast DDS discovery is not symmetric), and a reply sent before that is lost. So the
+        first call of a client waits a moment after ready, and read-only queries (get_state,
+        get_parameters) are asked again if no answer came within a third of the timeout.
+        """
         client = self.client(srv_type, name)
         self.spin_until(client.service_is_ready, timeout_s, f"service {name}")
-        future = client.call_async(request if request is not None else srv_type.Request())
-        self.spin_until(future.done, timeout_s, f"response of {name}")
-        return future.result()
+        key = (name, srv_type)
+        if key not in self._answered:
+            self.spin_for(0.3)
+        request = request if request is not None else srv_type.Request()
+        read_only = srv_type.__name__ in ("GetState", "GetParameters")
+        end = time.monotonic() + timeout_s
+        while True:
+            future = client.call_async(request)
+            wait_s = end - time.monotonic()
+            if read_only and wait_s > timeout_s / 3:
+                wait_s = timeout_s / 3
+            try:
+                self.spin_until(future.done, max(wait_s, 0.0), f"response of {name}")
+            except AssertionError:
+                if not read_only or time.monotonic() >= end:
+                    raise
+                client.remove_pending_request(future)
+                continue
+            self._answered.add(key)
+            return future.result()
 
     def trigger(self, name: str, timeout_s: float = 10.0):
         """Call a std_srvs/Trigger service."""

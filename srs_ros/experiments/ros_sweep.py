@@ -261,7 +261,8 @@ class RosSweep:
             raise SweepStopped(f"no '{HARDWARE_STATUS_PREFIX}' status on /diagnostics after {timeout:g} s: is "
                                "hardware_node running?")
         values = {kv.key: kv.value for kv in self._hardware[1].values}
-        simulated = self.has_service("sim_world", "reset", 1.0)
+        # The sim backend talks to a sim_world: wait for it as for the other nodes; elsewhere just look.
+        simulated = self.has_service("sim_world", "reset", timeout if values.get("backend") == "sim" else 1.0)
         # Anything but an explicit "False" counts as real air: the go is asked rather than assumed.
         self.rig = RigInfo(requires_arm=values.get("requires_arm") != "False", simulated=simulated,
                            rig=values.get("rig", "unknown"))

@@ -143,6 +143,7 @@ class HardwareStatus:
     setpoints_received: int = 0
     setpoints_accepted: int = 0
     rejected_setpoints: int = 0
+    ignored_velocities: int = 0  # setpoints whose velocities were unusable (NaN, wrong size): lengths used alone
     stale_on_arrival: int = 0
     future_stamped: int = 0
     limited_setpoints: int = 0  # accepted, but some length needed more than the pressure limit
@@ -374,9 +375,12 @@ class HardwareNode(LifecycleNode):
         try:
             velocities_m_per_s = setpoint_velocities_m_per_s(msg.name, msg.velocity, robot)
         except InvalidInputError as exc:
-            self.status.rejected_setpoints += 1
-            self.get_logger().error(f"rejected setpoint, not sent: {exc}", throttle_duration_sec=LOG_THROTTLE_S)
-            return
+            # Velocities are a hint for the lag compensation only: the lengths are the command. Unusable ones
+            # are dropped (the compensation then differences successive setpoints), said and counted.
+            velocities_m_per_s = None
+            self.status.ignored_velocities += 1
+            self.get_logger().warning(f"setpoint velocities ignored (the lengths are used): {exc}",
+                                      throttle_duration_sec=LOG_THROTTLE_S)
         stamp_ns = msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
         age_s, check = setpoint_age_s(stamp_ns, self.get_clock().now().nanoseconds, self.gate.setpoint_timeout_s)
         self.status.arrival_age_max_s = max(self.status.arrival_age_max_s, age_s)
@@ -586,6 +590,7 @@ class HardwareNode(LifecycleNode):
             "setpoints_received": str(status.setpoints_received),
             "setpoints_accepted": str(status.setpoints_accepted),
             "rejected_setpoints": str(status.rejected_setpoints),
+            "ignored_velocities": str(status.ignored_velocities),
             "stale_on_arrival": str(status.stale_on_arrival),
             "future_stamped": str(status.future_stamped),
             "clock_offset_s": f"{status.clock_offset_s:.3f}",
