@@ -60,6 +60,7 @@ from srs_ros.tools.rig_session import (
     operator_go,
     ros_context,
     run_vented,
+    write_whole,
 )
 from srs_ros.tools.wiring_check import select_joints
 
@@ -95,7 +96,7 @@ class BackendIO:
 
     def write_pressures(self, pressure_bar: np.ndarray) -> np.ndarray:
         """One command through the backend's final ``write_pressures`` (the one clamp)."""
-        return self.backend.write_pressures(pressure_bar)
+        return write_whole(self.backend, pressure_bar)
 
     def measure(self) -> Measurement:
         """The backend's newest read-back, dated by its age."""

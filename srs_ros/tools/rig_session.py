@@ -13,6 +13,8 @@ import signal
 import sys
 from collections.abc import Callable, Iterator
 
+import numpy as np
+
 from srs_ros.backends import ActuatorBackend, create_backend
 from srs_ros.core.errors import ConfigurationError, HardwareError
 from srs_ros.core.rig import RigConfig
@@ -59,6 +61,24 @@ def interrupts_on_sigterm() -> Iterator[None]:
         yield
     finally:
         signal.signal(signal.SIGTERM, previous)
+
+
+def write_whole(backend: ActuatorBackend, pressure_bar) -> np.ndarray:
+    """One command as one write: a Ctrl-C or SIGTERM during it takes effect right after it (main thread).
+
+    A CAN command is three frames: an interrupt between them would leave the board with the first
+    frame of a new command and the rest of the old one before the vent.
+    """
+    held: list[int] = []
+    previous = {sig: signal.signal(sig, lambda signum, _frame: held.append(signum))
+                for sig in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        return backend.write_pressures(pressure_bar)
+    finally:
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
+        if held and callable(previous[held[0]]):
+            previous[held[0]](held[0], None)  # e.g. KeyboardInterrupt, now that the command is whole
 
 
 def vent_and_close(backend: ActuatorBackend) -> bool:

@@ -22,7 +22,14 @@ from srs_ros.backends import BACKENDS, ActuatorBackend
 from srs_ros.core.errors import ConfigurationError
 from srs_ros.core.rig import RigConfig, default_rig_path, load_rig
 from srs_ros.core.robot import load_robot
-from srs_ros.tools.rig_session import EXIT_USAGE, backend_for, interrupts_on_sigterm, ros_context, run_vented
+from srs_ros.tools.rig_session import (
+    EXIT_USAGE,
+    backend_for,
+    interrupts_on_sigterm,
+    ros_context,
+    run_vented,
+    write_whole,
+)
 
 DEFAULT_PRESSURE_BAR = 1.5
 DEFAULT_HOLD_S = 1.0
@@ -75,7 +82,7 @@ def _hold(backend: ActuatorBackend, pressure_bar: np.ndarray, seconds: float, ra
     start = time.monotonic()
     tick = 0
     while True:
-        backend.write_pressures(pressure_bar)
+        write_whole(backend, pressure_bar)
         tick += 1
         next_s = start + tick * period_s
         if next_s - start >= seconds:
@@ -99,7 +106,7 @@ def run(backend: ActuatorBackend, rig: RigConfig, joints: list[int], pressure_ba
     for number, joint in enumerate(joints, start=1):
         command = np.zeros(count)
         command[joint] = pressure_bar
-        sent = backend.write_pressures(command)
+        sent = write_whole(backend, command)
         volts = backend.read_state().command_v[joint]
         print(f"pulse {number}/{len(joints)}: {names[joint]} (joint {joint + 1}) -> {labels[joint]}: "
               f"{sent[joint]:.2f} bar = {volts:.3f} V for {hold_s:g} s", flush=True)
