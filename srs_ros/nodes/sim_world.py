@@ -30,6 +30,7 @@ import time
 import numpy as np
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import Point, PoseStamped
+from rclpy.experimental import EventsExecutor
 from rclpy.node import Node
 from sensor_msgs.msg import Image, JointState
 from std_srvs.srv import Trigger
@@ -228,7 +229,8 @@ def _line_strip(marker_id: int, namespace: str, points_m: np.ndarray, width_m: f
 
 def main(args: list[str] | None = None) -> int:
     """Console script ``sim_world``."""
-    return run_node(SimWorldNode, args)
+    # EventsExecutor: measured 29 % of a core for the whole node against 39 % with the SingleThreadedExecutor.
+    return run_node(SimWorldNode, args, executor_factory=EventsExecutor)
 
 
 if __name__ == "__main__":
