@@ -7,8 +7,10 @@ Ctrl-C (or ``--duration-s``); then the valves are vented.
 
 The default rig is the simulated robot (``config/rigs/sim.yaml``): the bringup then also runs
 ``sim_world`` (MuJoCo, real time) and ``camera_tracker`` on its overhead camera (colour bands), and the
-status line shows the tracked traveling speed beside the ground truth (cm/s); ``--video FILE`` saves the camera's
-view. ``--rig config/rigs/mock.yaml`` runs the muscle-only mock instead.
+status line shows the tracked traveling speed beside the ground truth (cm/s); while the tracker reports the
+robot out of the camera's view (or the camera silent) on ``/diagnostics`` the line says so with where the
+robot was last seen, and the tracked speed shows ``--``. ``--video FILE`` saves the camera's view.
+``--rig config/rigs/mock.yaml`` runs the muscle-only mock instead.
 
 On a rig with real regulators (``can``, ``daq``) nothing above 0 bar is commanded until the operator
 arms it: ``--arm`` on the command line, or ``ros2 service call /hardware_node/arm std_srvs/srv/Trigger``
@@ -42,6 +44,7 @@ import time
 import cv2
 import rclpy
 import yaml
+from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import PoseStamped
 from rclpy.executors import MultiThreadedExecutor, SingleThreadedExecutor
 from rclpy.experimental import EventsExecutor
@@ -53,9 +56,11 @@ from srs_ros.core.errors import ConfigurationError
 from srs_ros.core.rig import load_rig
 from srs_ros.core.robot import config_dir, default_robot
 from srs_ros.core.safety import min_setpoint_rate_hz
+from srs_ros.core.tracking import ViewStatus
 from srs_ros.nodes.camera_tracker import IMAGE_TOPIC, CameraTrackerNode, image_msg_to_array
 from srs_ros.nodes.common import (
     COMMANDED_PRESSURE_TOPIC,
+    DIAGNOSTICS_TOPIC,
     POSE_TOPIC,
     SETPOINT_TOPIC,
     CleanExit,
@@ -72,11 +77,15 @@ from srs_ros.nodes.trajectory_server import TrajectoryServer
 
 
 class StatusMonitor(Node):
-    """Counts setpoints and commands and prints one status line per period (with speeds on the sim rig)."""
+    """Counts setpoints and commands and prints one status line per period (with speeds on the sim rig).
+
+    ``tracker_status`` (sim rig) is the camera tracker's ``(status name, hardware_id)`` on ``/diagnostics``:
+    what it reports about the robot's view is followed (another robot's tracker on the same domain is not).
+    """
 
     def __init__(self, player: GaitPlayer, server: TrajectoryServer, hardware: HardwareNode, period_s: float,
-                 simulated: bool = False):
-        super().__init__("srs_status")
+                 simulated: bool = False, tracker_status: tuple[str, str] | None = None, context=None):
+        super().__init__("srs_status", context=context)
         self._player, self._server, self._hardware = player, server, hardware
         self._setpoints = 0
         self._commands = 0
@@ -86,11 +95,15 @@ class StatusMonitor(Node):
         self._tty = sys.stdout.isatty()
         self._tracked = SpeedMeter()
         self._truth = SpeedMeter() if simulated else None
+        self._tracker_status = tracker_status
+        self._view: tuple[ViewStatus, float] | None = None  # the tracker's last report, when it arrived (steady s)
         self.create_subscription(JointState, SETPOINT_TOPIC, self._on_setpoint, setpoint_qos())
         self.create_subscription(Float64MultiArray, COMMANDED_PRESSURE_TOPIC, self._on_command, 10)
         if simulated:
             self.create_subscription(PoseStamped, POSE_TOPIC, self._tracked.add, 10)
             self.create_subscription(PoseStamped, GROUND_TRUTH_TOPIC, self._truth.add, 10)
+        if simulated and tracker_status is not None:
+            self.create_subscription(DiagnosticArray, DIAGNOSTICS_TOPIC, self._on_diagnostics, 10)
         steady_timer(self, period_s, self._print)
 
     def _on_setpoint(self, _msg: JointState) -> None:
@@ -100,11 +113,26 @@ class StatusMonitor(Node):
         self._commands += 1
         self._largest_bar = max(self._largest_bar, max(msg.data, default=0.0))
 
+    def _on_diagnostics(self, msg: DiagnosticArray) -> None:
+        for status in msg.status:
+            if (status.name, status.hardware_id) == self._tracker_status:
+                view = ViewStatus.from_values({kv.key: kv.value for kv in status.values}, status.message)
+                if view is not None:
+                    self._view = (view, time.monotonic())
+
+    def _speeds(self, now_s: float) -> str:
+        """The sim rig's speeds; the tracked one is ``--`` while the tracker has no current pose (said why)."""
+        view = self._view[0].aged(now_s - self._view[1]) if self._view is not None else None
+        current = view is None or view.pose_current
+        text = f" | travel speed tracked {self._tracked.take() if current else '  --'} truth {self._truth.take()} cm/s"
+        return text if current else f"{text} | {view.summary()}"
+
     def status_line(self) -> str:
         """One line: gait, cycles played, rates (Hz), the largest pressure in the period, speeds (sim rig).
 
         On the simulated robot it ends with the traveling speed since the start (Table I's displacement over
-        time), tracked by the camera beside the ground truth (cm/s).
+        time), tracked by the camera beside the ground truth (cm/s), or ``--`` and e.g. ``robot out of the
+        camera's view: last seen 2.1 s ago at x 1.234 y 0.056 m (floor)`` while the tracker says so.
         Cycles played (e.g. ``cycle  12.37``: 12 whole cycles, phase 0.37) rather than the bare phase,
         which a 1 s status period samples at the same value every time for a 1 Hz gait.
         """
@@ -117,7 +145,7 @@ class StatusMonitor(Node):
                 f"setpoints {self._setpoints / span_s:5.0f} Hz | commands {self._commands / span_s:5.0f} Hz | "
                 f"largest {self._largest_bar:4.2f} bar | hardware {self._hardware.status.reason.value}")
         if self._truth is not None:
-            line += f" | travel speed tracked {self._tracked.take()} truth {self._truth.take()} cm/s"
+            line += self._speeds(now_s)
         self._setpoints = self._commands = 0
         self._largest_bar = 0.0
         self._since_s = now_s
@@ -259,7 +287,9 @@ def main(argv: list[str] | None = None) -> int:
             simulated = _rig_backend(args) == "sim"
             world_nodes = _world_nodes(args) if simulated else []  # the world first: the hardware talks to it
             server, player, hardware = TrajectoryServer(), GaitPlayer(), HardwareNode()
-            status = StatusMonitor(player, server, hardware, args.status_period_s, simulated)
+            tracker = next((n for n in world_nodes if isinstance(n, CameraTrackerNode)), None)
+            status = StatusMonitor(player, server, hardware, args.status_period_s, simulated,
+                                   None if tracker is None else (tracker.status_name, tracker.hardware_id))
             recorder = next((n for n in world_nodes if isinstance(n, VideoRecorder)), None)
             nodes = [server, player, hardware, status, *world_nodes]
             for node in nodes:

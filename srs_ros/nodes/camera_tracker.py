@@ -4,9 +4,17 @@ Input: ``image_raw`` (sensor_msgs/Image: bgr8, rgb8, mono8, bgra8, rgba8) from a
 the ``source`` parameter is set, a video file or camera index read directly with OpenCV. Output, stamped
 with the image's stamp, in the calibration's floor frame: ``robot_pose`` (geometry_msgs/PoseStamped),
 ``robot_twist`` (geometry_msgs/TwistStamped, smoothed) and ``robot_path`` (nav_msgs/Path). A frame where a
-marker is missing publishes nothing; ``/diagnostics`` says which marker is missing (WARN, ERROR after
-``lost_timeout_s``) and returns to OK when the markers come back. All tracking is in
-:mod:`srs_ros.core.tracking`; this module is ROS wiring only.
+marker is missing publishes nothing. ``/diagnostics`` (status ``camera_tracker: marker tracking``) says:
+
+- OK ``tracking``;
+- WARN ``markers lost (not seen: head)`` for frames without a pose, shorter than ``lost_after_s`` (0.5 s);
+- WARN ``robot out of the camera's view: last seen .. s ago at x .. y .. m (floor)`` once frames keep
+  arriving without a pose for ``lost_after_s``; the key/values ``view_state``, ``last_seen_x_m``,
+  ``last_seen_y_m``, ``last_seen_frame_id``, ``last_seen_ago_s`` carry the same;
+- ERROR ``no images from /image_raw for .. s (camera silent)`` after ``image_timeout_s`` (1 s) without a frame;
+
+and returns to OK when the robot is seen again. The decisions are :class:`srs_ros.core.tracking.ViewWatch`'s,
+all tracking is in :mod:`srs_ros.core.tracking`; this module is ROS wiring only.
 """
 
 from __future__ import annotations
@@ -29,7 +37,15 @@ from sensor_msgs.msg import Image
 
 from srs_ros.core.camera_calibration import load_calibration
 from srs_ros.core.errors import ConfigurationError, InvalidInputError, SrsError
-from srs_ros.core.tracking import DEFAULT_ARUCO_DICTIONARY, Tracker, TrackerConfig, TrackResult, yaw_to_quaternion
+from srs_ros.core.tracking import (
+    DEFAULT_ARUCO_DICTIONARY,
+    Tracker,
+    TrackerConfig,
+    TrackResult,
+    ViewStatus,
+    ViewWatch,
+    yaw_to_quaternion,
+)
 from srs_ros.nodes.common import (
     DIAGNOSTICS_TOPIC,
     PATH_TOPIC,
@@ -41,6 +57,12 @@ from srs_ros.nodes.common import (
 )
 
 IMAGE_TOPIC = "image_raw"
+#: The tracker's status on /diagnostics is named "<node name>: marker tracking".
+STATUS_NAME_SUFFIX = "marker tracking"
+#: A parameter this node no longer has, and what replaced it (said at start-up when it is still given).
+RENAMED_PARAMETERS = {"lost_timeout_s": "image_timeout_s (no images: ERROR camera silent) and lost_after_s "
+                                        "(no pose: WARN robot out of the camera's view)"}
+_LEVELS = {"OK": DiagnosticStatus.OK, "WARN": DiagnosticStatus.WARN, "ERROR": DiagnosticStatus.ERROR}
 _CHANNELS = {"bgr8": 3, "rgb8": 3, "mono8": 1, "8UC1": 1, "8UC3": 3, "bgra8": 4, "rgba8": 4}
 
 PARAMETERS = (
@@ -77,7 +99,9 @@ PARAMETERS = (
     ParameterSpec("path_max_poses", 5000, "longest trail kept in robot_path", 2, 1000000, read_only=True),
     ParameterSpec("path_min_step_m", 0.002, "a trail point is added after this much motion, m", 0.0, 10.0,
                   read_only=True),
-    ParameterSpec("lost_timeout_s", 1.0, "markers or images missing this long = ERROR on /diagnostics, s",
+    ParameterSpec("lost_after_s", 0.5, "frames arriving without a pose this long = WARN 'robot out of the "
+                  "camera's view' (with the last seen position) on /diagnostics, s", 0.01, 3600.0, read_only=True),
+    ParameterSpec("image_timeout_s", 1.0, "no image this long = ERROR 'camera silent' on /diagnostics, s",
                   0.01, 3600.0, read_only=True),
     ParameterSpec("diagnostics_period_s", 1.0, "period of the /diagnostics report, s", 0.05, 60.0, read_only=True),
 )
@@ -152,6 +176,13 @@ def tracker_config(params: dict[str, Any]) -> TrackerConfig:
     return dataclasses.replace(config, detector="color", tail_color=bands.tail_color, head_color=bands.head_color)
 
 
+def tracking_status(view: ViewStatus, name: str, hardware_id: str, values: dict[str, Any]) -> DiagnosticStatus:
+    """The tracker's DiagnosticStatus: the view's level and message, its key/values after ``values``."""
+    status = DiagnosticStatus(level=_LEVELS[view.level], name=name, message=view.message, hardware_id=hardware_id)
+    status.values = [KeyValue(key=k, value=str(v)) for k, v in {**values, **view.values()}.items()]
+    return status
+
+
 def sim_band_calibration():
     """The simulated camera's calibration in the plane of its bands (one skin radius above the floor).
 
@@ -184,7 +215,7 @@ class CameraTrackerNode(Node):
         self.frame_id = p["frame_id"] or self.calibration.frame_id
         self.path_max_poses = int(p["path_max_poses"])
         self.path_min_step_m = float(p["path_min_step_m"])
-        self.lost_timeout_s = float(p["lost_timeout_s"])
+        self._warn_renamed_parameters()
 
         self.pose_pub = self.create_publisher(PoseStamped, POSE_TOPIC, 10)
         self.twist_pub = self.create_publisher(TwistStamped, TWIST_TOPIC, 10)
@@ -196,23 +227,31 @@ class CameraTrackerNode(Node):
         self.frames = 0
         self.tracked_frames = 0
         self.last_result: TrackResult | None = None
-        self.last_frame_wall_s: float | None = None
-        self.last_tracked_wall_s: float | None = None
-        self.last_level: bytes | None = None
-        self.start_wall_s = time.monotonic()
+        self.last_state = None
 
         self.capture: cv2.VideoCapture | None = None
         self.source = str(p["source"])
+        #: The status this node publishes on /diagnostics is named ``status_name``, for ``hardware_id``.
+        self.status_name = f"{self.get_name()}: {STATUS_NAME_SUFFIX}"
+        self.hardware_id = self.source or self.resolve_topic_name(IMAGE_TOPIC)
+        where = f"source {self.source!r}" if self.source else self.hardware_id
+        self.watch = ViewWatch(float(p["lost_after_s"]), float(p["image_timeout_s"]), time.monotonic(),
+                               self.frame_id, where)
         if self.source:
             self._open_source(self.source, float(p["source_rate_hz"]), bool(p["loop"]))
         else:
             self.create_subscription(Image, IMAGE_TOPIC, self.on_image, qos_profile_sensor_data)
         self.create_timer(float(p["diagnostics_period_s"]), self.publish_diagnostics)
-        where = f"source {self.source!r}" if self.source else f"topic {self.resolve_topic_name(IMAGE_TOPIC)}"
         self.get_logger().info(
             f"tracking {self.tracker.describe_markers()} from {where}; calibration {self.calibration.source} "
             f"(reprojection rms {self.calibration.rms_error_mm:.2f} mm), frame '{self.frame_id}'"
         )
+
+    def _warn_renamed_parameters(self) -> None:
+        given = getattr(self, "_parameter_overrides", {})  # rclpy's start-up values, declared or not
+        for old, new in RENAMED_PARAMETERS.items():
+            if old in given:
+                self.get_logger().warning(f"parameter {old} is no longer used and is ignored; set {new} instead")
 
     # -- inputs ------------------------------------------------------------------------------------
     def _open_source(self, source: str, rate_hz: float, loop: bool) -> None:
@@ -268,13 +307,12 @@ class CameraTrackerNode(Node):
         result = self.tracker.process(frame, stamp_to_seconds(stamp))
         now = time.monotonic()
         self.frames += 1
-        self.last_frame_wall_s = now
         self.last_result = result
+        self.watch.frame(now, result)
         if result.tracked:
             self.tracked_frames += 1
-            self.last_tracked_wall_s = now
             self._publish_pose(result, stamp)
-        if self._level() != self.last_level:
+        if self.watch.status(now).state != self.last_state:
             self.publish_diagnostics()
 
     def _publish_pose(self, result: TrackResult, stamp: Time) -> None:
@@ -298,38 +336,18 @@ class CameraTrackerNode(Node):
             self.path.header.stamp = stamp
             self.path_pub.publish(self.path)
 
-    def _level(self) -> bytes:
-        now = time.monotonic()
-        if self.last_result is None or now - (self.last_frame_wall_s or 0.0) > self.lost_timeout_s:
-            waited = now - (self.last_frame_wall_s or self.start_wall_s)
-            return DiagnosticStatus.ERROR if waited > self.lost_timeout_s else DiagnosticStatus.WARN
-        if self.last_result.tracked:
-            return DiagnosticStatus.OK
-        lost_for = now - (self.last_tracked_wall_s or self.start_wall_s)
-        return DiagnosticStatus.ERROR if lost_for > self.lost_timeout_s else DiagnosticStatus.WARN
-
     def publish_diagnostics(self) -> None:
-        """Publish the tracking status on /diagnostics (also at once whenever the level changes)."""
-        level = self._level()
-        self.last_level = level
-        result = self.last_result
-        if result is None or time.monotonic() - (self.last_frame_wall_s or 0.0) > self.lost_timeout_s:
-            message = "no images received" if result is None else "images stopped arriving"
-        elif result.tracked:
-            message = "tracking"
-        else:
-            message = f"markers lost ({result.message}); no pose published"
+        """Publish the tracking status on /diagnostics (also at once whenever its state changes)."""
+        view = self.watch.status(time.monotonic())
+        self.last_state = view.state
         values: dict[str, Any] = {
             "frames": self.frames, "tracked_frames": self.tracked_frames,
             "markers": self.tracker.describe_markers(), "frame_id": self.frame_id,
             "calibration_rms_mm": f"{self.calibration.rms_error_mm:.3f}",
         }
-        if result is not None:
-            values["seen"] = ",".join(sorted(result.markers_px)) or "none"
-        status = DiagnosticStatus(level=level, name=f"{self.get_name()}: marker tracking",
-                                  message=message, hardware_id=self.source or self.resolve_topic_name(IMAGE_TOPIC))
-        status.values = [KeyValue(key=k, value=str(v)) for k, v in values.items()]
-        array = DiagnosticArray(status=[status])
+        if self.last_result is not None:
+            values["seen"] = ",".join(sorted(self.last_result.markers_px)) or "none"
+        array = DiagnosticArray(status=[tracking_status(view, self.status_name, self.hardware_id, values)])
         array.header.stamp = self.get_clock().now().to_msg()
         self.diag_pub.publish(array)
 

@@ -1,5 +1,6 @@
 """Camera tracking core: homography fit, pose from markers, accuracy on synthetic frames, velocities."""
 
+import dataclasses
 import math
 
 import cv2
@@ -19,7 +20,11 @@ from srs_ros.core.errors import ConfigurationError, InvalidInputError
 from srs_ros.core.tracking import (
     Tracker,
     TrackerConfig,
+    TrackResult,
     VelocityFilter,
+    ViewState,
+    ViewStatus,
+    ViewWatch,
     pose_from_markers,
     quad_centre,
     to_gray,
@@ -285,3 +290,87 @@ def test_wide_angle_lens_distortion_is_removed_when_the_calibration_has_intrinsi
     print(f"largest position error near the image edges: {errors}")
     assert errors["intrinsics"] < 0.002, errors
     assert errors["homography only"] > 0.01, errors
+
+
+# -- in view, out of view, camera silent ----------------------------------------------------------
+def seen_at(x_m, y_m):
+    return TrackResult(0.0, np.array([x_m, y_m, 0.3]), None, message="tracked")
+
+
+NOT_SEEN = TrackResult(0.0, None, None, message="not seen: head, tail")
+
+
+def test_frames_without_a_pose_become_out_of_view_after_lost_after_s_and_no_frames_a_silent_camera():
+    watch = ViewWatch(lost_after_s=0.5, image_timeout_s=1.0, start_s=10.0, source="/image_raw")
+    assert watch.status(10.9).state is ViewState.NO_IMAGES and watch.status(10.9).level == "WARN"
+    silent = watch.status(11.2)
+    assert (silent.state, silent.level) == (ViewState.CAMERA_SILENT, "ERROR")
+    assert silent.message == "no images from /image_raw for 1.2 s since the start (camera silent)"
+    watch.frame(11.3, seen_at(1.25, -0.5))
+    tracking = watch.status(11.3)
+    assert (tracking.state, tracking.level, tracking.message) == (ViewState.TRACKING, "OK", "tracking")
+    assert tracking.last_seen_xy_m == (1.25, -0.5) and tracking.pose_current
+    # A moment without a pose (a hand, a glare): markers lost, poses still current.
+    for now_s in np.arange(11.4, 11.86, 0.05):
+        watch.frame(float(now_s), NOT_SEEN)
+    lost = watch.status(11.85)
+    assert (lost.state, lost.level) == (ViewState.MARKERS_LOST, "WARN") and lost.pose_current
+    assert lost.message == "markers lost (not seen: head, tail); no pose published"
+    # Frames keep arriving without a pose for lost_after_s: out of view, with where and when it was last seen.
+    watch.frame(11.9, NOT_SEEN)
+    out = watch.status(11.9)
+    assert (out.state, out.level) == (ViewState.OUT_OF_VIEW, "WARN") and not out.pose_current
+    assert out.message == ("robot out of the camera's view: last seen 0.6 s ago at x 1.250 y -0.500 m (floor); "
+                           "no pose published (not seen: head, tail)")
+    assert out.last_seen_xy_m == (1.25, -0.5) and out.last_seen_ago_s == pytest.approx(0.6)
+    # Out of view stays a WARN however long it lasts, as long as frames arrive.
+    for now_s in np.arange(11.95, 20.0, 0.05):
+        watch.frame(float(now_s), NOT_SEEN)
+        assert watch.status(float(now_s)).level == "WARN"
+    assert watch.status(20.0).last_seen_ago_s == pytest.approx(8.7)
+    # The frames stop: the camera is silent (ERROR), and the last position is still said.
+    assert watch.status(20.9).state is ViewState.OUT_OF_VIEW
+    gone = watch.status(21.1)
+    assert (gone.state, gone.level) == (ViewState.CAMERA_SILENT, "ERROR")
+    assert "no images from /image_raw for 1.1 s (camera silent)" in gone.message
+    assert gone.message.endswith("robot last seen 9.8 s ago at x 1.250 y -0.500 m (floor)")
+    # The robot back in view: OK at once, at its new position.
+    watch.frame(21.2, seen_at(1.3, -0.4))
+    back = watch.status(21.2)
+    assert (back.state, back.level, back.last_seen_xy_m) == (ViewState.TRACKING, "OK", (1.3, -0.4))
+
+
+def test_a_robot_never_seen_is_out_of_view_too():
+    watch = ViewWatch(lost_after_s=0.5, image_timeout_s=1.0, start_s=0.0, frame_id="map")
+    for now_s in (0.1, 0.3, 0.5):
+        watch.frame(now_s, NOT_SEEN)
+    assert watch.status(0.5).state is ViewState.MARKERS_LOST
+    watch.frame(0.6, NOT_SEEN)
+    out = watch.status(0.6)
+    assert out.state is ViewState.OUT_OF_VIEW and out.last_seen_xy_m is None
+    assert out.message.startswith("robot out of the camera's view: never seen in 0.5 s of images")
+    assert out.summary() == "robot out of the camera's view: never seen"
+    with pytest.raises(ConfigurationError, match="must be > 0 s"):
+        ViewWatch(lost_after_s=0.0)
+
+
+def test_a_view_report_survives_diagnostic_key_values_and_reads_as_a_status_line():
+    watch = ViewWatch(start_s=0.0)
+    watch.frame(1.0, seen_at(1.25, -0.5))
+    watch.frame(1.1, NOT_SEEN)
+    out = watch.status(2.0)
+    values = out.values()
+    assert values == {"view_state": "out_of_view", "last_seen_frame_id": "floor", "last_seen_x_m": "1.2500",
+                      "last_seen_y_m": "-0.5000", "last_seen_ago_s": "1.000", "last_image_ago_s": "0.900"}
+    back = ViewStatus.from_values({**values, "frames": "30"}, out.message)
+    assert back == dataclasses.replace(out, last_image_ago_s=pytest.approx(0.9))
+    assert back.aged(1.5).summary() == ("robot out of the camera's view: last seen 2.5 s ago at x 1.250 y -0.500 m "
+                                        "(floor)")
+    silent = watch.status(3.0)
+    assert silent.summary() == ("camera silent: no images for 1.9 s; robot last seen 2.0 s ago at x 1.250 y -0.500 m "
+                                "(floor)")
+    assert watch.status(1.0).summary() == "" and ViewStatus(ViewState.MARKERS_LOST).summary() == ""
+    # Not a tracker's report, or a damaged one: None, never a guess.
+    assert ViewStatus.from_values({"level": "1"}) is None
+    assert ViewStatus.from_values({"view_state": "asleep"}) is None
+    assert ViewStatus.from_values({"view_state": "out_of_view", "last_seen_x_m": "abc"}) is None

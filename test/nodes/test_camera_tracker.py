@@ -54,7 +54,7 @@ def test_image_conversion_round_trip_with_padding_and_rgb():
 @pytest.mark.timeout(120)
 def test_tracker_node_over_dds(tmp_path, launch_node, ros_client):
     calibration = save_calibration(SCENE.camera.calibration(), tmp_path / "cal.yaml")
-    node = launch_node("camera_tracker", ros_args({"calibration_file": str(calibration), "lost_timeout_s": 30.0,
+    node = launch_node("camera_tracker", ros_args({"calibration_file": str(calibration), "image_timeout_s": 30.0,
                                                    "diagnostics_period_s": 0.2}))
     poses = ros_client.subscribe(PoseStamped, "/robot_pose")
     twists = ros_client.subscribe(TwistStamped, "/robot_twist")
@@ -138,3 +138,83 @@ def test_tracker_node_reads_a_video_file_source(tmp_path, launch_node, ros_clien
     distance = np.min(np.linalg.norm(xy[:, None, :] - truth[None, :, :2], axis=2), axis=1)
     assert np.all(distance < 0.002)
     assert node.alive()
+
+
+def values_of(status):
+    return {kv.key: kv.value for kv in status.values}
+
+
+@pytest.mark.timeout(120)
+def test_tracker_node_says_when_the_robot_leaves_the_view_and_when_the_camera_falls_silent(tmp_path, launch_node,
+                                                                                           ros_client):
+    calibration = save_calibration(SCENE.camera.calibration(), tmp_path / "cal.yaml")
+    node = launch_node("camera_tracker", ros_args({"calibration_file": str(calibration), "diagnostics_period_s": 0.2,
+                                                   "lost_after_s": 0.5, "image_timeout_s": 1.0}))
+    poses = ros_client.subscribe(PoseStamped, "/robot_pose")
+    diagnostics = ros_client.subscribe(DiagnosticArray, "/diagnostics")
+    publisher = ros_client.node.create_publisher(Image, "/image_raw", 10)
+    rng = np.random.default_rng(11)
+    in_view = np.array([0.06, -0.02, 0.3])
+    robot, floor = SCENE.render(in_view, rng), SCENE.render(None, rng)
+    clock_s = [200.0]
+    sent: dict[str, list[float]] = {"robot": [], "floor": []}
+
+    def latest():
+        found = statuses(diagnostics)
+        return found[-1] if found else None
+
+    def camera(frame, what, until):
+        """A camera at 20 fps showing ``frame`` until ``until()``."""
+        due = [0.0]
+
+        def answered():
+            if until():
+                return True
+            if time.monotonic() >= due[0]:
+                clock_s[0] += 0.05
+                publisher.publish(array_to_image_msg(frame, seconds_to_stamp(clock_s[0])))
+                sent["robot" if frame is robot else "floor"].append(clock_s[0])
+                due[0] = time.monotonic() + 0.05
+            return False
+
+        try:
+            ros_client.spin_until(answered, timeout_s=15.0, what=what)
+        except AssertionError:
+            raise AssertionError(f"timed out waiting for {what}; node log:\n{node.output()}") from None
+
+    # 1. The robot in view: poses, OK.
+    camera(robot, "poses and OK", lambda: poses and latest() and latest().message == "tracking")
+    last_pose = poses[-1].pose.position
+    assert math.hypot(last_pose.x - in_view[0], last_pose.y - in_view[1]) < 0.002
+
+    # 2. Frames keep coming, the robot is gone: WARN "robot out of the camera's view" with where it was last seen.
+    camera(floor, "a WARN: robot out of the camera's view",
+           lambda: latest() is not None and values_of(latest()).get("view_state") == "out_of_view")
+    out = latest()
+    values = values_of(out)
+    assert out.level == DiagnosticStatus.WARN
+    assert out.message.startswith("robot out of the camera's view: last seen ")
+    assert abs(float(values["last_seen_x_m"]) - poses[-1].pose.position.x) < 1e-4
+    assert abs(float(values["last_seen_y_m"]) - poses[-1].pose.position.y) < 1e-4
+    assert values["last_seen_frame_id"] == "floor" and float(values["last_seen_ago_s"]) >= 0.5
+    # It stays a WARN (not an error of the tracker) for as long as frames arrive, the age growing.
+    mark = len(diagnostics)
+    camera(floor, "a report 1.2 s after the robot was last seen",
+           lambda: any(float(values_of(s).get("last_seen_ago_s", 0)) > 1.2 for s in statuses(diagnostics[mark:])))
+    reports = [s for s in statuses(diagnostics[mark:]) if values_of(s)["view_state"] != "camera_silent"]  # a stall
+    assert reports and all(s.level == DiagnosticStatus.WARN and values_of(s)["view_state"] == "out_of_view"
+                           for s in reports)
+    assert not [p for p in poses if any(abs(stamp_to_seconds(p.header.stamp) - t) < 1e-6 for t in sent["floor"])]
+
+    # 3. The robot back in view: poses again, OK.
+    count = len(poses)
+    camera(robot, "OK again with the robot back",
+           lambda: len(poses) > count and latest().level == DiagnosticStatus.OK and latest().message == "tracking")
+
+    # 4. No more frames: ERROR, the camera is silent, and where the robot was last seen.
+    ros_client.spin_until(lambda: values_of(latest()).get("view_state") == "camera_silent", 10.0, "camera silent")
+    silent = latest()
+    assert silent.level == DiagnosticStatus.ERROR
+    assert "no images from /image_raw for" in silent.message and "(camera silent)" in silent.message
+    assert "robot last seen " in silent.message and "last_seen_x_m" in values_of(silent)
+    assert node.alive() and "Traceback" not in node.output()

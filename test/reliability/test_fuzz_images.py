@@ -58,7 +58,7 @@ def hostile_images(draw, good_frame: np.ndarray):
 
 def test_hostile_images_are_refused_and_tracking_goes_on(tmp_path, launch_node, ros_client):
     calibration = save_calibration(SCENE.camera.calibration(), tmp_path / "cal.yaml")
-    node = launch_node("camera_tracker", ros_args({"calibration_file": str(calibration), "lost_timeout_s": 30.0}))
+    node = launch_node("camera_tracker", ros_args({"calibration_file": str(calibration), "image_timeout_s": 30.0}))
     client = ros_client
     poses = client.subscribe(PoseStamped, "/robot_pose")
     twists = client.subscribe(TwistStamped, "/robot_twist")
