@@ -57,6 +57,9 @@ class ActuatorBackend(abc.ABC):
     #: and the muscles' lengths (``measured_length_m``). ``srs_identify`` refuses to measure what a rig cannot.
     measures_pressure: bool = False
     measures_length: bool = False
+    #: True where the hardware comes back by itself after a fault (a simulator restarted): the hardware node then
+    #: configures and activates again on its own. Real rigs keep the operator in the loop (False).
+    recovers_by_itself: bool = False
     #: True where the backend talks over rclpy/DDS (``sim``): a tool outside a ROS node initialises rclpy first.
     needs_rclpy: bool = False
     #: Seconds the hardware holds the last command without a new one before it vents by itself (a CAN
@@ -89,6 +92,15 @@ class ActuatorBackend(abc.ABC):
     def _measure(self) -> dict[str, Any]:
         """Optional measurements: keys ``measured_pressure_bar``, ``measured_length_m``, ``details``."""
         return {}
+
+    def holding_reason(self) -> str:
+        """Why the hardware cannot follow commands right now ('' when it can).
+
+        A simulator that pauses (``sim``) says so here: the hardware node then sends 0 bar and ramps back
+        in when the reason clears, as after stale setpoints. Raises
+        :class:`~srs_ros.core.errors.HardwareError` when the hardware is lost for good. Real boards never hold.
+        """
+        return ""
 
     # -- final public API -------------------------------------------------------------------
     def open(self) -> None:

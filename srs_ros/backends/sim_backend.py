@@ -3,22 +3,37 @@
 The simulated robot runs in its own node (``sim_world``, MuJoCo). This backend drives it the way the
 ``can`` backend drives a regulator board: every command (already through the one clamp) is published on a
 reliable, depth-1 command topic that acts as the bus, and the world answers on a monitor topic with the
-regulators' pressure read-back and the muscles' lengths (a simulated rig can measure them). If the
-world stops answering, the backend raises :class:`~srs_ros.core.errors.HardwareError` on the next write
-of a pressure, as a dead CAN board would: the hardware node vents (a vent is always published), goes to
-its error state and says so on /diagnostics.
+regulators' pressure read-back and the muscles' lengths (a simulated rig can measure them).
 
-The bus is rclpy: the backend owns a small node (``<name>``, in the process's default context) and spins
-it on its own thread with timed ``spin_once`` calls, as python-can's buses own a receive thread.
+A simulator is not a board: it runs on a shared computer and stalls now and then (CPU load, a debugger,
+SIGSTOP). So its silence has two meanings (docs/simulation.md, docs/safety.md):
+
+- a *short* silence (more than ``readback_timeout_s``, less than ``world_lost_timeout_s``) is a pause:
+  :meth:`SimBackend.holding_reason` says so, the hardware node vents (0 bar on the bus) and ramps back in
+  by itself when the world answers again, as after stale setpoints;
+- a *long* silence (``world_lost_timeout_s``), no first answer within ``startup_timeout_s``, or the world
+  gone from the ROS graph is a :class:`~srs_ros.core.errors.HardwareError`, as a dead board: vent, error
+  state, /diagnostics. The simulated rig then recovers by itself (``recovers_by_itself``): the hardware
+  node configures and activates again and holds 0 bar until the world answers.
+
+``sim_world`` itself vents like a real board when commands stop for :data:`SIM_BOARD_TIMEOUT_S` of world
+time, so a hardware node that dies leaves the simulated robot at rest (``host_loss_timeout_s``).
+
+The bus is rclpy: the backend owns a small node (``sim_backend_bus``, in the process's default context, with
+the process's namespace and remappings, so ``__ns:=/snake1`` moves its topics with every other node of the
+process) and spins it on its own thread with timed ``spin_once`` calls, as python-can's buses own a receive
+thread.
 
 Options (``backend_options`` of a rig file, each validated with the key named on error):
 
 - ``command_topic`` (default ``sim/regulator_command``): sensor_msgs/JointState, ``effort`` = pressure (bar);
 - ``monitor_topic`` (default ``sim/regulator_monitor``): sensor_msgs/JointState from the world,
   ``effort`` = measured pressure (bar), ``position`` = muscle length (m);
-- ``readback_timeout_s`` (default 0.2, in [0.02, 5]): the world silent this long -> HardwareError;
+- ``readback_timeout_s`` (default 0.2, in [0.02, 5]): the world silent this long -> vent and hold (a pause);
+- ``world_lost_timeout_s`` (default 2, in [0.1, 60], at least ``readback_timeout_s``): silent this long ->
+  HardwareError;
 - ``startup_timeout_s`` (default 15, in [0.1, 120]): how long after ``open`` the world may take to answer
-  for the first time (it may start after the hardware node); nothing blocks meanwhile.
+  for the first time (it may start after the hardware node); output holds at 0 bar meanwhile.
 """
 
 from __future__ import annotations
@@ -36,10 +51,19 @@ from srs_ros.core.robot import RobotDescription
 
 SIM_COMMAND_TOPIC = "sim/regulator_command"
 SIM_MONITOR_TOPIC = "sim/regulator_monitor"
+#: The node name of the backend's bus (under the process's namespace).
+BUS_NODE_NAME = "sim_backend_bus"
+#: How long (s of world time) sim_world's simulated board holds a command before it vents by itself. Longer
+#: than a real board's 0.1 s (docs/can.md): a simulated rig shares an ordinary computer, whose processes stall
+#: 0.2-0.4 s now and then; a real board runs on its own microcontroller.
+SIM_BOARD_TIMEOUT_S = 0.5
+#: How long closing the bus waits for the world to acknowledge the last command (the vent), s.
+VENT_ACK_TIMEOUT_S = 0.5
 
 #: option -> (default, lowest, highest) of the numeric options.
 _NUMBERS: dict[str, tuple[float, float, float]] = {
     "readback_timeout_s": (0.2, 0.02, 5.0),
+    "world_lost_timeout_s": (2.0, 0.1, 60.0),
     "startup_timeout_s": (15.0, 0.1, 120.0),
 }
 _TOPICS = {"command_topic": SIM_COMMAND_TOPIC, "monitor_topic": SIM_MONITOR_TOPIC}
@@ -54,13 +78,15 @@ def bus_qos():
 
 
 class SimBackend(ActuatorBackend):
-    """Commands to ``sim_world`` over DDS; read-back (pressures, lengths) from it; silence is a hardware error."""
+    """Commands to ``sim_world`` over DDS, read-back from it; a pause holds output, a long silence faults."""
 
     name = "sim"
     drives_real_hardware = False
+    recovers_by_itself = True
     measures_pressure = True
     measures_length = True
     needs_rclpy = True
+    host_loss_timeout_s = SIM_BOARD_TIMEOUT_S  # sim_world's board vents by itself, as a real board must
 
     def __init__(self, robot: RobotDescription | None = None, options: Mapping[str, Any] | None = None):
         """Validate the options (``ConfigurationError`` naming the key); nothing connects before ``open()``."""
@@ -75,12 +101,15 @@ class SimBackend(ActuatorBackend):
                 raise ConfigurationError(f"sim backend_options: '{key}' is {value!r}; expected a number in "
                                          f"[{low}, {high}] s.")
             setattr(self, key, float(value))
+        if self.world_lost_timeout_s < self.readback_timeout_s:
+            raise ConfigurationError(f"sim backend_options: 'world_lost_timeout_s' is {self.world_lost_timeout_s:g} "
+                                     f"s, less than readback_timeout_s {self.readback_timeout_s:g} s; expected at "
+                                     "least it (a pause first holds, only a longer silence is a fault).")
         for key, default in _TOPICS.items():
             value = self.options.get(key, default)
             if not isinstance(value, str) or not value:
                 raise ConfigurationError(f"sim backend_options: '{key}' is {value!r}; expected a topic name.")
             setattr(self, key, value)
-        self.host_loss_timeout_s = None  # the world holds the last command if the host dies, as a DAC board would
         self._node = self._executor = self._thread = self._publisher = None
         self._stop = threading.Event()
         self._lock = threading.Lock()
@@ -97,7 +126,10 @@ class SimBackend(ActuatorBackend):
         if not rclpy.ok():
             raise HardwareError("sim backend: rclpy is not initialised; the sim backend runs inside a ROS node "
                                 "(hardware_node or srs_bringup).")
-        self._node = rclpy.create_node("sim_backend_bus", use_global_arguments=False)
+        # The process's own arguments (namespace, remappings, use_sim_time) apply, as to every node it creates;
+        # only the name is the bus's own, so a process-wide __node:= remap cannot give it the host node's name.
+        self._node = rclpy.create_node(BUS_NODE_NAME, cli_args=["--ros-args", "-r", f"__node:={BUS_NODE_NAME}"],
+                                       start_parameter_services=False)
         self._publisher = self._node.create_publisher(JointState, self.command_topic, bus_qos())
         self._node.create_subscription(JointState, self.monitor_topic, self._on_monitor, bus_qos())
         self._executor = SingleThreadedExecutor()
@@ -114,10 +146,27 @@ class SimBackend(ActuatorBackend):
         msg.header.stamp = self._node.get_clock().now().to_msg()
         msg.effort = pressure_bar.tolist()
         self._publisher.publish(msg)  # on the bus first: a vent always goes out, whoever listens
-        if np.any(pressure_bar > 0.0):
-            self._check_alive()
+        if np.any(pressure_bar > 0.0):  # a tool driving the rig directly learns here that the world is gone
+            self._check_alive(time.monotonic())
+
+    def holding_reason(self) -> str:
+        """'' while the world answers; why output must hold at 0 bar during a pause; HardwareError once it is lost."""
+        now_s = time.monotonic()
+        self._check_alive(now_s)
+        with self._lock:
+            monitor = self._monitor
+        if monitor is None:
+            return f"waiting for sim_world's first read-back on {self._resolved_monitor_topic()}"
+        silent_s = now_s - monitor[0]
+        if silent_s > self.readback_timeout_s:
+            return f"sim_world silent for {silent_s:.2f} s (paused or starved of CPU)"
+        return ""
 
     def _close(self) -> None:
+        if self._publisher is not None:  # the last command (the vent) reaches a world that is alive
+            from rclpy.duration import Duration
+
+            self._publisher.wait_for_all_acked(Duration(seconds=VENT_ACK_TIMEOUT_S))
         self._stop.set()
         if self._thread is not None:
             self._thread.join(timeout=2.0)
@@ -157,18 +206,26 @@ class SimBackend(ActuatorBackend):
             self._monitor = (time.monotonic(), pressure, length)
             self.monitor_count += 1
 
-    def _check_alive(self) -> None:
-        now_s = time.monotonic()
+    def _resolved_monitor_topic(self) -> str:
+        return self._node.resolve_topic_name(self.monitor_topic) if self._node is not None else self.monitor_topic
+
+    def _check_alive(self, now_s: float) -> None:
+        """Raise HardwareError if the world never answered, fell silent for good, or left the graph."""
         with self._lock:
             monitor = self._monitor
         if monitor is None:
             if now_s - self._opened_s > self.startup_timeout_s:
-                raise HardwareError(f"sim backend: no read-back from sim_world on {self.monitor_topic!r} within "
-                                    f"startup_timeout_s {self.startup_timeout_s:g} s; start sim_world (it is part of "
-                                    "srs_bringup and the launch file) on the same ROS_DOMAIN_ID.")
+                raise HardwareError(f"sim backend: no read-back from sim_world on {self._resolved_monitor_topic()!r} "
+                                    f"within startup_timeout_s {self.startup_timeout_s:g} s; start sim_world (it is "
+                                    "part of srs_bringup and the launch file) on the same ROS_DOMAIN_ID and namespace.")
             return
         silent_s = now_s - monitor[0]
-        if silent_s > self.readback_timeout_s:
-            raise HardwareError(f"sim backend: sim_world silent for {silent_s:.3f} s on {self.monitor_topic!r} "
-                                f"(more than readback_timeout_s {self.readback_timeout_s:g} s): the simulated "
-                                "robot stopped or diverged; restart sim_world, then configure and activate.")
+        if silent_s > self.world_lost_timeout_s:
+            raise HardwareError(f"sim backend: sim_world silent for {silent_s:.3f} s on "
+                                f"{self._resolved_monitor_topic()!r} (more than world_lost_timeout_s "
+                                f"{self.world_lost_timeout_s:g} s): the simulated robot stopped, died or diverged; "
+                                "the sim rig resumes by itself once sim_world answers again (restart it, or ~/reset "
+                                "it after a divergence).")
+        if silent_s > self.readback_timeout_s and self._node.count_publishers(self._resolved_monitor_topic()) == 0:
+            raise HardwareError(f"sim backend: sim_world left the ROS graph (nothing publishes "
+                                f"{self._resolved_monitor_topic()!r}); the sim rig resumes by itself once it is back.")

@@ -93,6 +93,7 @@ class OutputReason(str, enum.Enum):
     ESTOP = "e-stop latched"
     INACTIVE = "inactive"
     NOT_ARMED = "waiting for the operator to arm (~/arm)"
+    HOLDING = "hardware holding at 0 bar"
     NO_SETPOINT = "no setpoint yet"
     STALE = "setpoints stale"
 
@@ -224,8 +225,13 @@ class CommandGate:
         """Forget the previous decision (at configure: a pause while unconfigured is no stall)."""
         self._last_decision_s = None
 
-    def decide(self, now_s: float) -> tuple[np.ndarray, OutputReason]:
-        """The pressures (bar) to send at ``now_s`` and why."""
+    def decide(self, now_s: float, holding: str = "") -> tuple[np.ndarray, OutputReason]:
+        """The pressures (bar) to send at ``now_s`` and why.
+
+        ``holding`` non-empty: the hardware cannot follow right now (a paused simulator,
+        :meth:`~srs_ros.backends.base.ActuatorBackend.holding_reason`): 0 bar, the stored setpoint kept, and
+        output ramps back in when the hold clears.
+        """
         if self._last_decision_s is not None and now_s - self._last_decision_s > self.max_gap_s:
             self.stalls += 1
             self._output_since_s = None
@@ -236,6 +242,8 @@ class CommandGate:
             reason = OutputReason.INACTIVE
         elif self.requires_arm and not self.armed:
             reason = OutputReason.NOT_ARMED
+        elif holding:
+            reason = OutputReason.HOLDING
         elif self._pressure_bar is None:
             reason = OutputReason.NO_SETPOINT
         elif self.setpoint_age_s(now_s) > self.setpoint_timeout_s:

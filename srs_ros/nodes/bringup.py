@@ -256,7 +256,8 @@ def _params_file(args: argparse.Namespace, ros_args: list[str]) -> str:
     }
     params = {node: {k: v for k, v in values.items() if k not in given} for node, values in params.items()}
     with tempfile.NamedTemporaryFile("w", prefix="srs_bringup_", suffix=".yaml", delete=False) as stream:
-        yaml.safe_dump({name: {"ros__parameters": values} for name, values in params.items()}, stream)
+        # "/**/name": the node in whatever namespace the process is given (``-r __ns:=/snake1``).
+        yaml.safe_dump({f"/**/{name}": {"ros__parameters": values} for name, values in params.items()}, stream)
         return stream.name
 
 

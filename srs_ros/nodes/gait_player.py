@@ -20,8 +20,9 @@ Behaviour, as a robotics user expects it:
   ``ramp_time_s``; the phase is integrated, so neither makes a setpoint jump. ``cycles`` is read at
   ``~/start``. ``rate_hz`` changes live (the timer is re-created).
 - A new trajectory cross-fades from the old one over ``blend_time_s`` at the same phase.
-- The phase follows the monotonic clock; after a stall longer than 50 ms it advances by 50 ms only,
-  so a late tick never makes the setpoint jump.
+- The phase follows the monotonic clock, or with ``use_sim_time`` the ROS clock (the simulated world's
+  ``/clock``, so a simulation that runs slower than real time still sees the gait's own frequency); after
+  a stall longer than 50 ms it advances by 50 ms only, so a late tick never makes the setpoint jump.
 
 The playback logic lives in :mod:`srs_ros.core.playback`; this node is the ROS wiring around it.
 """
@@ -101,7 +102,8 @@ class GaitPlayer(Node):
         self._playback.set_amplitude_scale(self._param("amplitude_scale"))
         self._playback.set_frequency_override(self._param("frequency_hz"))
         self._zeros_until = 0.0
-        self._last_tick = time.monotonic()
+        self._sim_time = bool(self.get_parameter("use_sim_time").value)
+        self._last_tick = self._phase_time_s()
         self._message = JointState()
         self.published_count = 0  # setpoints published since start-up (printed at exit, for loss checks)
         self._message.name = list(self._robot.joint_names)
@@ -204,11 +206,16 @@ class GaitPlayer(Node):
         return response
 
     # ------------------------------------------------------------- output
+    def _phase_time_s(self) -> float:
+        """The clock the phase follows (s): ROS time with use_sim_time (the world's /clock), else the steady clock."""
+        return self.get_clock().now().nanoseconds * 1e-9 if self._sim_time else time.monotonic()
+
     def _on_tick(self) -> None:
         stamp = self.get_clock().now()  # the instant this setpoint is computed for
         now = time.monotonic()
-        dt_s = min(now - self._last_tick, MAX_STEP_S)
-        self._last_tick = now
+        phase_s = self._phase_time_s()
+        dt_s = min(max(phase_s - self._last_tick, 0.0), MAX_STEP_S)
+        self._last_tick = phase_s
         if not self._playback.has_cycle:
             return
         before = self._playback.state

@@ -104,6 +104,8 @@ from srs_ros.nodes.common import (
 NODE_NAME = "hardware_node"
 DIAGNOSTICS_PERIOD_S = 1.0
 LOG_THROTTLE_S = 1.0
+#: How often a faulted rig that recovers by itself (sim) is configured again (s).
+RECOVERY_PERIOD_S = 1.0
 
 PARAMETERS = (
     ParameterSpec("rig_file", "", "rig YAML (config/rigs/*.yaml); '' = the mock rig"),
@@ -152,6 +154,8 @@ class HardwareStatus:
     clock_offset_s: float = 0.0  # the latest stamp-vs-clock difference that was out of bounds
     last_error: str = ""
     fault: str = ""  # set by a backend failure, cleared by the next successful configure
+    holding: str = ""  # why the backend holds output at 0 bar right now (a paused simulator), '' if it does not
+    recoveries: int = 0  # times a rig that recovers by itself (sim) was configured and activated again after a fault
     reason: OutputReason = OutputReason.INACTIVE
     # (time s, ticks, setpoints received, stamp problems) at the previous diagnostics
     rate_window: tuple[float, int, int, int] = (math.nan, 0, 0, 0)
@@ -193,6 +197,8 @@ class HardwareNode(LifecycleNode):
         self.gate = CommandGate(joint_count=0, setpoint_timeout_s=0.0)
         self.status = HardwareStatus()
         self._runtime: dict = {}
+        self._recover = (False, False)  # (the faulted backend recovers by itself, it was active) at the last fault
+        self._recovery_timer = None
         self._state_every_ticks = 1
         self._limited_names: list[str] = []
         backend_log = logging.getLogger("srs_ros.backends")
@@ -258,11 +264,35 @@ class HardwareNode(LifecycleNode):
         return TransitionCallbackReturn.SUCCESS
 
     def on_error(self, state: LifecycleState) -> TransitionCallbackReturn:
-        """Vent (best effort), close and fall back to unconfigured; configure + activate recover."""
+        """Vent (best effort), close and fall back to unconfigured; configure + activate recover.
+
+        A rig that recovers by itself (the simulated robot) is configured, and activated if it was active,
+        again by :meth:`_try_recovery` every :data:`RECOVERY_PERIOD_S`; a real rig waits for the operator.
+        """
         self._release()
-        self.get_logger().error(f"error processing done: backend closed, node unconfigured; configure and "
-                                f"activate to recover (fault: {self.status.fault or self.status.last_error})")
+        fault = self.status.fault or self.status.last_error
+        if self._recover[0]:
+            self._recovery_timer = self._recovery_timer or steady_timer(self, RECOVERY_PERIOD_S, self._try_recovery)
+            self.get_logger().error(f"error processing done: backend closed, node unconfigured (fault: {fault}); "
+                                    f"the simulated rig recovers by itself: configure"
+                                    f"{' + activate' if self._recover[1] else ''} in {RECOVERY_PERIOD_S:g} s")
+        else:
+            self.get_logger().error(f"error processing done: backend closed, node unconfigured; configure and "
+                                    f"activate to recover (fault: {fault})")
         return TransitionCallbackReturn.SUCCESS
+
+    def _try_recovery(self) -> None:
+        """Configure (and activate, if it was active) a rig that recovers by itself; stop once done or overtaken."""
+        if self.lifecycle_label() == "unconfigured" and self.trigger_configure() != TransitionCallbackReturn.SUCCESS:
+            return  # configure said why; try again next period
+        if self._recover[1] and self.lifecycle_label() == "inactive":
+            self.trigger_activate()
+        self.destroy_timer(self._recovery_timer)
+        self._recovery_timer = None
+        self._recover = (False, False)
+        self.status.recoveries += 1
+        self.get_logger().warning(f"recovered by itself after a fault: {self.lifecycle_label()}, holding 0 bar until "
+                                  "the simulated robot answers, then ramping up")
 
     # -- configure helpers --------------------------------------------------------------------
     def _open_backend(self) -> tuple[RigConfig, ActuatorBackend]:
@@ -327,6 +357,7 @@ class HardwareNode(LifecycleNode):
         """Vent and close the backend (best effort) and destroy the runtime interfaces; safe to repeat."""
         self.gate.set_active(False)
         self.status.reason = OutputReason.INACTIVE
+        self.status.holding = ""
         self.release_hardware()
         self.shaper = None  # the next configure reads the map and the compensation again
         for entity in self._runtime.values():
@@ -431,8 +462,13 @@ class HardwareNode(LifecycleNode):
         if self.backend is None:  # released (cleanup, shutdown) while a callback was already queued
             return
         now_s = time.monotonic()
+        try:
+            holding = self.backend.holding_reason()  # a paused simulator holds; a lost one raises
+        except Exception as exc:  # any backend failure takes the generic fault path
+            self._on_backend_fault(exc)
+            return
         stalls = self.gate.stalls
-        pressure_bar, reason = self.gate.decide(now_s)
+        pressure_bar, reason = self.gate.decide(now_s, holding)
         if self.gate.stalls > stalls:
             self.get_logger().warning(f"command ticks stalled longer than {self.gate.max_gap_s:g} s (this process was "
                                       "frozen or starved of CPU; see realtime_priority): output restarts with a "
@@ -447,6 +483,7 @@ class HardwareNode(LifecycleNode):
             self.status.latency_ms.append((self.get_clock().now().nanoseconds - self.status.pending_stamp_ns) * 1e-6)
         self.status.pending_stamp_ns = 0
         self.status.ticks += 1
+        self.status.holding = holding
         self._note_reason(reason)
         names = self.rig.robot.joint_names
         self._runtime["pressure"].publish(labelled_array(names, sent_bar))
@@ -457,6 +494,7 @@ class HardwareNode(LifecycleNode):
     def _on_backend_fault(self, exc: Exception) -> None:
         """Vent (best effort), then fail the next transition so the node goes through ErrorProcessing."""
         self.status.fault = _describe(exc)
+        self._recover = (self.backend.recovers_by_itself, self.gate.active)
         self._report_error(f"backend fault while commanding (venting, going to the error state): {self.status.fault}")
         self._vent()
         if self.gate.active:
@@ -481,9 +519,11 @@ class HardwareNode(LifecycleNode):
         if reason is OutputReason.STALE and self.status.reason in (OutputReason.COMMANDING, OutputReason.RAMPING):
             self.status.stale_vents += 1
         self.status.reason = reason
-        if reason is OutputReason.STALE:  # rclpy fixes a call site's severity, hence two calls
+        if reason is OutputReason.STALE:  # rclpy fixes a call site's severity, hence three calls
             self.get_logger().warning(f"output: {reason.value} (older than {self.gate.setpoint_timeout_s:g} s) "
                                       "-> 0 bar")
+        elif reason is OutputReason.HOLDING:
+            self.get_logger().warning(f"output: {reason.value}: {self.status.holding}; ramps back in when it answers")
         else:
             self.get_logger().info(f"output: {reason.value}" + (
                 "" if reason in (OutputReason.COMMANDING, OutputReason.RAMPING) else " -> 0 bar"))
@@ -600,6 +640,8 @@ class HardwareNode(LifecycleNode):
             "compensation_clamped": str(self.shaper.compensation_clamped if self.shaper else 0),
             "stale_vents": str(status.stale_vents),
             "command_stalls": str(self.gate.stalls),
+            "holding": status.holding or "none",
+            "recoveries": str(status.recoveries),
             "setpoint_arrival_age_max_ms": f"{arrival_age_max_s * 1e3:.3f}",
             "backend_writes": str(status.ticks),
             **self._latency_summary(),
@@ -624,7 +666,9 @@ class HardwareNode(LifecycleNode):
 
     def _diagnostic_summary(self, setpoint_rate_hz: float, stamp_problems: int) -> tuple[bytes, str]:
         if self.status.fault:
-            return DiagnosticStatus.ERROR, f"backend fault: {self.status.fault}; configure and activate to recover"
+            then = ("the simulated rig recovers by itself" if self._recover[0]
+                    else "configure and activate to recover")
+            return DiagnosticStatus.ERROR, f"backend fault: {self.status.fault}; {then}"
         if self.gate.estop_latched:
             return DiagnosticStatus.WARN, "e-stop latched: venting until ~/reset"
         if not self._runtime:
@@ -641,6 +685,9 @@ class HardwareNode(LifecycleNode):
                                            "hosts (sync the clocks)")
         if self.status.reason is OutputReason.STALE:
             return DiagnosticStatus.WARN, "setpoints stale: venting to 0 bar"
+        if self.status.reason is OutputReason.HOLDING:
+            return DiagnosticStatus.WARN, (f"holding at 0 bar: {self.status.holding}; output ramps back in when it "
+                                           "answers")
         return DiagnosticStatus.OK, self.status.reason.value
 
     def lifecycle_label(self) -> str:

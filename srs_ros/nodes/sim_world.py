@@ -25,6 +25,7 @@ read-back (so the hardware node faults and vents, as on a dead board), an ERROR 
 
 from __future__ import annotations
 
+import threading
 import time
 
 import numpy as np
@@ -32,25 +33,37 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import Point, PoseStamped
 from rclpy.experimental import EventsExecutor
 from rclpy.node import Node
+from rclpy.time import Time
+from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import Image, JointState
 from std_srvs.srv import Trigger
 from visualization_msgs.msg import Marker, MarkerArray
 
-from srs_ros.backends.sim_backend import SIM_COMMAND_TOPIC, SIM_MONITOR_TOPIC, bus_qos
-from srs_ros.core.actuation import pressures_to_lengths_m
+from srs_ros.backends.sim_backend import SIM_BOARD_TIMEOUT_S, SIM_COMMAND_TOPIC, SIM_MONITOR_TOPIC, bus_qos
+from srs_ros.core.actuation import clamp_pressures_bar, pressures_to_lengths_m
 from srs_ros.core.errors import InvalidInputError, SrsError
 from srs_ros.core.kinematics import backbone_points
 from srs_ros.core.robot import load_robot
 from srs_ros.core.tracking import yaw_to_quaternion
 from srs_ros.nodes.camera_tracker import IMAGE_TOPIC, array_to_image_msg
-from srs_ros.nodes.common import DIAGNOSTICS_TOPIC, ParameterSpec, declare_parameters, run_node, steady_timer
+from srs_ros.nodes.common import (
+    DIAGNOSTICS_TOPIC,
+    REALTIME_PRIORITY,
+    ParameterSpec,
+    declare_parameters,
+    request_realtime_priority,
+    run_node,
+    steady_timer,
+)
 from srs_ros.sim.camera import OverheadCamera
 from srs_ros.sim.config import load_sim_config
+from srs_ros.sim.realtime import RealTimePacer, SimulatedBoard
 from srs_ros.sim.world import SimWorld
 
 NODE_NAME = "sim_world"
 GROUND_TRUTH_TOPIC = "sim/ground_truth_pose"
 BODY_MARKERS_TOPIC = "sim/body_markers"
+CLOCK_TOPIC = "/clock"
 FLOOR_FRAME = "floor"
 LOG_THROTTLE_S = 1.0
 
@@ -62,103 +75,171 @@ PARAMETERS = (
     ParameterSpec("pose_rate_hz", 50.0, "sim/ground_truth_pose messages per second", 1.0, 500.0, read_only=True),
     ParameterSpec("markers_rate_hz", 10.0, "sim/body_markers messages per second (0 = none)", 0.0, 100.0,
                   read_only=True),
+    ParameterSpec("command_timeout_s", SIM_BOARD_TIMEOUT_S, "the simulated board vents every muscle by itself when "
+                  "no command came for this long (s of world time), as a real DAC board must", 0.02, 10.0,
+                  read_only=True),
+    REALTIME_PRIORITY,
 )
 
 
 class SimWorldNode(Node):
-    """ROS wiring of a :class:`~srs_ros.sim.world.SimWorld` and an :class:`~srs_ros.sim.camera.OverheadCamera`."""
+    """ROS wiring of a :class:`~srs_ros.sim.world.SimWorld` and an :class:`~srs_ros.sim.camera.OverheadCamera`.
+
+    The physics steps on a thread of its own (:meth:`_step_loop`), paced to the steady clock with bounded
+    catch-up (:class:`~srs_ros.sim.realtime.RealTimePacer`); commands reach it through a simulated board
+    (:class:`~srs_ros.sim.realtime.SimulatedBoard`) that vents on silence. The executor only receives
+    commands and publishes snapshots (pose, camera, markers, diagnostics), so a slow render never holds
+    up the physics or the read-back.
+    """
 
     def __init__(self, **kwargs):
-        """Build the world and the camera, then step in real time on the steady clock."""
+        """Build the world and the camera, then start stepping in real time on the steady clock."""
         super().__init__(NODE_NAME, **kwargs)
         self._specs = declare_parameters(self, PARAMETERS)
         p = {name: self.get_parameter(name).value for name in self._specs}
+        request_realtime_priority(p["realtime_priority"], self.get_logger())  # before the stepping thread starts
         self.robot = load_robot(p["robot_description_file"] or None)
         self.config = load_sim_config(p["sim_config_file"] or None, robot=self.robot)
         self.world = SimWorld(self.config, self.robot)
         self.camera = OverheadCamera(self.config) if p["camera_rate_hz"] > 0 else None
+        self.board = SimulatedBoard(self.robot.joint_count, p["command_timeout_s"])
+        self.pacer = RealTimePacer()
         self.failure = ""  # why the world stopped (a divergence), until ~/reset
         self.commands = 0
-        self._start_s = time.monotonic()
+        self._lock = threading.Lock()  # the world: stepped by the stepping thread, read by the executor's callbacks
+        self._target_s = 0.0  # world time the pacer allows so far (s)
+        self._clock_base_s = 0.0  # /clock = base + world time: it never goes back at a ~/reset
         self._step_wall_s = 0.0  # wall time spent stepping, for the real-time figure
-        self._window = (self._start_s, 0.0, 0.0)  # (wall s, world s, stepping s) at the last diagnostics
+        self._window = (time.monotonic(), 0.0, 0.0)  # (wall s, world s, stepping s) at the last diagnostics
         self._state = None  # the world's state at its current time, computed once for every output
+        self._create_interfaces(p)
+        self._stop = threading.Event()
+        self._wake = threading.Event()
+        self._thread = threading.Thread(target=self._step_loop, name="sim_world_physics", daemon=True)
+        self._thread.start()
+        self.get_logger().info(
+            f"simulated robot: {self.config.body.segments_per_module} segments per module, "
+            f"{self.config.contact.describe()}, time step {self.world.time_step_s * 1e3:g} ms; "
+            f"commands on {self.resolve_topic_name(SIM_COMMAND_TOPIC)} (vent after {p['command_timeout_s']:g} s "
+            "without one), camera "
+            + (f"{p['camera_rate_hz']:g} fps on {self.resolve_topic_name(IMAGE_TOPIC)}" if self.camera else "off")
+            + ("; publishing /clock (use_sim_time)" if self._clock_pub else ""))
 
+    def _create_interfaces(self, p: dict) -> None:
         self._monitor = JointState(name=list(self.robot.joint_names))
         self._monitor_pub = self.create_publisher(JointState, SIM_MONITOR_TOPIC, bus_qos())
         self._pose_pub = self.create_publisher(PoseStamped, GROUND_TRUTH_TOPIC, 10)
         self._markers_pub = self.create_publisher(MarkerArray, BODY_MARKERS_TOPIC, 1)
         self._image_pub = self.create_publisher(Image, IMAGE_TOPIC, 1)
         self._diag_pub = self.create_publisher(DiagnosticArray, DIAGNOSTICS_TOPIC, 10)
+        # With use_sim_time the world is the clock, as Gazebo is: every node follows its time on /clock.
+        use_sim_time = self.get_parameter("use_sim_time").value
+        self._clock_pub = self.create_publisher(Clock, CLOCK_TOPIC, 10) if use_sim_time else None
         self.create_subscription(JointState, SIM_COMMAND_TOPIC, self._on_command, bus_qos())
         self.create_service(Trigger, "~/reset", self._on_reset)
-        steady_timer(self, self.config.physics.control_period_s, self._on_control_tick)
         steady_timer(self, 1.0 / p["pose_rate_hz"], self._publish_pose)
         if p["markers_rate_hz"] > 0:
             steady_timer(self, 1.0 / p["markers_rate_hz"], self._publish_markers)
         if self.camera is not None:
             steady_timer(self, 1.0 / p["camera_rate_hz"], self._publish_image)
         steady_timer(self, 1.0, self._publish_diagnostics)
-        self.get_logger().info(
-            f"simulated robot: {self.config.body.segments_per_module} segments per module, "
-            f"{self.config.contact.describe()}, time step {self.world.time_step_s * 1e3:g} ms; "
-            f"commands on {self.resolve_topic_name(SIM_COMMAND_TOPIC)}, camera "
-            + (f"{p['camera_rate_hz']:g} fps on {self.resolve_topic_name(IMAGE_TOPIC)}" if self.camera else "off"))
 
-    # -- time --------------------------------------------------------------------------------
-    def state(self):
-        """The world's state now (computed once per world time step for all outputs)."""
-        if self._state is None or self._state.time_s != self.world.time_s:
-            self._state = self.world.state(with_contacts=False)
-        return self._state
+    # -- the physics thread ------------------------------------------------------------------
+    def _step_loop(self) -> None:
+        """Step at every control period and whenever a command arrives, until :meth:`destroy_node`."""
+        period_s = self.config.physics.control_period_s
+        next_tick_s = time.monotonic()
+        while not self._stop.is_set():
+            self._wake.wait(timeout=max(0.0, next_tick_s - time.monotonic()))
+            self._wake.clear()
+            now_s = time.monotonic()
+            tick = now_s >= next_tick_s
+            if tick:
+                next_tick_s = max(next_tick_s + period_s, now_s - period_s)  # late: no burst of ticks
+            try:
+                self._step(now_s, tick)
+            except Exception as exc:  # the context went down under us (process exit): stop stepping
+                if self._stop.is_set() or not self.context.ok():
+                    return
+                self.get_logger().error(f"the physics thread stopped: {type(exc).__name__}: {exc}")
+                self.failure = self.failure or f"physics thread: {exc}"
+                return
 
-    def _world_time_s(self) -> float:
-        return time.monotonic() - self._start_s
-
-    def _advance(self) -> bool:
-        """Step the physics up to the wall clock; False (and the world stopped) on a divergence."""
-        if self.failure:
-            return False
-        started = time.monotonic()
-        try:
-            self.world.advance_to(self._world_time_s())
-        except SrsError as exc:
-            self.failure = str(exc)
-            self.get_logger().error(f"the simulation diverged and stopped (no pose, no images, no read-back: the "
-                                    f"hardware node will fault and vent): {exc}; call ~/reset to restart it")
-            return False
-        finally:
-            self._step_wall_s += time.monotonic() - started
-        return True
-
-    def _on_control_tick(self) -> None:
-        if not self._advance():
-            return
-        pressure_bar, length_m = self.world.muscles.state(self.world.time_s)  # the read-back only: cheap
+    def _step(self, now_s: float, tick: bool) -> None:
+        """Advance the world as the pacer allows, apply the board's command; at a tick publish read-back and clock."""
+        with self._lock:
+            if self.failure:
+                return
+            started = time.monotonic()
+            try:
+                self._target_s += self.pacer.step_s(now_s)
+                self.world.advance_to(self._target_s)
+                command = self.board.take(self.world.time_s)
+                if command is not None:
+                    self.world.command_pressures(command, self.world.time_s)
+                    if self.board.vented_by_silence:
+                        self.get_logger().warning(
+                            f"no regulator command for {self.board.command_timeout_s:g} s: the simulated board "
+                            "vented every muscle by itself (the hardware node stopped or died)")
+            except SrsError as exc:
+                self._stop_world(str(exc))
+                return
+            finally:
+                self._step_wall_s += time.monotonic() - started
+            if not tick:
+                return
+            pressure_bar, length_m = self.world.muscles.state(self.world.time_s)  # the read-back only: cheap
+            clock_s = self._clock_base_s + self.world.time_s
+        if self._clock_pub is not None:
+            self._clock_pub.publish(Clock(clock=Time(nanoseconds=round(clock_s * 1e9)).to_msg()))
         msg = self._monitor
         msg.header.stamp = self.get_clock().now().to_msg()
         msg.effort = pressure_bar.tolist()
         msg.position = length_m.tolist()
         self._monitor_pub.publish(msg)
 
+    def _stop_world(self, reason: str) -> None:
+        self.failure = reason
+        self.get_logger().error(f"the simulation diverged and stopped (no pose, no images, no read-back: the "
+                                f"hardware node will fault and vent): {reason}; call ~/reset to restart it")
+
+    def destroy_node(self) -> None:
+        """Stop the physics thread, then destroy the node."""
+        self._stop.set()
+        self._wake.set()
+        if self._thread.is_alive() and self._thread is not threading.current_thread():
+            self._thread.join(timeout=5.0)
+        super().destroy_node()
+
     # -- inputs ------------------------------------------------------------------------------
+    def state(self):
+        """The world's state now (computed once per world time step for all outputs)."""
+        with self._lock:
+            if self._state is None or self._state.time_s != self.world.time_s:
+                self._state = self.world.state(with_contacts=False)
+            return self._state
+
     def _on_command(self, msg: JointState) -> None:
-        if self.failure or not self._advance():
+        if self.failure:
             return
         try:
             if list(msg.name) != list(self.robot.joint_names):
                 raise InvalidInputError(f"names {list(msg.name)}; expected {list(self.robot.joint_names)} in order.")
-            self.world.command_pressures(msg.effort, self.world.time_s)
+            self.board.receive(clamp_pressures_bar(msg.effort, self.robot))
             self.commands += 1
+            self._wake.set()
         except SrsError as exc:  # the regulators ignore a frame they cannot read; the last command stays
             self.get_logger().error(f"ignored a regulator command: {exc}", throttle_duration_sec=LOG_THROTTLE_S)
 
     def _on_reset(self, _request, response):
-        self.world.reset()
-        self._start_s = time.monotonic()
-        self._window = (self._start_s, 0.0, self._step_wall_s)
-        was = self.failure
-        self.failure = ""
+        with self._lock:
+            self._clock_base_s += self.world.time_s
+            self.world.reset()
+            self.board.reset()
+            self.pacer.restart()
+            self._target_s = 0.0
+            self._state = None
+            was, self.failure = self.failure, ""
         response.success = True
         response.message = "the simulated robot is back at its start pose, vented" + (
             f" (it had stopped: {was})" if was else "")
@@ -182,7 +263,7 @@ class SimWorldNode(Node):
     def _publish_image(self) -> None:
         if self.failure:
             return
-        image = self.camera.render(self.state().nodes_m)
+        image = self.camera.render(self.state().nodes_m)  # outside the lock: the physics goes on meanwhile
         self._image_pub.publish(array_to_image_msg(image, self.get_clock().now().to_msg(), "camera"))
 
     def _publish_markers(self) -> None:
@@ -203,17 +284,24 @@ class SimWorldNode(Node):
         then_s, then_world_s, then_stepping_s = self._window
         self._window = (now_s, world_s, stepping_s)
         span_s = max(now_s - then_s, 1e-9)
-        values = {"world_time_s": f"{world_s:.3f}", "lag_s": f"{self._world_time_s() - world_s:.3f}",
-                  "stepping_share": f"{(stepping_s - then_stepping_s) / span_s:.3f}",
-                  "world_rate": f"{(world_s - then_world_s) / span_s:.3f}",
-                  "commands": str(self.commands), "failure": self.failure or "none"}
-        level = DiagnosticStatus.ERROR if self.failure else DiagnosticStatus.OK
-        message = f"stopped: {self.failure}; call ~/reset" if self.failure else "stepping in real time"
+        values = {"world_time_s": f"{world_s:.3f}", "slipped_s": f"{self.pacer.slipped_s:.3f}",
+                  "slips": str(self.pacer.slips), "stepping_share": f"{(stepping_s - then_stepping_s) / span_s:.3f}",
+                  "world_rate": f"{(world_s - then_world_s) / span_s:.3f}", "commands": str(self.commands),
+                  "silence_vents": str(self.board.silence_vents), "failure": self.failure or "none"}
+        level, message = self._summary()
         status = DiagnosticStatus(level=level, name=f"{NODE_NAME}: simulated robot", message=message,
                                   hardware_id="mujoco", values=[KeyValue(key=k, value=v) for k, v in values.items()])
         msg = DiagnosticArray(status=[status])
         msg.header.stamp = self.get_clock().now().to_msg()
         self._diag_pub.publish(msg)
+
+    def _summary(self) -> tuple[bytes, str]:
+        if self.failure:
+            return DiagnosticStatus.ERROR, f"stopped: {self.failure}; call ~/reset"
+        if self.board.vented_by_silence:
+            return DiagnosticStatus.WARN, (f"vented by the board's own watchdog: no regulator command for "
+                                           f"{self.board.command_timeout_s:g} s (is the hardware node running?)")
+        return DiagnosticStatus.OK, "stepping in real time"
 
 
 def _line_strip(marker_id: int, namespace: str, points_m: np.ndarray, width_m: float, rgba, stamp) -> Marker:

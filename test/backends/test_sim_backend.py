@@ -46,18 +46,21 @@ def test_bad_options_are_refused_with_the_key(options, match):
         create_backend("sim", options=options)
 
 
-def test_commands_reach_the_world_and_its_silence_is_a_hardware_error(ros):
+def test_commands_reach_the_world_a_pause_holds_and_a_long_silence_is_a_hardware_error(ros):
     node, executor = ros
     commands = []
     node.create_subscription(JointState, SIM_COMMAND_TOPIC, commands.append, bus_qos())
     monitor = node.create_publisher(JointState, SIM_MONITOR_TOPIC, bus_qos())
-    backend = create_backend("sim", options={"readback_timeout_s": 0.3, "startup_timeout_s": 0.5})
-    assert backend.drives_real_hardware is False
+    backend = create_backend("sim", options={"readback_timeout_s": 0.2, "world_lost_timeout_s": 0.6,
+                                             "startup_timeout_s": 0.5})
+    assert backend.drives_real_hardware is False and backend.recovers_by_itself
+    readback = JointState(name=NAMES, effort=[1.5] * 9, position=[0.01] * 9)
     with backend:
+        assert "waiting for sim_world's first read-back" in backend.holding_reason()
         backend.write_pressures(np.full(9, 2.0))  # the world has not answered yet: allowed during start-up
         spin_until(executor, lambda: commands, what="the command on the bus")
-        readback = JointState(name=NAMES, effort=[1.5] * 9, position=[0.01] * 9)
         spin_until(executor, lambda: monitor.publish(readback) or backend.monitor_count > 0, what="the read-back")
+        assert backend.holding_reason() == ""
         assert list(commands[-1].effort) == [2.0] * 9 and list(commands[-1].name) == NAMES
         state = backend.read_state()
         assert state.measured_pressure_bar == pytest.approx(np.full(9, 1.5))
@@ -65,11 +68,51 @@ def test_commands_reach_the_world_and_its_silence_is_a_hardware_error(ros):
         backend.write_pressures(np.full(9, 9.0))
         spin_until(executor, lambda: list(commands[-1].effort) == [4.0] * 9, what="the clamped command")
 
-        time.sleep(0.4)  # the world falls silent
-        with pytest.raises(HardwareError, match="sim_world silent"):
+        time.sleep(0.3)  # the world pauses longer than readback_timeout_s: a hold, not a fault
+        assert "sim_world silent for" in backend.holding_reason()
+        backend.write_pressures(np.zeros(9))
+        count = backend.monitor_count
+        spin_until(executor, lambda: monitor.publish(readback) or backend.monitor_count > count, what="the resume")
+        assert backend.holding_reason() == ""  # it answers again: output may ramp back in
+
+        time.sleep(0.7)  # silent longer than world_lost_timeout_s: lost
+        with pytest.raises(HardwareError, match="sim_world silent for"):
+            backend.holding_reason()
+        with pytest.raises(HardwareError, match="sim_world silent for"):
             backend.write_pressures(np.full(9, 2.0))
         backend.vent()  # a vent still goes out on the bus and does not raise
         spin_until(executor, lambda: not any(commands[-1].effort), what="the vent on the bus")
+
+
+def test_a_world_that_leaves_the_graph_is_lost_at_once(ros):
+    node, executor = ros
+    monitor = node.create_publisher(JointState, SIM_MONITOR_TOPIC, bus_qos())
+    with create_backend("sim", options={"readback_timeout_s": 0.05, "world_lost_timeout_s": 30.0}) as backend:
+        readback = JointState(name=NAMES, effort=[0.0] * 9, position=[0.0] * 9)
+        spin_until(executor, lambda: monitor.publish(readback) or backend.monitor_count > 0, what="the read-back")
+        node.destroy_publisher(monitor)
+        time.sleep(0.1)
+        spin_until(executor, lambda: _lost(backend), timeout_s=5.0, what="the world gone from the graph")
+
+
+def _lost(backend) -> bool:
+    try:
+        backend.holding_reason()
+    except HardwareError as exc:
+        assert "left the ROS graph" in str(exc)
+        return True
+    return False
+
+
+def test_the_bus_takes_the_process_namespace_and_remaps_but_its_own_name(ros_domain):
+    rclpy.init(domain_id=ros_domain, args=["--ros-args", "-r", "__ns:=/snake1", "-r", "__node:=hardware_node"])
+    try:
+        with create_backend("sim") as backend:
+            assert backend._node.get_fully_qualified_name() == "/snake1/sim_backend_bus"
+            assert backend._publisher.topic_name == "/snake1/sim/regulator_command"
+            assert "/snake1/sim/regulator_monitor" in backend.holding_reason()
+    finally:
+        rclpy.shutdown()
 
 
 def test_a_world_that_never_answers_fails_after_the_startup_timeout(ros):

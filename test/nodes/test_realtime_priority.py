@@ -14,7 +14,7 @@ def policies(pid: int) -> set[int]:
     return {os.sched_getscheduler(int(task)) for task in os.listdir(f"/proc/{pid}/task")}
 
 
-@pytest.mark.parametrize("script", ["gait_player", "hardware_node"])
+@pytest.mark.parametrize("script", ["gait_player", "hardware_node", "sim_world"])
 def test_realtime_priority_puts_every_thread_on_sched_fifo_or_says_why_not(launch_node, ros_client, script):
     # Both outcomes need root (CAP_SYS_NICE) and capsh, as in CI; elsewhere this fails, it does not skip.
     assert os.geteuid() == 0 and shutil.which("capsh"), "run the suite as root with capsh (libcap2-bin) installed"

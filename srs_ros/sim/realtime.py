@@ -1,0 +1,91 @@
+"""What the simulated robot needs beyond its physics to stand in for a rig: pacing to a clock and a board's watchdog.
+
+No ROS: the ``sim_world`` node wires these to its stepping thread.
+
+- :class:`RealTimePacer` says how far the world may step at each wake-up of a real-time loop: the wall time
+  that passed, but never more than ``max_step_s`` at once (bounded catch-up). After a stall of the process
+  (CPU load, a SIGSTOP) the world *slips*: it resumes where it stopped and runs late by the stall instead of
+  racing through it, so the muscles never see a burst of simulated time without commands. The slip is counted
+  (``slipped_s``); with ``use_sim_time`` every node follows the world's own time on ``/clock`` and the slip costs
+  nothing but wall time.
+- :class:`SimulatedBoard` is the regulators' DAC board: it holds the newest command and vents by itself when
+  commands stop for ``command_timeout_s`` of *world* time, as docs/can.md demands of a real board (a world that
+  is itself paused does not count its own pause as silence).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+#: The largest slice of world time one wake-up of a real-time loop may step (s): about 8 ms of CPU at 13x real time.
+MAX_CATCH_UP_S = 0.1
+
+
+@dataclass
+class RealTimePacer:
+    """World time to step per wake-up: the wall time elapsed, at most ``max_step_s`` (the rest slips)."""
+
+    max_step_s: float = MAX_CATCH_UP_S
+    slipped_s: float = 0.0  # wall time the world did not follow (stalls longer than max_step_s), s
+    slips: int = 0  # wake-ups that came too late to follow the wall clock
+    _last_wall_s: float | None = None
+
+    def step_s(self, wall_s: float) -> float:
+        """World seconds to advance at wall time ``wall_s`` (s, monotonic); 0 at the first call."""
+        last, self._last_wall_s = self._last_wall_s, wall_s
+        if last is None:
+            return 0.0
+        elapsed_s = max(0.0, wall_s - last)
+        if elapsed_s > self.max_step_s:
+            self.slipped_s += elapsed_s - self.max_step_s
+            self.slips += 1
+            return self.max_step_s
+        return elapsed_s
+
+    def restart(self) -> None:
+        """Forget the last wake-up (after a reset: the next call steps nothing)."""
+        self._last_wall_s = None
+
+
+@dataclass
+class SimulatedBoard:
+    """The simulated regulators' board: the newest command, and a vent when commands stop for ``command_timeout_s``.
+
+    The caller hands in commands as they arrive (:meth:`receive`) and asks, at each wake-up with the
+    world's time, what to apply (:meth:`take`): the newest command once, or zeros once when the last one
+    is older than ``command_timeout_s`` of world time.
+    """
+
+    joint_count: int
+    command_timeout_s: float
+    silence_vents: int = 0  # times the board vented by itself
+    vented_by_silence: bool = False  # True while it holds 0 bar because commands stopped (until the next one)
+    _pending: np.ndarray | None = field(default=None, repr=False)
+    _last_command_world_s: float = -math.inf
+    _vented: bool = True  # starts vented: nothing to time out before the first command
+
+    def receive(self, pressure_bar: np.ndarray) -> None:
+        """A command arrived (already checked and clamped by the caller); it replaces any not yet applied."""
+        self._pending = np.asarray(pressure_bar, dtype=np.float64)
+
+    def take(self, world_s: float) -> np.ndarray | None:
+        """What to command at world time ``world_s`` (s): a new command, zeros for a timed-out one, or None."""
+        pending, self._pending = self._pending, None
+        if pending is not None:
+            self._last_command_world_s = world_s
+            self._vented = self.vented_by_silence = False
+            return pending
+        if not self._vented and world_s - self._last_command_world_s > self.command_timeout_s:
+            self._vented = self.vented_by_silence = True
+            self.silence_vents += 1
+            return np.zeros(self.joint_count)
+        return None
+
+    def reset(self) -> None:
+        """Forget every command (the world was reset, vented)."""
+        self._pending = None
+        self._last_command_world_s = -math.inf
+        self._vented, self.vented_by_silence = True, False

@@ -1,0 +1,132 @@
+"""The simulated rig keeps running: sim_world paused, stopped for long, killed and restarted; the hardware node killed.
+
+Separate processes over real DDS: sim_world (MuJoCo) and hardware_node on the sim rig; the test streams a
+4 bar setpoint (0.04 m, P = 100 l) as gait_player would, and signals the processes as a busy machine, a
+debugger or a crash would.
+"""
+
+import os
+import signal
+import time
+
+import numpy as np
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
+from sensor_msgs.msg import JointState
+from srs_testing import ros_args
+from std_msgs.msg import Float64MultiArray
+
+from srs_ros.backends.sim_backend import SIM_BOARD_TIMEOUT_S, SIM_MONITOR_TOPIC, bus_qos
+from srs_ros.core.robot import config_dir, default_robot
+from srs_ros.nodes.common import setpoint_qos
+
+SIM_RIG = str(config_dir() / "rigs" / "sim.yaml")
+NAMES = list(default_robot().joint_names)
+WORLD_ARGS = ros_args({"camera_rate_hz": 0.0, "markers_rate_hz": 0.0})
+HARDWARE_ARGS = ros_args({"autostart": True, "rig_file": SIM_RIG, "ramp_time_s": 0.2})
+FULL_BAR = 3.9
+
+
+class Rig:
+    """The test's view of the rig: a 4 bar setpoint stream, the commands, the read-back and /diagnostics."""
+
+    def __init__(self, client):
+        self.client = client
+        self.commanded = []  # (arrival monotonic s, largest commanded pressure bar)
+        self.readback = []  # (arrival monotonic s, largest read-back pressure bar)
+        self.diagnostics = client.subscribe(DiagnosticArray, "/diagnostics")
+        node = client.node
+        node.create_subscription(Float64MultiArray, "commanded_pressure_bar",
+                                 lambda m: self.commanded.append((time.monotonic(), max(m.data))), 100)
+        node.create_subscription(JointState, SIM_MONITOR_TOPIC,
+                                 lambda m: self.readback.append((time.monotonic(), max(m.effort))), bus_qos())
+        publisher = node.create_publisher(JointState, "joint_setpoints", setpoint_qos())
+        setpoint = JointState(name=NAMES, position=[0.04] * 9)
+        node.create_timer(0.01, lambda: publisher.publish(setpoint))
+
+    def commanding(self) -> bool:
+        return bool(self.commanded) and self.commanded[-1][1] >= FULL_BAR
+
+    def wait_commanding(self, timeout_s: float, what: str) -> None:
+        self.client.spin_until(self.commanding, timeout_s, what)
+
+    def hardware_status(self):
+        statuses = [s for m in self.diagnostics for s in m.status if s.name.startswith("hardware_node")]
+        return statuses[-1] if statuses else None
+
+    def hardware_errors(self, since: int = 0) -> list[str]:
+        return [s.message for m in self.diagnostics[since:] for s in m.status
+                if s.name.startswith("hardware_node") and s.level == DiagnosticStatus.ERROR]
+
+    def commanded_between(self, start_s: float, end_s: float) -> list[float]:
+        return [bar for t, bar in self.commanded if start_s <= t <= end_s]
+
+
+def pause(process, seconds: float, client) -> tuple[float, float]:
+    """SIGSTOP ``process`` for ``seconds`` while the client keeps spinning; the (start, end) monotonic times."""
+    os.kill(process.process.pid, signal.SIGSTOP)
+    start_s = time.monotonic()
+    try:
+        client.spin_for(seconds)
+    finally:
+        os.kill(process.process.pid, signal.SIGCONT)
+    return start_s, time.monotonic()
+
+
+def test_a_paused_simulator_holds_a_stopped_one_faults_and_recovers_and_a_restarted_one_is_picked_up(
+        launch_node, ros_client):
+    world = launch_node("sim_world", WORLD_ARGS)
+    hardware = launch_node("hardware_node", HARDWARE_ARGS)
+    rig = Rig(ros_client)
+    rig.wait_commanding(60.0, "the sim rig commanding 4 bar")
+
+    # 1. A pause of 0.5 s (a stall under load): hold at 0 bar, then ramp back by itself, no fault.
+    errors_before = len(rig.diagnostics)
+    start_s, end_s = pause(world, 0.5, ros_client)
+    rig.wait_commanding(5.0, "output ramping back in after a 0.5 s pause")
+    held = rig.commanded_between(start_s + 0.35, end_s)
+    assert held and min(held) == 0.0, f"no hold at 0 bar while sim_world was stopped: {held[:5]}"
+    assert rig.hardware_errors(errors_before) == [], rig.hardware_errors(errors_before)
+    assert ros_client.lifecycle_state("/hardware_node") == "active"
+
+    # 2. Stopped for 3 s: a hardware error is reported, and the sim rig recovers by itself after SIGCONT.
+    errors_before = len(rig.diagnostics)
+    start_s, end_s = pause(world, 3.0, ros_client)
+    errors = rig.hardware_errors(errors_before)
+    assert any("sim_world silent" in e and "recovers by itself" in e for e in errors), errors
+    rig.wait_commanding(15.0, "the sim rig recovering by itself after SIGCONT (no command sent)")
+    assert ros_client.lifecycle_state("/hardware_node") == "active"
+
+    # 3. Killed: vent, fault reported, no traceback; a restarted sim_world is picked up.
+    world.kill()
+    killed_s = time.monotonic()
+    ros_client.spin_until(lambda: rig.commanded[-1][1] == 0.0 and rig.commanded[-1][0] > killed_s, 5.0,
+                          "the vent after sim_world was killed")
+    errors_before = len(rig.diagnostics)
+    ros_client.spin_until(lambda: any("sim_world" in e for e in rig.hardware_errors(errors_before)), 10.0,
+                          "the fault on /diagnostics")
+    launch_node("sim_world", WORLD_ARGS)
+    rig.wait_commanding(60.0, "the restarted sim_world picked up")
+    output = hardware.output()
+    assert "Traceback" not in output and "unexpected error" not in output, output[-3000:]
+
+
+def test_sim_world_vents_by_itself_when_the_hardware_node_dies(launch_node, ros_client):
+    launch_node("sim_world", WORLD_ARGS)
+    hardware = launch_node("hardware_node", HARDWARE_ARGS)
+    rig = Rig(ros_client)
+    ros_client.spin_until(lambda: rig.readback and rig.readback[-1][1] > FULL_BAR, 60.0, "4 bar read back")
+    hardware.kill()  # SIGKILL while commanding 4 bar: no vent from the host
+    killed_s = time.monotonic()
+    ros_client.spin_until(lambda: rig.readback[-1][1] < 0.05, 10.0, "the read-back falling to 0 bar")
+    times = np.array([t for t, _ in rig.readback if t > killed_s])
+    bars = np.array([bar for t, bar in rig.readback if t > killed_s])
+    still_full_s = times[bars > FULL_BAR].max(initial=killed_s) - killed_s
+    vented_s = times[bars < 0.05].min() - killed_s
+    print(f"hardware_node SIGKILLed at 4 bar: sim_world held {still_full_s:.2f} s, read-back < 0.05 bar after "
+          f"{vented_s:.2f} s (board timeout {SIM_BOARD_TIMEOUT_S:g} s + the muscles' 30 ms delay and 80 ms lag)")
+    # The board holds the last command for its timeout of world time, then vents; the pressure decays with
+    # the muscle model's delay and lag (5 time constants to 0.05 bar of 4): about 0.45 s after the vent. The
+    # bound leaves room for a world slowed by a busy machine (its timeout counts world time); before the
+    # board had a watchdog it held 4 bar for ever. The exact timeout is unit-tested (test/sim/test_realtime.py).
+    assert still_full_s > 0.5 * SIM_BOARD_TIMEOUT_S
+    assert vented_s < SIM_BOARD_TIMEOUT_S + 2.5

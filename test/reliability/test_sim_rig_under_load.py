@@ -1,0 +1,107 @@
+"""The simulated rig under load, as a user meets it: the launch layout beside busy processes and `ros2 param` calls.
+
+Separate processes over real DDS, started as launch/srs.launch.py starts them (parameter files from config/):
+sim_world, trajectory_server, gait_player, hardware_node (sim rig) and camera_tracker. Beside them for 60 s: three
+busy processes (a compile), a 10 Hz loop of parameter reads and a new `ros2 param get`-like process every second.
+Before the fix the hardware node faulted (`sim_world silent for 0.20 s`) and the robot stopped for good.
+"""
+
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
+from geometry_msgs.msg import PoseStamped
+from srs_testing import ros_args
+
+from srs_ros.core.robot import config_dir
+
+DURATION_S = 60.0
+BUSY_PROCESSES = 3
+#: What `ros2 param get /trajectory_server gait` does: a new process, a node, one service call, exit.
+PARAM_GET = """
+import sys, rclpy
+from rcl_interfaces.srv import GetParameters
+rclpy.init()
+node = rclpy.create_node("param_get_" + str(__import__("os").getpid()))
+client = node.create_client(GetParameters, "/trajectory_server/get_parameters")
+client.wait_for_service(timeout_sec=10.0)
+future = client.call_async(GetParameters.Request(names=["gait"]))
+end = __import__("time").monotonic() + 10.0
+while not future.done() and __import__("time").monotonic() < end:
+    rclpy.spin_once(node, timeout_sec=0.05)
+node.destroy_node()
+rclpy.shutdown()
+"""
+
+
+def launch_layout(launch_node) -> dict:
+    """The launch file's five processes: its parameter files first, then its overrides (sim rig, autostart)."""
+    config = config_dir()
+
+    def node(name: str, overrides: dict, params_file: bool = True):
+        files = ["--params-file", str(config / f"{name}.yaml")] if params_file else []
+        return launch_node(name, ["--ros-args", *files, *ros_args(overrides)[1:]])
+
+    rig = str(config / "rigs" / "sim.yaml")
+    return {
+        "sim_world": node("sim_world", {}, params_file=False),
+        "trajectory_server": node("trajectory_server", {}),
+        "gait_player": node("gait_player", {"autostart": True}),
+        "hardware_node": node("hardware_node", {"autostart": True, "rig_file": rig}),
+        "camera_tracker": node("camera_tracker", {"color_preset": "sim_bands"}),
+    }
+
+
+@pytest.mark.slow
+def test_the_launch_layout_keeps_moving_for_a_minute_beside_busy_processes_and_param_calls(
+        launch_node, ros_client, ros_env):
+    processes = launch_layout(launch_node)
+    truth = ros_client.subscribe(PoseStamped, "sim/ground_truth_pose")
+    diagnostics = ros_client.subscribe(DiagnosticArray, "/diagnostics")
+    ros_client.spin_until(lambda: len(truth) > 10, 60.0, "the simulated robot's ground truth")
+    ros_client.spin_until(lambda: _moved_m(truth, 2.0) > 0.02, 60.0, "the robot rolling")
+    busy = [subprocess.Popen([sys.executable, "-c", "while True: pass"]) for _ in range(BUSY_PROCESSES)]
+    getters: list[subprocess.Popen] = []
+    reads, start_s = 0, time.monotonic()
+    try:
+        while time.monotonic() - start_s < DURATION_S:
+            if len(getters) < time.monotonic() - start_s:  # a new `ros2 param get` process every second
+                getters.append(subprocess.Popen([sys.executable, "-c", PARAM_GET], env=ros_env,
+                                                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL))
+            ros_client.get_parameters("/gait_player", ["rate_hz"])  # the 10 Hz loop of parameter reads
+            reads += 1
+            ros_client.spin_for(max(0.0, start_s + reads * 0.1 - time.monotonic()))
+    finally:
+        for proc in busy + getters:
+            proc.kill()
+            proc.wait()
+    windows_m = [_moved_m(truth, 20.0, end_s=start_s + k * 20.0) for k in (1, 2, 3)]
+    hardware = [s for m in diagnostics for s in m.status if s.name.startswith("hardware_node")]
+    values = {kv.key: kv.value for kv in hardware[-1].values}
+    print(f"{DURATION_S:g} s beside {BUSY_PROCESSES} busy processes, {reads} parameter reads, {len(getters)} "
+          f"param-get processes: travel per 20 s {[round(m, 3) for m in windows_m]} m; hardware node: "
+          f"{values['holding']!r} now, stale vents {values['stale_vents']}, stalls {values['command_stalls']}, "
+          f"recoveries {values['recoveries']}")
+    faults = [s.message for s in hardware if s.level == DiagnosticStatus.ERROR]
+    assert faults == [], faults
+    assert values["recoveries"] == "0" and ros_client.lifecycle_state("/hardware_node") == "active"
+    for name, proc in processes.items():
+        assert proc.alive(), f"{name} exited:\n{proc.output()[-2000:]}"
+        assert "unexpected error" not in proc.output() and "Traceback" not in proc.output(), proc.output()[-3000:]
+    assert min(windows_m) > 0.05, f"the robot stopped moving: travel per 20 s window {windows_m} m"
+
+
+def _moved_m(poses, span_s: float, end_s: float | None = None) -> float:
+    """Ground-truth travel (m) over the ``span_s`` seconds of poses before ``end_s`` (arrival, default now)."""
+    if not poses:
+        return 0.0
+    stamps = np.array([p.header.stamp.sec + 1e-9 * p.header.stamp.nanosec for p in poses])
+    last = stamps[-1] if end_s is None else stamps[-1] - (time.monotonic() - end_s)
+    inside = [p for p, t in zip(poses, stamps) if last - span_s <= t <= last]
+    if len(inside) < 2:
+        return 0.0
+    a, b = inside[0].pose.position, inside[-1].pose.position
+    return float(np.hypot(b.x - a.x, b.y - a.y))
