@@ -155,6 +155,7 @@ class HardwareStatus:
     last_error: str = ""
     fault: str = ""  # set by a backend failure, cleared by the next successful configure
     holding: str = ""  # why the backend holds output at 0 bar right now (a paused simulator), '' if it does not
+    holds: int = 0  # times output went to 0 bar because the backend held (a paused simulator)
     recoveries: int = 0  # times a rig that recovers by itself (sim) was configured and activated again after a fault
     reason: OutputReason = OutputReason.INACTIVE
     # (time s, ticks, setpoints received, stamp problems) at the previous diagnostics
@@ -518,6 +519,7 @@ class HardwareNode(LifecycleNode):
             return
         if reason is OutputReason.STALE and self.status.reason in (OutputReason.COMMANDING, OutputReason.RAMPING):
             self.status.stale_vents += 1
+        self.status.holds += reason is OutputReason.HOLDING
         self.status.reason = reason
         if reason is OutputReason.STALE:  # rclpy fixes a call site's severity, hence three calls
             self.get_logger().warning(f"output: {reason.value} (older than {self.gate.setpoint_timeout_s:g} s) "
@@ -641,6 +643,7 @@ class HardwareNode(LifecycleNode):
             "stale_vents": str(status.stale_vents),
             "command_stalls": str(self.gate.stalls),
             "holding": status.holding or "none",
+            "holds": str(status.holds),
             "recoveries": str(status.recoveries),
             "setpoint_arrival_age_max_ms": f"{arrival_age_max_s * 1e3:.3f}",
             "backend_writes": str(status.ticks),
