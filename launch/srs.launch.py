@@ -11,19 +11,43 @@
 
 ``hardware_node`` is started with launch_ros's ``LifecycleNode`` action, so launch can drive its
 transitions (``ChangeState`` events); with ``autostart:=true`` it configures and activates itself.
-Numbers are handed to the nodes as doubles whether written ``3`` or ``3.0``; ``ros2 launch srs_ros
-srs.launch.py --show-args`` lists the arguments.
+Numbers are handed to the nodes as doubles whether written ``3`` or ``3.0``; a number that is not one
+(``amplitude_bar:=abc``) stops the launch before any node starts, with an error naming the argument, its
+value and what it takes; a switch takes ``true`` or ``false`` only. ``ros2 launch srs_ros srs.launch.py
+--show-args`` lists the arguments.
 """
 
+import math
 import os
 
 from ament_index_python.packages import get_package_share_directory
 from launch import LaunchDescription
-from launch.actions import DeclareLaunchArgument
+from launch.actions import DeclareLaunchArgument, OpaqueFunction
 from launch.conditions import IfCondition
 from launch.substitutions import LaunchConfiguration
 from launch_ros.actions import LifecycleNode, Node
 from launch_ros.parameter_descriptions import ParameterValue
+
+#: The numeric launch arguments: (unit, an example value).
+NUMBERS = {"amplitude_bar": ("bar", "3"), "frequency_hz": ("Hz", "1")}
+
+
+def _check_numbers(context) -> None:
+    """Refuse a numeric launch argument that is not a finite number, naming it, its value and what it takes.
+
+    Without it launch_ros fails later with only ``could not convert string to float: 'abc'``. The
+    switches (``sim``, ``camera``, ``autostart``, ``use_sim_time``) are checked by their ``choices``
+    (launch names the argument, the value and the valid options); the ranges by the nodes.
+    """
+    for name, (unit, example) in NUMBERS.items():
+        text = LaunchConfiguration(name).perform(context)
+        try:
+            finite = math.isfinite(float(text))
+        except ValueError:
+            finite = False
+        if not finite:
+            raise RuntimeError(f"launch argument {name}:={text!r} is not valid: expected a finite number of {unit} "
+                               f"(e.g. {name}:={example} or {name}:={example}.0)")
 
 
 def _typed(name: str, value_type: type) -> ParameterValue:
@@ -84,4 +108,5 @@ def generate_launch_description():
         package="srs_ros", executable="sim_world", name="sim_world", namespace=namespace, output="screen",
         parameters=[common], condition=IfCondition(LaunchConfiguration("sim")),
     )
-    return LaunchDescription(args + [sim_world, trajectory_server, gait_player, hardware_node, camera_tracker])
+    check = OpaqueFunction(function=_check_numbers)  # after the arguments, before any node starts
+    return LaunchDescription(args + [check, sim_world, trajectory_server, gait_player, hardware_node, camera_tracker])

@@ -74,8 +74,22 @@ def test_namespace_and_sim_time_reach_every_node_including_the_camera(ament_pref
 
 
 def test_a_bad_switch_value_is_refused_by_launch(ament_prefix):
-    with pytest.raises(RuntimeError, match="use_sim_time"):
+    with pytest.raises(RuntimeError) as refused:
         evaluate(ament_prefix, "use_sim_time:=maybe")
+    assert """Argument "use_sim_time" provided value "maybe" is not valid. Valid options are: ['true', 'false']""" \
+        in str(refused.value)
+
+
+@pytest.mark.parametrize(("argument", "value", "expected"), [
+    ("amplitude_bar", "abc", "a finite number of bar (e.g. amplitude_bar:=3 or amplitude_bar:=3.0)"),
+    ("frequency_hz", "nan", "a finite number of Hz (e.g. frequency_hz:=1 or frequency_hz:=1.0)"),
+])
+def test_a_number_that_is_not_one_stops_the_launch_naming_the_argument(ament_prefix, argument, value, expected):
+    """Not launch_ros's bare ``could not convert string to float: 'abc'``, and before any node starts."""
+    with pytest.raises(RuntimeError) as refused:
+        evaluate(ament_prefix, f"{argument}:={value}")
+    assert str(refused.value).strip() == ("[ERROR] [launch]: Caught exception in launch (see debug for traceback): "
+                                          f"launch argument {argument}:='{value}' is not valid: expected {expected}")
 
 
 @pytest.mark.ros

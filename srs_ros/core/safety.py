@@ -153,6 +153,10 @@ class CommandGate:
     e-stop and its reset forget the stored command, so output resumes only with a setpoint that
     arrives afterwards; deactivation and the e-stop also disarm.
 
+    The operator's go (:attr:`has_go`) is the arm on a rig that needs one (``requires_arm``); a rig
+    that needs none (mock, sim) has it from the start. :meth:`disarm` withdraws it on every rig:
+    0 bar until :meth:`arm`, whatever else happens meanwhile (deactivation, reconfiguration).
+
     A gap between two decisions longer than ``max_gap_s`` (the caller itself stalled: frozen, starved
     of CPU) also restarts the ramp: no watchdog ran meanwhile, and hardware that vents by itself
     when the host falls silent (a CAN board, an NI watchdog) has vented; jumping back to the command
@@ -165,6 +169,7 @@ class CommandGate:
     requires_arm: bool = False
     active: bool = False
     armed: bool = False
+    disarmed: bool = False  # the operator's ~/disarm, on any rig: 0 bar until arm()
     estop_latched: bool = False
     max_gap_s: float = math.inf
     stalls: int = 0
@@ -191,14 +196,15 @@ class CommandGate:
             return "e-stop latched: call ~/reset first, then ~/arm"
         if not self.active:
             return "not active: configure and activate the hardware node first, then ~/arm"
-        self.armed = True
+        self.armed, self.disarmed = True, False
         return ""
 
     def disarm(self) -> bool:
-        """Withdraw the operator's go; return whether it was armed."""
-        was_armed, self.armed = self.armed, False
+        """Withdraw the operator's go on any rig (0 bar until :meth:`arm`); return whether there was one."""
+        had_go = self.has_go
+        self.armed, self.disarmed = False, True
         self._forget()
-        return was_armed
+        return had_go
 
     def latch_estop(self) -> None:
         """Vent until :meth:`reset_estop`; disarms."""
@@ -213,9 +219,14 @@ class CommandGate:
         return was_latched
 
     @property
+    def has_go(self) -> bool:
+        """The operator's go: armed, or on a rig that needs no arm, not disarmed since the last arm."""
+        return self.armed or not (self.requires_arm or self.disarmed)
+
+    @property
     def may_command(self) -> bool:
-        """True while a fresh setpoint would reach the valves (active, armed if needed, no e-stop)."""
-        return self.active and not self.estop_latched and (self.armed or not self.requires_arm)
+        """True while a fresh setpoint would reach the valves (active, the operator's go, no e-stop)."""
+        return self.active and not self.estop_latched and self.has_go
 
     def setpoint_age_s(self, now_s: float) -> float:
         """Seconds since the stored setpoint was fresh (``inf`` if none is stored)."""
@@ -240,7 +251,7 @@ class CommandGate:
             reason = OutputReason.ESTOP
         elif not self.active:
             reason = OutputReason.INACTIVE
-        elif self.requires_arm and not self.armed:
+        elif not self.has_go:
             reason = OutputReason.NOT_ARMED
         elif holding:
             reason = OutputReason.HOLDING

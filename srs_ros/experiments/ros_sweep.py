@@ -4,9 +4,10 @@ For each run :class:`RosSweep` does what an experimenter does by hand: set the t
 (``trajectory_server`` parameters ``gait``, ``amplitude_bar``, ``frequency_hz`` + ``~/regenerate``) and the
 player's ``frequency_hz``; on the simulated rig put the robot back at its start (``sim_world/reset``); on a
 rig with real regulators ask the operator's go (the ``go`` callback: a prompt or ``--yes``) and only then
-call ``hardware_node/arm``; take the start pose from ``robot_pose`` (the camera tracker), call
-``gait_player/start``, wait the run time, call ``gait_player/stop``, wait until the commanded pressures are
-vented and a settle time, take the end pose, disarm. The traveling velocity is the paper's: the displacement
+call ``hardware_node/arm`` (on every rig: the vent before a run disarms a simulated one too); take the start
+pose from ``robot_pose`` (the camera tracker), call ``gait_player/start``, wait the run time, call
+``gait_player/stop``, wait until the commanded pressures are vented and a settle time, take the end pose,
+disarm. The traveling velocity is the paper's: the displacement
 between the robot at rest before and after the run divided by the run time (the player's ramp-in and
 ramp-out together make up one run time of full amplitude).
 
@@ -373,11 +374,10 @@ class RosSweep:
                 reset_s = time.monotonic()
                 self.trigger("sim_world", "reset")
                 self._wait_pose(reset_s, "after sim_world reset")
-            if self.rig.requires_arm:
-                if go is None or not go(cell):
-                    return RunRecord.failed(cell, "skipped: no go from the operator")
-                self.trigger("hardware_node", "arm")
-                armed = True
+            if self.rig.requires_arm and (go is None or not go(cell)):
+                return RunRecord.failed(cell, "skipped: no go from the operator")
+            self.trigger("hardware_node", "arm")  # also a simulated rig: the vent at discovery disarmed it
+            armed = True
             self.recorder = BagRecorder(bag_path)
             if self._trajectory is not None:
                 self.recorder.write(self.node.resolve_topic_name(TRAJECTORY_TOPIC), type_name(JointTrajectory),

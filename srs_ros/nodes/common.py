@@ -107,14 +107,24 @@ class ParameterSpec:
 
 
 def declare_parameters(node: Node, specs: Iterable[ParameterSpec]) -> dict[str, ParameterSpec]:
-    """Declare every spec on ``node`` with its descriptor; return them by name.
+    """Declare every spec on ``node`` with its descriptor; return them by name. Once per node: all of them.
 
     A double parameter also takes an integer, converted to a double: at start-up
     (``-p rate_hz:=500``, a launch argument ``amplitude_bar:=3``) and at run time
     (``ros2 param set /gait_player rate_hz 500``). rclpy types parameters strictly and would refuse
     both; the value stored, published and checked against the range is always the double.
+
+    The run-time conversion is a pre-set callback, and rclpy (7.1, Jazzy) concatenates the lists
+    several such callbacks return: a second call would hand every parameter over twice, once still an
+    integer, and the set would be refused. So a second call on the same node raises RuntimeError.
     """
+    if getattr(node, "_srs_declared_parameters", None) is not None:
+        raise RuntimeError(f"declare_parameters called twice on node {node.get_name()!r} (it declared "
+                           f"{sorted(node._srs_declared_parameters)} already); expected one call with every "
+                           "parameter of the node, since rclpy concatenates the outputs of several pre-set "
+                           "callbacks and integers for doubles would then be refused.")
     by_name = {spec.name: spec for spec in specs}
+    node._srs_declared_parameters = by_name
     doubles = frozenset(name for name, spec in by_name.items() if spec.is_double)
     # Start-up overrides are read by declare_parameter before any callback runs, so convert them here
     # (rclpy keeps them in Node._parameter_overrides and offers no public setter).
@@ -126,6 +136,20 @@ def declare_parameters(node: Node, specs: Iterable[ParameterSpec]) -> dict[str, 
     if doubles:
         node.add_pre_set_parameters_callback(partial(integers_as_doubles, doubles))
     return by_name
+
+
+def startup_value(node: Node, spec: ParameterSpec) -> Any:
+    """The value ``spec`` will be declared with: its start-up override (``-p``, a params file) or its default.
+
+    For a node whose other parameters depend on one of them (e.g. a range from the robot file), read
+    before the one :func:`declare_parameters` call. Raises ConfigurationError for a value of the wrong type.
+    """
+    override = getattr(node, "_parameter_overrides", {}).get(spec.name)
+    value = spec.default if override is None else override.value
+    reason = spec.check(value)
+    if reason:
+        raise ConfigurationError(f"invalid start-up parameter: {reason}")
+    return float(value) if spec.is_double else value
 
 
 def integers_as_doubles(names: frozenset[str], params: list[Parameter]) -> list[Parameter]:

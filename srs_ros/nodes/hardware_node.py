@@ -12,7 +12,7 @@ Safety (see docs/safety.md):
   ROS time does (``use_sim_time`` without ``/clock``, a system clock step);
 - a rig whose backend drives real regulators (``can``, ``daq``) commands nothing above 0 bar until an
   operator calls ``~/arm`` (``srs_bringup --arm`` does it for you); deactivate, an e-stop or a fault
-  disarm; the simulated backends need no arm;
+  disarm; the simulated backends need no arm, but ``~/disarm`` holds 0 bar on every rig until ``~/arm``;
 - whenever output (re)starts (activation, arm, e-stop reset, after a vent for stale setpoints) it
   ramps up from 0 bar over ``ramp_time_s``;
 - the backend is written at the command rate only (the newest setpoint wins); a setpoint counts from
@@ -29,7 +29,8 @@ Interfaces (relative names, remappable):
   /diagnostics as a clock offset. Finite lengths outside ``[0, max_extension_m]`` or above what the
   pressure limit allows under the selected map (0.04 m at 4 bar with ``P = 100 l``, about 0.065 m with
   a calibrated map) are limited by the one clamp, with a throttled warning and a counter. ``velocity``
-  (m/s, optional; gait_player sends it) feeds the lag compensation.
+  (m/s, optional; gait_player sends it) feeds the lag compensation. A setpoint already queued when the
+  node is released (a fault, cleanup) is dropped quietly and counted (``setpoints_while_unconfigured``).
 - lengths become pressures through ``pressure_map``: ``paper`` (``P = 100 l``) or ``calibrated`` (each
   muscle's inverted static characteristic from ``calibration_file``, written by ``srs_identify``); with
   ``lag_compensation`` (live) commands lead the supply line's delay and invert its lag
@@ -146,6 +147,7 @@ class HardwareStatus:
     setpoints_accepted: int = 0
     rejected_setpoints: int = 0
     ignored_velocities: int = 0  # setpoints whose velocities were unusable (NaN, wrong size): lengths used alone
+    setpoints_while_unconfigured: int = 0  # queued before a release (fault, cleanup), dropped after it
     stale_on_arrival: int = 0
     future_stamped: int = 0
     limited_setpoints: int = 0  # accepted, but some length needed more than the pressure limit
@@ -212,7 +214,11 @@ class HardwareNode(LifecycleNode):
         self.create_service(Trigger, "~/arm", self._on_arm)
         self.create_service(Trigger, "~/disarm", self._on_disarm)
         steady_timer(self, DIAGNOSTICS_PERIOD_S, self._publish_diagnostics)
-        if self.get_parameter("autostart").value and self.trigger_configure() == TransitionCallbackReturn.SUCCESS:
+        if not self.get_parameter("autostart").value:
+            self.get_logger().info(f"unconfigured, nothing sent: waiting for `ros2 lifecycle set "
+                                   f"{self.get_fully_qualified_name()} configure` (then activate), or start with "
+                                   "autostart:=true")
+        elif self.trigger_configure() == TransitionCallbackReturn.SUCCESS:
             self.trigger_activate()
 
     # -- the state machine -------------------------------------------------------------------
@@ -226,7 +232,7 @@ class HardwareNode(LifecycleNode):
         self.status.fault = ""
         self._create_runtime()
         arm = ("real regulators: nothing above 0 bar until an operator calls ~/arm" if self.gate.requires_arm
-               else "simulated: no arm needed")
+               else "simulated: no arm needed" if self.gate.has_go else "simulated, disarmed: 0 bar until ~/arm")
         self.get_logger().info(f"configured: rig {self.rig.name!r}, backend {self.backend.name!r} ({arm}), "
                                f"{self._command_rate_hz():g} Hz, setpoint timeout {self.gate.setpoint_timeout_s:g} s, "
                                f"limit {self.rig.robot.max_pressure_bar:g} bar, {self.shaper.map.describe()}, "
@@ -236,7 +242,7 @@ class HardwareNode(LifecycleNode):
     def on_activate(self, state: LifecycleState) -> TransitionCallbackReturn:
         """Enable output: fresh setpoints from now on reach the backend (after ~/arm on a real rig)."""
         self.gate.set_active(True)
-        self.get_logger().info("active: " + ("waiting for ~/arm before commanding" if self.gate.requires_arm
+        self.get_logger().info("active: " + ("waiting for ~/arm before commanding" if not self.gate.has_go
                                              else "commanding fresh setpoints"))
         return TransitionCallbackReturn.SUCCESS
 
@@ -388,6 +394,9 @@ class HardwareNode(LifecycleNode):
     # -- runtime -----------------------------------------------------------------------------
     def _on_setpoint(self, msg: JointState) -> None:
         self.status.setpoints_received += 1
+        if self.shaper is None or not self._runtime:  # queued before a release (a fault, cleanup): nothing to drive
+            self.status.setpoints_while_unconfigured += 1
+            return
         try:
             self._take_setpoint(msg)
         except Exception as exc:  # a callback must never kill the node; the setpoint is not used
@@ -569,12 +578,12 @@ class HardwareNode(LifecycleNode):
         response.message = ("e-stop latched: every valve vented to 0 bar" if had_backend and failure is None
                             else "e-stop latched (no backend open, nothing to vent)" if failure is None
                             else f"e-stop latched; {VENT_FAILED}; node went to the error state: {self.status.fault}")
-        response.message += "; call ~/reset to release" + (", then ~/arm." if self.gate.requires_arm else ".")
+        response.message += "; call ~/reset to release" + (", then ~/arm." if not self.gate.has_go else ".")
         return response
 
     def _on_reset(self, request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
         was_latched = self.gate.reset_estop()
-        then = "call ~/arm, then output ramps up with" if self.gate.requires_arm else "output ramps up with"
+        then = "call ~/arm, then output ramps up with" if not self.gate.has_go else "output ramps up with"
         if was_latched:
             self.get_logger().warning(f"e-stop released: {then} the next fresh setpoint")
         response.success = True
@@ -583,12 +592,15 @@ class HardwareNode(LifecycleNode):
         return response
 
     def _on_arm(self, request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
+        had_go = self.gate.has_go
         refusal = self.gate.arm()
         response.success = not refusal
         if refusal:
             response.message = f"not armed: {refusal}."
         elif not self.gate.requires_arm:
-            response.message = f"armed (the {self.backend.name} rig is simulated and needs no arm)."
+            response.message = (f"armed (the {self.backend.name} rig is simulated and needs no arm)." if had_go else
+                                f"armed again after ~/disarm: the simulated {self.backend.name} rig commands fresh "
+                                f"setpoints, ramping up from 0 bar over {self.gate.ramp_time_s:g} s.")
         else:
             response.message = (f"ARMED by the operator: the {self.backend.name} rig now commands fresh setpoints, "
                                 f"ramping up from 0 bar over {self.gate.ramp_time_s:g} s; ~/emergency_stop or "
@@ -599,7 +611,8 @@ class HardwareNode(LifecycleNode):
     def _on_disarm(self, request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
         was_armed = self.gate.disarm()
         response.success = True
-        response.message = "disarmed: venting to 0 bar until ~/arm." if was_armed else "was not armed."
+        response.message = ("disarmed: venting to 0 bar until ~/arm." if was_armed
+                             else "was not armed: output stays at 0 bar until ~/arm.")
         if was_armed:
             self.get_logger().warning(response.message)
         return response
@@ -633,6 +646,7 @@ class HardwareNode(LifecycleNode):
             "setpoints_accepted": str(status.setpoints_accepted),
             "rejected_setpoints": str(status.rejected_setpoints),
             "ignored_velocities": str(status.ignored_velocities),
+            "setpoints_while_unconfigured": str(status.setpoints_while_unconfigured),
             "stale_on_arrival": str(status.stale_on_arrival),
             "future_stamped": str(status.future_stamped),
             "clock_offset_s": f"{status.clock_offset_s:.3f}",
@@ -716,9 +730,12 @@ def _describe(exc: BaseException) -> str:
 
 
 def release_and_report(node: HardwareNode, program: str) -> bool:
-    """Vent and close at process exit and print the outcome (the vent, or VENT FAILED)."""
+    """Vent and close at process exit and print the outcome (the vent, nothing to vent, or VENT FAILED)."""
+    was_open = node.backend is not None
     vented = node.release_hardware()
-    print(f"\n{program}: stopped; " + ("every valve vented to 0 bar" if vented else VENT_FAILED), flush=True)
+    outcome = VENT_FAILED if not vented else ("every valve vented to 0 bar" if was_open
+                                              else "no backend was open, nothing to vent")
+    print(f"\n{program}: stopped; {outcome}", flush=True)
     return vented
 
 

@@ -49,6 +49,7 @@ from srs_ros.nodes.common import (
     declare_parameters,
     latched_qos,
     run_node,
+    startup_value,
 )
 
 #: Longest wait at shutdown for a running fit to finish before the node is destroyed.
@@ -119,10 +120,11 @@ class TrajectoryServer(Node):
     def __init__(self, **kwargs):
         super().__init__("trajectory_server", **kwargs)
         self._gaits = list_gaits()
-        self._specs = declare_parameters(self, [ROBOT_FILE])
-        self._robot = load_robot(self.get_parameter(ROBOT_FILE.name).value or None)
-        self._specs.update(declare_parameters(self, base_parameters(self._robot.max_pressure_bar, sorted(self._gaits))))
-        self._specs.update(declare_parameters(self, gait_parameters(self._gaits)))
+        # amplitude_bar's range is the robot's limit: read the robot file first, then declare all in one call
+        self._robot = load_robot(startup_value(self, ROBOT_FILE) or None)
+        specs = (ROBOT_FILE, *base_parameters(self._robot.max_pressure_bar, sorted(self._gaits)),
+                 *gait_parameters(self._gaits))
+        self._specs = declare_parameters(self, specs)
         self.add_on_set_parameters_callback(self._check_parameters)
         initial = self._check_parameters([self.get_parameter(name) for name in self._specs])
         if not initial.successful:

@@ -139,6 +139,32 @@ def test_a_rig_with_real_regulators_commands_nothing_until_armed():
     assert gate.disarm() is False
 
 
+def test_a_disarm_holds_0_bar_until_arm_also_on_a_rig_that_needs_no_arm():
+    gate = CommandGate(joint_count=9, setpoint_timeout_s=0.2, ramp_time_s=0.5, active=True)  # mock, sim
+    command = np.full(9, 2.0)
+    for t in np.arange(1.0, 1.6, 0.005):
+        gate.accept(command, now_s=t)
+        gate.decide(t)
+    assert gate.decide(1.6)[1] is OutputReason.COMMANDING and gate.has_go  # no arm needed to start
+    assert gate.disarm() is True and not gate.has_go
+    for t in np.arange(1.6, 3.0, 0.005):  # fresh setpoints keep coming: 0 bar, every tick
+        gate.accept(command, now_s=t)
+        pressure, reason = gate.decide(t)
+        assert reason is OutputReason.NOT_ARMED and not pressure.any(), t
+    gate.set_active(False)  # neither deactivation nor activation gives the go back
+    gate.set_active(True)
+    gate.accept(command, now_s=3.0)
+    assert gate.decide(3.0)[1] is OutputReason.NOT_ARMED and gate.disarm() is False
+    assert gate.arm() == "" and gate.has_go
+    gate.accept(command, now_s=3.1)
+    pressure, reason = gate.decide(3.1)
+    assert reason is OutputReason.RAMPING and not pressure.any()  # resumes with the usual ramp from 0 bar
+    gate.accept(command, now_s=3.35)
+    assert 0.0 < gate.decide(3.35)[0][0] < 2.0
+    gate.accept(command, now_s=3.65)
+    assert gate.decide(3.65) == (pytest.approx(command), OutputReason.COMMANDING)
+
+
 def test_a_setpoint_that_arrives_old_vents_by_its_stamp_not_a_full_timeout_later():
     gate = CommandGate(joint_count=9, setpoint_timeout_s=0.2, active=True)
     gate.accept(np.full(9, 2.0), now_s=10.0, age_s=0.19)  # made at 9.81 s

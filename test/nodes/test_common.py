@@ -1,13 +1,18 @@
 """Parameters of every node: integers are accepted for double parameters (start-up and ``ros2 param set``)."""
 
+import math
+
 import pytest
 import rclpy
+from rcl_interfaces.msg import ParameterType
+from rcl_interfaces.srv import DescribeParameters, GetParameters, ListParameters, SetParameters
 from rclpy.context import Context
 from rclpy.exceptions import InvalidParameterTypeException
 from rclpy.parameter import Parameter
 from srs_testing import ros_args
 
-from srs_ros.nodes.common import ParameterSpec, check_parameters, declare_parameters
+from srs_ros.core.errors import ConfigurationError
+from srs_ros.nodes.common import ParameterSpec, check_parameters, declare_parameters, startup_value
 
 SPECS = (ParameterSpec("rate_hz", 200.0, "rate, Hz", 1.0, 1000.0), ParameterSpec("cycles", 0, "cycles", 0, 10))
 
@@ -59,16 +64,87 @@ def test_without_the_conversion_rclpy_refuses_the_integer(node):
         made.declare_parameter("rate_hz", 200.0)
 
 
+def test_a_second_declare_parameters_call_on_a_node_is_refused(node):
+    """Each call adds a pre-set callback, and rclpy concatenates their outputs: one call per node only."""
+    made = node()
+    declare_parameters(made, SPECS[:1])
+    with pytest.raises(RuntimeError, match="declare_parameters called twice on node 'params_under_test'"):
+        declare_parameters(made, SPECS[1:])
+    assert not made.has_parameter("cycles")
+
+
+def test_without_the_one_call_rule_an_integer_set_would_arrive_twice_and_be_refused(node):
+    """The rclpy behaviour the rule guards against (the test passing for the right reason)."""
+    made = node()
+    declare_parameters(made, SPECS[:1])
+    del made._srs_declared_parameters  # bypass the guard, as a second call did before it
+    declare_parameters(made, (ParameterSpec("gain", 1.0, "gain", 0.0, 10.0),))
+    assert not made.set_parameters([Parameter("rate_hz", value=250)])[0].successful
+
+
+def test_a_start_up_value_is_read_before_declaring(node):
+    robot_file = ParameterSpec("robot_description_file", "", "robot YAML", read_only=True)
+    assert startup_value(node(), robot_file) == ""
+    assert startup_value(node(robot_description_file="/tmp/robot.yaml"), robot_file) == "/tmp/robot.yaml"
+    assert startup_value(node(rate_hz=500), SPECS[0]) == 500.0
+    with pytest.raises(ConfigurationError, match="robot_description_file: expected a str, got 3"):
+        startup_value(node(robot_description_file=3), robot_file)
+
+
 def test_wrong_type_reason_says_to_write_a_double():
     assert "e.g. 500.0" in SPECS[0].check("fast")
 
 
+#: Every node process, with what keeps it light (no start-up fit, no camera) and an integer start-up value
+#: for a double parameter (``-p rate_hz:=500``).
+NODES = {
+    "trajectory_server": ({"generate_on_start": False, "amplitude_bar": 3}, "amplitude_bar"),
+    "gait_player": ({"rate_hz": 500}, "rate_hz"),
+    "hardware_node": ({"state_publish_rate_hz": 25}, "state_publish_rate_hz"),
+    "camera_tracker": ({"lost_timeout_s": 2}, "lost_timeout_s"),
+    "sim_world": ({"camera_rate_hz": 0.0, "pose_rate_hz": 25}, "pose_rate_hz"),
+}
+
+
+def writable_doubles(client, node: str) -> dict[str, int]:
+    """Every double parameter of ``node`` that is not read-only, with an integer inside its range to send."""
+    names = client.call(ListParameters, f"{node}/list_parameters").result.names
+    described = client.call(DescribeParameters, f"{node}/describe_parameters",
+                            DescribeParameters.Request(names=names)).descriptors
+    current = client.get_parameters(node, list(names))
+    chosen = {}
+    for descriptor in described:
+        if descriptor.type != ParameterType.PARAMETER_DOUBLE or descriptor.read_only:
+            continue
+        limits = descriptor.floating_point_range[0] if descriptor.floating_point_range else None
+        low, high = (math.ceil(limits.from_value), math.floor(limits.to_value)) if limits else (-5, 5)
+        assert low <= high, f"{node} {descriptor.name}: no integer in [{limits.from_value}, {limits.to_value}]"
+        middle = (limits.from_value + limits.to_value) / 2 if limits else 0.0
+        candidates = sorted(range(low, high + 1), key=lambda v: (v == current[descriptor.name], abs(v - middle)))
+        chosen[descriptor.name] = candidates[0]
+    return chosen
+
+
 @pytest.mark.ros
-def test_gait_player_takes_integer_rate_from_the_command_line_and_param_set(launch_node, ros_client):
-    proc = launch_node("gait_player", ros_args({"rate_hz": 500}))  # -p rate_hz:=500, an integer
-    assert ros_client.get_parameters("gait_player", ["rate_hz"], timeout_s=20.0) == {"rate_hz": 500.0}
-    result = ros_client.set_parameters("gait_player", {"rate_hz": 250})[0]  # ros2 param set ... rate_hz 250
-    assert result.successful, result.reason
-    value = ros_client.get_parameters("gait_player", ["rate_hz"])["rate_hz"]
-    assert value == 250.0 and isinstance(value, float)
-    assert proc.alive(), proc.output()
+def test_every_writable_double_of_every_node_takes_an_integer_as_ros2_param_set_sends_it(launch_node, ros_client):
+    procs = {node: launch_node(node, ros_args(params)) for node, (params, _) in NODES.items()}  # all at once
+    ros_client.discover([(srv_type, f"{node}/{name}") for node in NODES for srv_type, name in (
+        (ListParameters, "list_parameters"), (DescribeParameters, "describe_parameters"),
+        (GetParameters, "get_parameters"), (SetParameters, "set_parameters"))], timeout_s=60.0)
+    taken = {}
+    for node, proc in procs.items():
+        params, start_up_integer = NODES[node]
+        value = ros_client.get_parameters(node, [start_up_integer])[start_up_integer]
+        assert isinstance(value, float) and value == params[start_up_integer], (node, start_up_integer, value)
+        chosen = writable_doubles(ros_client, node)
+        for name, value in chosen.items():  # one request per parameter, as `ros2 param set` sends it
+            result = ros_client.set_parameters(node, {name: value})[0]
+            assert result.successful, f"ros2 param set /{node} {name} {value}: {result.reason}"
+        values = ros_client.get_parameters(node, list(chosen))
+        for name, value in chosen.items():
+            assert isinstance(values[name], float) and values[name] == value, (node, name, values[name])
+        taken[node] = set(chosen)
+        assert proc.alive(), proc.output()
+    assert {"amplitude_bar", "frequency_hz", "serpentine.poor_fit_mm"} <= taken["trajectory_server"]
+    assert {"rate_hz", "amplitude_scale"} <= taken["gait_player"]
+    assert {"setpoint_timeout_s", "ramp_time_s"} <= taken["hardware_node"]

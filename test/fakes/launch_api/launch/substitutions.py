@@ -1,6 +1,10 @@
 """Stand-in for ``launch.substitutions``."""
 
 
+class SubstitutionFailure(RuntimeError):
+    """Raised when a Substitution fails."""
+
+
 class LaunchConfiguration:
     """The value of a launch argument, as text."""
 
@@ -9,8 +13,8 @@ class LaunchConfiguration:
         self.default = default
 
     def perform(self, context):
-        if self.variable_name in context:
-            return context[self.variable_name]
-        if self.default is None:
-            raise KeyError(f"launch configuration '{self.variable_name}' does not exist")
-        return self.default
+        if self.variable_name not in context.launch_configurations:
+            if self.default is None:
+                raise SubstitutionFailure(f"launch configuration '{self.variable_name}' does not exist")
+            return self.default
+        return context.launch_configurations[self.variable_name]

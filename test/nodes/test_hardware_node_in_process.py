@@ -1,0 +1,127 @@
+"""The hardware node built in the test's own process on the mock rig, its callbacks called one after another.
+
+Where the order of callbacks is the point (a setpoint queued behind a fault, a disarm between two
+ticks), calling them directly is exact and fast; what reaches the backend is read from its record file.
+"""
+
+import time
+import types
+
+import numpy as np
+import pytest
+import rclpy
+from rclpy.context import Context
+from rclpy.parameter import Parameter
+from sensor_msgs.msg import JointState
+from srs_testing import BackendRecord, recorded_rig
+from std_srvs.srv import Trigger
+
+from srs_ros.core.errors import HardwareError
+from srs_ros.core.robot import default_robot
+from srs_ros.core.safety import OutputReason
+from srs_ros.nodes.hardware_node import HardwareNode, release_and_report
+
+NAMES = list(default_robot().joint_names)
+COMMAND_BAR = np.full(9, 2.0)  # P = 100 l for 0.02 m
+
+
+def setpoint(length_m: float = 0.02) -> JointState:
+    return JointState(name=NAMES, position=[length_m] * 9)
+
+
+class Driven:
+    """A HardwareNode driven by hand: setpoints and command ticks in turn, at about 200 Hz."""
+
+    def __init__(self, node: HardwareNode, record: BackendRecord):
+        self.node, self.record = node, record
+        self.diagnostics: list = []
+        node.diagnostics_publisher = types.SimpleNamespace(publish=self.diagnostics.append)
+
+    def start(self) -> None:
+        self.node.trigger_configure()
+        self.node.trigger_activate()
+        assert self.node.lifecycle_label() == "active"
+
+    def step(self, count: int = 1) -> list[np.ndarray]:
+        """``count`` times a fresh setpoint then a command tick; what the backend was written at each tick."""
+        written = []
+        for _ in range(count):
+            self.node._on_setpoint(setpoint())
+            self.node._on_command_tick()
+            written.append(self.record.last())
+            time.sleep(0.005)  # the command rate's pace (the gate ramps on the monotonic clock)
+        return written
+
+    def trigger(self, callback) -> Trigger.Response:
+        return callback(Trigger.Request(), Trigger.Response())
+
+    def diagnostic(self, key: str) -> str:
+        self.node._publish_diagnostics()
+        return {kv.key: kv.value for kv in self.diagnostics[-1].status[0].values}[key]
+
+
+@pytest.fixture
+def hardware(ros_domain, tmp_path):
+    context = Context()
+    rclpy.init(context=context, domain_id=ros_domain)
+    rig, record = recorded_rig(tmp_path)
+    made = []
+
+    def _make(**params) -> Driven:
+        overrides = [Parameter(k, value=v) for k, v in {"rig_file": str(rig), **params}.items()]
+        made.append(HardwareNode(context=context, parameter_overrides=overrides))
+        return Driven(made[-1], BackendRecord(record))
+
+    yield _make
+    for node in made:
+        node.release_hardware()
+        node.destroy_node()
+    rclpy.shutdown(context=context)
+
+
+def test_a_setpoint_queued_across_a_backend_fault_is_dropped_quietly_and_counted(hardware):
+    rig = hardware(ramp_time_s=0.0)
+    rig.start()
+    assert np.allclose(rig.step()[-1], COMMAND_BAR)
+    rig.node._on_backend_fault(HardwareError("bus gone (injected)"))  # vent, ErrorProcessing, released
+    assert rig.node.lifecycle_label() == "unconfigured" and rig.node.shaper is None
+    rig.node._on_setpoint(setpoint())  # the callback that was already queued runs now
+    assert rig.node.status.rejected_setpoints == 0  # no "unexpected error, please report"
+    assert rig.diagnostic("setpoints_while_unconfigured") == "1"
+    assert "bus gone" in rig.node.status.last_error  # the fault stays the reported error
+    assert not rig.record.last().any()  # vented at the fault, nothing written since
+
+
+def test_disarm_holds_0_bar_on_a_rig_that_needs_no_arm_until_arm_ramps_it_back(hardware):
+    rig = hardware(ramp_time_s=0.1)
+    rig.start()
+    assert not rig.node.gate.requires_arm  # the mock rig, like the sim rig
+    assert any(np.allclose(p, COMMAND_BAR) for p in rig.step(60))
+    response = rig.trigger(rig.node._on_disarm)
+    assert response.success and response.message == "disarmed: venting to 0 bar until ~/arm."
+    assert not any(p.any() for p in rig.step(60))  # fresh setpoints for 0.3 s and more: 0 bar at every tick
+    assert rig.node.status.reason is OutputReason.NOT_ARMED
+    assert rig.diagnostic("output") == OutputReason.NOT_ARMED.value
+    assert rig.trigger(rig.node._on_disarm).message == "was not armed: output stays at 0 bar until ~/arm."
+    response = rig.trigger(rig.node._on_arm)
+    assert response.success and "ramping up from 0 bar over 0.1 s" in response.message
+    peaks = [float(p.max()) for p in rig.step(60)]
+    assert peaks[0] < 1.0 and peaks[-1] == pytest.approx(2.0)  # back with the usual ramp, not a step
+    assert np.all(np.diff(peaks) >= -1e-9)
+
+
+def test_the_exit_line_says_when_no_backend_was_open(hardware, capsys):
+    rig = hardware()
+    assert release_and_report(rig.node, "hardware_node") is True
+    assert capsys.readouterr().out.strip() == "hardware_node: stopped; no backend was open, nothing to vent"
+    rig.start()
+    assert release_and_report(rig.node, "hardware_node") is True
+    assert capsys.readouterr().out.strip() == "hardware_node: stopped; every valve vented to 0 bar"
+
+
+def test_without_autostart_the_node_says_it_waits_for_configure(hardware, capfd):
+    hardware()
+    assert ("unconfigured, nothing sent: waiting for `ros2 lifecycle set /hardware_node configure` (then activate), "
+            "or start with autostart:=true") in capfd.readouterr().err
+    hardware(autostart=True)
+    assert "waiting for `ros2 lifecycle set" not in capfd.readouterr().err
