@@ -195,3 +195,17 @@ def test_setpoint_velocities_follow_the_names_order_and_are_optional():
         setpoint_velocities_m_per_s(names, [0.0] * 8, ROBOT)
     with pytest.raises(InvalidInputError, match="finite"):
         setpoint_velocities_m_per_s(names, [float("nan")] + [0.0] * 8, ROBOT)
+
+
+def test_a_hold_sends_0_bar_keeps_the_setpoint_and_ramps_back_in_when_it_clears():
+    gate = CommandGate(joint_count=9, setpoint_timeout_s=1.0, ramp_time_s=0.5, active=True)
+    gate.accept(np.full(9, 2.0), now_s=0.0)
+    gate.decide(0.0)
+    pressure, reason = gate.decide(0.6)
+    assert reason is OutputReason.COMMANDING and pressure == pytest.approx(np.full(9, 2.0))
+    pressure, reason = gate.decide(0.7, holding="sim_world silent for 0.25 s")
+    assert reason is OutputReason.HOLDING and not pressure.any()
+    pressure, reason = gate.decide(0.8)  # the hold clears; the kept setpoint (0.8 s old) ramps back in from 0
+    assert reason is OutputReason.RAMPING and 0.0 <= pressure.max() < 0.2
+    gate.accept(np.full(9, 2.0), now_s=1.2)
+    assert gate.decide(1.31)[1] is OutputReason.COMMANDING

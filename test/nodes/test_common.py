@@ -101,7 +101,7 @@ NODES = {
     "trajectory_server": ({"generate_on_start": False, "amplitude_bar": 3}, "amplitude_bar"),
     "gait_player": ({"rate_hz": 500}, "rate_hz"),
     "hardware_node": ({"state_publish_rate_hz": 25}, "state_publish_rate_hz"),
-    "camera_tracker": ({"lost_timeout_s": 2}, "lost_timeout_s"),
+    "camera_tracker": ({"image_timeout_s": 2}, "image_timeout_s"),
     "sim_world": ({"camera_rate_hz": 0.0, "pose_rate_hz": 25}, "pose_rate_hz"),
 }
 
