@@ -1,9 +1,10 @@
-"""The simulated robot driven like the real one: hardware_node (sim rig) -> sim_world over DDS, separate processes."""
+"""The simulated robot driven like the real one: hardware_node (sim rig) -> sim_world over DDS, separate processes.
 
-import time
+sim_world paused, stopped, killed and restarted: test/nodes/test_sim_rig_faults.py.
+"""
+
 
 import numpy as np
-from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from geometry_msgs.msg import PoseStamped
 from sensor_msgs.msg import Image, JointState
 from srs_testing import ros_args
@@ -19,7 +20,7 @@ def stamps_s(msgs):
     return np.array([m.header.stamp.sec + 1e-9 * m.header.stamp.nanosec for m in msgs])
 
 
-def test_the_gait_moves_the_simulated_robot_and_killing_sim_world_vents_the_hardware(launch_node, ros_client):
+def test_the_gait_moves_the_simulated_robot_and_the_camera_tracks_it_by_pixels(launch_node, ros_client):
     world = launch_node("sim_world", ros_args({"camera_rate_hz": 15.0}))
     launch_node("camera_tracker", ros_args({"color_preset": "sim_bands"}))
     hardware = launch_node("hardware_node", ros_args({"autostart": True, "rig_file": SIM_RIG, "ramp_time_s": 0.2}))
@@ -31,7 +32,6 @@ def test_the_gait_moves_the_simulated_robot_and_killing_sim_world_vents_the_hard
     bus = ros_client.subscribe(JointState, SIM_COMMAND_TOPIC, bus_qos())
     markers = ros_client.subscribe(MarkerArray, "sim/body_markers")
     images = ros_client.subscribe(Image, "image_raw", 1)
-    diagnostics = ros_client.subscribe(DiagnosticArray, "/diagnostics")
     try:
         ros_client.spin_until(lambda: lengths and max(lengths[-1].position, default=0.0) > 0.02, 60.0,
                               "the simulated muscles extending (read back through the sim backend)")
@@ -58,20 +58,6 @@ def test_the_gait_moves_the_simulated_robot_and_killing_sim_world_vents_the_hard
     assert [m.ns for m in markers[-1].markers] == ["simulated", "commanded"]
     assert len(markers[-1].markers[0].points) == 31 and len(markers[-1].markers[1].points) == 31
     assert max(max(m.effort) for m in bus) <= 4.0 and max(max(m.effort) for m in bus[-100:]) > 2.0
-
-    world.kill()  # the simulated robot dies, as a DAC board losing power: its read-back stops
-    killed_s = time.monotonic()
-    ros_client.spin_until(lambda: not any(bus[-1].effort), 5.0, "the vent command on the bus")
-    vented_after_s = time.monotonic() - killed_s
-    print(f"vent on the bus after sim_world was SIGKILLed: {vented_after_s * 1e3:.0f} ms")
-    assert vented_after_s < 0.2 + 0.005 + 0.15, vented_after_s  # readback_timeout_s + a command period + DDS
-
-    def hardware_error():
-        statuses = [s for m in diagnostics[-5:] for s in m.status if s.name.startswith("hardware_node")]
-        return statuses and statuses[-1].level == DiagnosticStatus.ERROR and "sim_world silent" in statuses[-1].message
-
-    ros_client.spin_until(hardware_error, 10.0, "the hardware error on /diagnostics")
-    assert ros_client.lifecycle_state("/hardware_node") == "unconfigured"
 
 
 def test_a_bad_sim_config_is_refused_with_the_key_and_what_is_expected(launch_node, tmp_path):
