@@ -38,6 +38,7 @@ Options (``backend_options`` of a rig file, each validated with the key named on
 
 from __future__ import annotations
 
+import logging
 import threading
 import time
 from collections.abc import Mapping
@@ -59,6 +60,8 @@ BUS_NODE_NAME = "sim_backend_bus"
 SIM_BOARD_TIMEOUT_S = 0.5
 #: How long closing the bus waits for the world to acknowledge the last command (the vent), s.
 VENT_ACK_TIMEOUT_S = 0.5
+
+_LOG = logging.getLogger(__name__)
 
 #: option -> (default, lowest, highest) of the numeric options.
 _NUMBERS: dict[str, tuple[float, float, float]] = {
@@ -166,7 +169,9 @@ class SimBackend(ActuatorBackend):
         if self._publisher is not None:  # the last command (the vent) reaches a world that is alive
             from rclpy.duration import Duration
 
-            self._publisher.wait_for_all_acked(Duration(seconds=VENT_ACK_TIMEOUT_S))
+            if not self._publisher.wait_for_all_acked(Duration(seconds=VENT_ACK_TIMEOUT_S)):
+                _LOG.warning("sim backend: sim_world did not acknowledge the vent within %g s (paused or gone): "
+                             "its own board vents after command_timeout_s without a command", VENT_ACK_TIMEOUT_S)
         self._stop.set()
         if self._thread is not None:
             self._thread.join(timeout=2.0)

@@ -93,6 +93,7 @@ def test_a_paused_simulator_holds_a_stopped_one_faults_and_recovers_and_a_restar
     start_s, end_s = pause(world, 3.0, ros_client)
     errors = rig.hardware_errors(errors_before)
     assert any("sim_world silent" in e and "recovers by itself" in e for e in errors), errors
+    assert "did not acknowledge the vent" in hardware.output()  # said, and the board's own watchdog vents
     rig.wait_commanding(15.0, "the sim rig recovering by itself after SIGCONT (no command sent)")
     assert ros_client.lifecycle_state("/hardware_node") == "active"
 
