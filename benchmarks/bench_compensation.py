@@ -25,15 +25,15 @@ import time
 
 import numpy as np
 
-from srs_ros.core.compensation import LineDynamics, SetpointShaper
-from srs_ros.core.identification import Measurement, identify, run_plan, step_plan
-from srs_ros.core.muscle_calibration import CalibratedPressureMap, PaperPressureMap, calibration_from_values
-from srs_ros.core.playback import DEFAULT_RAMP_TIME_S, GaitPlayback
+from srs_ros.core.actuation.compensation import LineDynamics, SetpointShaper
+from srs_ros.core.actuation.identification import Measurement, identify, run_plan, step_plan
+from srs_ros.core.actuation.muscle_calibration import CalibratedPressureMap, PaperPressureMap, calibration_from_values
+from srs_ros.core.actuation.safety import CommandGate
+from srs_ros.core.gait.playback import DEFAULT_RAMP_TIME_S, GaitPlayback
+from srs_ros.core.gait.trajectory import generate_cycle
 from srs_ros.core.rig import load_rig
 from srs_ros.core.robot import config_dir, default_robot
-from srs_ros.core.safety import CommandGate
-from srs_ros.core.tracking import traveling_velocity
-from srs_ros.core.trajectory import generate_cycle
+from srs_ros.core.vision.tracking import traveling_velocity
 from srs_ros.sim.config import load_sim_config
 from srs_ros.sim.world import SimWorld
 

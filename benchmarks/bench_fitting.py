@@ -17,10 +17,10 @@ import time
 import numpy as np
 from scipy.optimize import differential_evolution
 
-from srs_ros.core.fitting import fit_shapes, shape_cost
-from srs_ros.core.gaits import gait_curves, list_gaits
+from srs_ros.core.gait.fitting import fit_shapes, shape_cost
+from srs_ros.core.gait.library import gait_curves, list_gaits
+from srs_ros.core.gait.trajectory import fit_settings
 from srs_ros.core.robot import default_robot
-from srs_ros.core.trajectory import fit_settings
 
 
 def baseline_fit(curve, robot, weight, seed):

@@ -49,7 +49,7 @@ def run_rate(rate_hz: float, duration_s: float, env: dict[str, str], client: Ros
     from diagnostic_msgs.msg import DiagnosticArray
     from sensor_msgs.msg import JointState
 
-    from srs_ros.nodes.common import setpoint_qos
+    from srs_ros.ros.interfaces import setpoint_qos
 
     received_total = [0]
     total_sub = client.node.create_subscription(

@@ -20,9 +20,9 @@ import warnings
 import cv2
 import numpy as np
 
+from srs_ros.core.gait.trajectory import generate_cycle
 from srs_ros.core.kinematics import backbone_points
 from srs_ros.core.rig import load_rig
-from srs_ros.core.trajectory import generate_cycle
 from srs_ros.sim.camera import OverheadCamera
 from srs_ros.sim.config import load_sim_config
 from srs_ros.sim.experiment import command_pressures_bar, run_experiment

@@ -16,9 +16,9 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from srs_ros.core import aruco
-from srs_ros.core.tracking import Tracker, TrackerConfig, to_gray
-from srs_ros.tools.synthetic_scene import (
+from srs_ros.core.vision import aruco
+from srs_ros.core.vision.tracking import Tracker, TrackerConfig, to_gray
+from srs_ros.sim.scene import (
     RobotAppearance,
     SyntheticCamera,
     SyntheticScene,

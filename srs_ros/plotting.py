@@ -16,9 +16,9 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from srs_ros.core.gaits import gait_spec, shape_curves  # noqa: E402
+from srs_ros.core.gait.library import gait_spec, shape_curves  # noqa: E402
+from srs_ros.core.gait.trajectory import GaitCycle  # noqa: E402
 from srs_ros.core.kinematics import backbone_points  # noqa: E402
-from srs_ros.core.trajectory import GaitCycle  # noqa: E402
 
 #: Figure size in inches and resolution: 1200 x 800 pixels.
 FIGURE_SIZE_IN = (12.0, 8.0)

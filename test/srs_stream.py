@@ -41,8 +41,8 @@ from srs_testing import (
 )
 
 from srs_ros.backends.mock import read_record
-from srs_ros.core.camera_calibration import save_calibration
-from srs_ros.tools.synthetic_scene import (
+from srs_ros.core.vision.camera_calibration import save_calibration
+from srs_ros.sim.scene import (
     RobotAppearance,
     SyntheticCamera,
     SyntheticScene,

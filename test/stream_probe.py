@@ -33,7 +33,7 @@ from geometry_msgs.msg import PoseStamped
 from sensor_msgs.msg import JointState
 from std_srvs.srv import Trigger
 
-from srs_ros.nodes.common import DIAGNOSTICS_TOPIC, POSE_TOPIC, SETPOINT_TOPIC, setpoint_qos
+from srs_ros.ros.interfaces import DIAGNOSTICS_TOPIC, POSE_TOPIC, SETPOINT_TOPIC, setpoint_qos
 
 #: diagnostics values kept per message (numbers), for the per-second series.
 SERIES_KEYS = ("setpoint_arrival_age_max_ms", "command_latency_p50_ms", "command_latency_p99_ms",

@@ -14,7 +14,7 @@ import yaml
 from srs_testing import ros_args
 from trajectory_msgs.msg import JointTrajectory
 
-from srs_ros.nodes.common import TRAJECTORY_TOPIC, latched_qos
+from srs_ros.ros.interfaces import TRAJECTORY_TOPIC, latched_qos
 
 ROOT = Path(__file__).resolve().parents[1]
 FAKES = ROOT / "test" / "fakes" / "launch_api"

@@ -18,7 +18,7 @@ ROOT = Path(__file__).resolve().parents[1]
 VENV = Path(os.environ.get("SRS_CV46_VENV", ROOT / ".venv-opencv46"))
 REQUIREMENTS = ["opencv-contrib-python-headless==4.6.0.66", "numpy<2", "PyYAML>=6", "matplotlib>=3.6",
                 "pytest>=8", "pytest-timeout>=2.3"]
-TESTS = ["test/core/test_aruco.py", "test/core/test_tracking.py", "test/tools/test_track_cli.py",
+TESTS = ["test/core/vision/test_aruco.py", "test/core/vision/test_tracking.py", "test/tools/test_track_cli.py",
          "test/tools/test_calibrate_camera.py"]
 SCRIPTS = {"srs_track": "srs_ros.tools.track_cli", "srs_calibrate_camera": "srs_ros.tools.calibrate_camera"}
 
@@ -55,7 +55,7 @@ def python46():
 
 
 def test_the_second_venv_has_opencv_46_with_the_old_aruco_api(python46):
-    done = subprocess.run([str(python46), "-c", "import cv2; from srs_ros.core import aruco; "
+    done = subprocess.run([str(python46), "-c", "import cv2; from srs_ros.core.vision import aruco; "
                            "print(cv2.__version__, aruco.has_class_api())"], capture_output=True, text=True, cwd=ROOT)
     assert done.stdout.split() == ["4.6.0", "False"], done.stderr
 

@@ -4,8 +4,8 @@ view for planar gaits, and distinct line styles for the actuators of a module.""
 import numpy as np
 import pytest
 
+from srs_ros.core.gait.trajectory import GaitCycle, generate_cycle
 from srs_ros.core.kinematics import backbone_points
-from srs_ros.core.trajectory import GaitCycle, generate_cycle
 from srs_ros.plotting import BODY_LINE_WIDTH, joints_figure, shapes_figure
 
 

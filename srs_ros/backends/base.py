@@ -2,7 +2,7 @@
 
 Concrete backends (``mock``, ``can``, ``daq``) implement the four abstract methods. The public
 :meth:`ActuatorBackend.write_pressures` and :meth:`ActuatorBackend.vent` are final: they pass every
-command through the one clamp of :mod:`srs_ros.core.actuation` and convert it to regulator volts, so
+command through the one clamp of :mod:`srs_ros.core.actuation.pressure` and convert it to regulator volts, so
 a backend never sees an unclamped value.
 """
 
@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from srs_ros.core.actuation import clamp_pressures_bar, pressures_to_command_v
+from srs_ros.core.actuation.pressure import clamp_pressures_bar, pressures_to_command_v
 from srs_ros.core.errors import HardwareError, InvalidInputError
 from srs_ros.core.robot import RobotDescription, default_robot
 

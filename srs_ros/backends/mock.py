@@ -1,10 +1,10 @@
-"""The ``mock`` backend: nine simulated muscles (:mod:`srs_ros.core.muscle_model`) instead of regulators.
+"""The ``mock`` backend: nine simulated muscles (:mod:`srs_ros.core.actuation.muscle_model`) instead of regulators.
 
 Options (``backend_options`` of a rig file, each validated with the key named on error):
 
 - ``pressure_time_constant_s``: first-order lag of regulator + muscle, in [0, 10] s;
 - ``transport_delay_s``: supply-line delay, in [0, 2] s (defaults of both:
-  :data:`srs_ros.core.muscle_model.MUSCLE_OPTION_DEFAULTS`);
+  :data:`srs_ros.core.actuation.muscle_model.MUSCLE_OPTION_DEFAULTS`);
 - ``deadzone_bar`` (default: the robot's ``deadzone_bar``): no extension below this pressure;
 - ``max_extension_m`` (default: the robot's ``max_extension_m``): extension reached at the robot's
   ``max_pressure_bar`` and never exceeded;
@@ -33,8 +33,8 @@ from typing import Any
 import numpy as np
 
 from srs_ros.backends.base import ActuatorBackend
+from srs_ros.core.actuation.muscle_model import MuscleModel, MuscleParameters, muscle_parameters_from_options
 from srs_ros.core.errors import ConfigurationError, HardwareError
-from srs_ros.core.muscle_model import MuscleModel, MuscleParameters, muscle_parameters_from_options
 from srs_ros.core.robot import RobotDescription
 
 _FAULT_OPTIONS = ("fail_after_writes", "fail_on_open", "record_file")

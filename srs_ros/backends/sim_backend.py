@@ -49,15 +49,10 @@ import numpy as np
 from srs_ros.backends.base import ActuatorBackend
 from srs_ros.core.errors import ConfigurationError, HardwareError
 from srs_ros.core.robot import RobotDescription
+from srs_ros.ros.interfaces import SIM_BOARD_TIMEOUT_S, SIM_COMMAND_TOPIC, SIM_MONITOR_TOPIC, bus_qos
 
-SIM_COMMAND_TOPIC = "sim/regulator_command"
-SIM_MONITOR_TOPIC = "sim/regulator_monitor"
 #: The node name of the backend's bus (under the process's namespace).
 BUS_NODE_NAME = "sim_backend_bus"
-#: How long (s of world time) sim_world's simulated board holds a command before it vents by itself. Longer
-#: than a real board's 0.1 s (docs/can.md): a simulated rig shares an ordinary computer, whose processes stall
-#: 0.2-0.4 s now and then; a real board runs on its own microcontroller.
-SIM_BOARD_TIMEOUT_S = 0.5
 #: How long closing the bus waits for the world to acknowledge the last command (the vent), s.
 VENT_ACK_TIMEOUT_S = 0.5
 
@@ -70,14 +65,6 @@ _NUMBERS: dict[str, tuple[float, float, float]] = {
     "startup_timeout_s": (15.0, 0.1, 120.0),
 }
 _TOPICS = {"command_topic": SIM_COMMAND_TOPIC, "monitor_topic": SIM_MONITOR_TOPIC}
-
-
-def bus_qos():
-    """The command 'bus': reliable, depth 1 (only the newest command matters, none is silently dropped)."""
-    from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
-
-    return QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1, reliability=ReliabilityPolicy.RELIABLE,
-                      durability=DurabilityPolicy.VOLATILE)
 
 
 class SimBackend(ActuatorBackend):

@@ -49,17 +49,17 @@ from trajectory_msgs.msg import JointTrajectory
 from srs_ros.core.errors import SrsError
 from srs_ros.experiments.recording import BagRecorder
 from srs_ros.experiments.table import Cell, RunRecord
-from srs_ros.nodes.common import (
+from srs_ros.ros.interfaces import (
     ACTUATOR_STATE_TOPIC,
     COMMANDED_PRESSURE_TOPIC,
     DIAGNOSTICS_TOPIC,
+    GROUND_TRUTH_TOPIC,
     POSE_TOPIC,
     SETPOINT_TOPIC,
     TRAJECTORY_TOPIC,
     latched_qos,
     setpoint_qos,
 )
-from srs_ros.nodes.sim_world import GROUND_TRUTH_TOPIC
 
 #: (topic, message class, QoS) recorded into every run's bag.
 RECORDED_TOPICS = (

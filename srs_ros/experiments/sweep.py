@@ -22,9 +22,9 @@ from dataclasses import dataclass
 from functools import lru_cache
 
 from srs_ros.core.errors import InvalidInputError, SrsError
-from srs_ros.core.gaits import list_gaits
+from srs_ros.core.gait.library import list_gaits
+from srs_ros.core.gait.trajectory import GaitCycle, PoorFitWarning, generate_cycle
 from srs_ros.core.robot import CYCLE_FREQUENCY_RANGE_HZ, RobotDescription, default_robot
-from srs_ros.core.trajectory import GaitCycle, PoorFitWarning, generate_cycle
 from srs_ros.experiments.table import Cell, RunRecord, cell_key
 from srs_ros.sim.config import SimConfig
 from srs_ros.sim.experiment import run_experiment

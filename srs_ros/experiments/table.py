@@ -7,7 +7,7 @@ displacement in the floor frame, and ``status`` ("ok" or why it failed). :func:`
 sweep's ``table.csv`` with the measured values beside the simulated or tracked ones, and
 :func:`format_table` prints it in the paper's layout (rows amplitude x frequency, two columns per gait).
 
-Velocities follow the paper's definition (:func:`srs_ros.core.tracking.traveling_velocity`): X and Y
+Velocities follow the paper's definition (:func:`srs_ros.core.vision.tracking.traveling_velocity`): X and Y
 displacement divided by the run time, cm/s. Because a camera's floor axes are arbitrary with respect to
 the robot, tables are compared on the resultant speed ``hypot(v_x, v_y)``.
 """
@@ -26,7 +26,7 @@ from typing import Any
 import numpy as np
 
 from srs_ros.core.errors import ConfigurationError
-from srs_ros.core.gaits import list_gaits
+from srs_ros.core.gait.library import list_gaits
 from srs_ros.core.robot import CYCLE_FREQUENCY_RANGE_HZ, RobotDescription, config_dir, default_robot, read_yaml
 
 #: The paper's Table I in ``config/``.

@@ -52,28 +52,28 @@ from rclpy.node import Node
 from sensor_msgs.msg import Image, JointState
 from std_msgs.msg import Float64MultiArray
 
+from srs_ros.core.actuation.safety import min_setpoint_rate_hz
 from srs_ros.core.errors import ConfigurationError
 from srs_ros.core.rig import load_rig
 from srs_ros.core.robot import config_dir, default_robot
-from srs_ros.core.safety import min_setpoint_rate_hz
-from srs_ros.core.tracking import ViewStatus
-from srs_ros.nodes.camera_tracker import IMAGE_TOPIC, CameraTrackerNode, image_msg_to_array
-from srs_ros.nodes.common import (
-    COMMANDED_PRESSURE_TOPIC,
-    DIAGNOSTICS_TOPIC,
-    POSE_TOPIC,
-    SETPOINT_TOPIC,
-    CleanExit,
-    guard_parameter_services,
-    init_ros,
-    setpoint_qos,
-    spin_until_shutdown,
-    steady_timer,
-)
+from srs_ros.core.vision.view import ViewStatus
+from srs_ros.nodes.camera_tracker import CameraTrackerNode
 from srs_ros.nodes.gait_player import GaitPlayer
 from srs_ros.nodes.hardware_node import HardwareNode, release_and_report
-from srs_ros.nodes.sim_world import GROUND_TRUTH_TOPIC, SimWorldNode
+from srs_ros.nodes.sim_world import SimWorldNode
 from srs_ros.nodes.trajectory_server import TrajectoryServer
+from srs_ros.ros.interfaces import (
+    COMMANDED_PRESSURE_TOPIC,
+    DIAGNOSTICS_TOPIC,
+    GROUND_TRUTH_TOPIC,
+    IMAGE_TOPIC,
+    POSE_TOPIC,
+    SETPOINT_TOPIC,
+    image_msg_to_array,
+    setpoint_qos,
+)
+from srs_ros.ros.parameters import guard_parameter_services
+from srs_ros.ros.process import CleanExit, init_ros, spin_until_shutdown, steady_timer
 
 
 class StatusMonitor(Node):

@@ -13,8 +13,8 @@ marker is missing publishes nothing. ``/diagnostics`` (status ``camera_tracker: 
   ``last_seen_y_m``, ``last_seen_frame_id``, ``last_seen_ago_s`` carry the same;
 - ERROR ``no images from /image_raw for .. s (camera silent)`` after ``image_timeout_s`` (1 s) without a frame;
 
-and returns to OK when the robot is seen again. The decisions are :class:`srs_ros.core.tracking.ViewWatch`'s,
-all tracking is in :mod:`srs_ros.core.tracking`; this module is ROS wiring only.
+and returns to OK when the robot is seen again. The decisions are :class:`srs_ros.core.vision.tracking.ViewWatch`'s,
+all tracking is in :mod:`srs_ros.core.vision.tracking`; this module is ROS wiring only.
 """
 
 from __future__ import annotations
@@ -35,35 +35,35 @@ from rclpy.node import Node
 from rclpy.qos import qos_profile_sensor_data
 from sensor_msgs.msg import Image
 
-from srs_ros.core.camera_calibration import load_calibration
 from srs_ros.core.errors import ConfigurationError, InvalidInputError, SrsError
-from srs_ros.core.tracking import (
+from srs_ros.core.vision.camera_calibration import load_calibration
+from srs_ros.core.vision.tracking import (
     DEFAULT_ARUCO_DICTIONARY,
     Tracker,
     TrackerConfig,
     TrackResult,
-    ViewStatus,
-    ViewWatch,
     yaw_to_quaternion,
 )
-from srs_ros.nodes.common import (
+from srs_ros.core.vision.view import ViewStatus, ViewWatch
+from srs_ros.ros.interfaces import (
     DIAGNOSTICS_TOPIC,
+    IMAGE_TOPIC,
     PATH_TOPIC,
     POSE_TOPIC,
     TWIST_TOPIC,
-    ParameterSpec,
-    declare_parameters,
-    run_node,
+    image_msg_to_array,
+    seconds_to_stamp,
+    stamp_to_seconds,
 )
+from srs_ros.ros.parameters import ParameterSpec, declare_parameters
+from srs_ros.ros.process import run_node
 
-IMAGE_TOPIC = "image_raw"
 #: The tracker's status on /diagnostics is named "<node name>: marker tracking".
 STATUS_NAME_SUFFIX = "marker tracking"
 #: A parameter this node no longer has, and what replaced it (said at start-up when it is still given).
 RENAMED_PARAMETERS = {"lost_timeout_s": "image_timeout_s (no images: ERROR camera silent) and lost_after_s "
                                         "(no pose: WARN robot out of the camera's view)"}
 _LEVELS = {"OK": DiagnosticStatus.OK, "WARN": DiagnosticStatus.WARN, "ERROR": DiagnosticStatus.ERROR}
-_CHANNELS = {"bgr8": 3, "rgb8": 3, "mono8": 1, "8UC1": 1, "8UC3": 3, "bgra8": 4, "rgba8": 4}
 
 PARAMETERS = (
     ParameterSpec("calibration_file", "", "floor calibration YAML; empty = config/camera_calibration.yaml",
@@ -105,60 +105,6 @@ PARAMETERS = (
                   0.01, 3600.0, read_only=True),
     ParameterSpec("diagnostics_period_s", 1.0, "period of the /diagnostics report, s", 0.05, 60.0, read_only=True),
 )
-
-
-# ------------------------------------------------------------------------------------------
-# sensor_msgs/Image <-> NumPy (no cv_bridge needed)
-# ------------------------------------------------------------------------------------------
-def image_msg_to_array(msg: Image) -> np.ndarray:
-    """An Image message as a BGR (h, w, 3) or mono (h, w) uint8 array (a copy; row padding removed)."""
-    channels = _CHANNELS.get(msg.encoding)
-    if channels is None:
-        raise InvalidInputError(
-            f"image encoding {msg.encoding!r} is not supported; expected one of {sorted(_CHANNELS)}."
-        )
-    if msg.width == 0 or msg.height == 0:
-        raise InvalidInputError(f"image {msg.width}x{msg.height} {msg.encoding} is empty; expected at least 1x1 "
-                                "pixels.")
-    row_bytes = msg.width * channels
-    if msg.step < row_bytes or len(msg.data) < msg.step * msg.height:
-        raise InvalidInputError(
-            f"image {msg.width}x{msg.height} {msg.encoding}: step {msg.step} and {len(msg.data)} bytes are too small "
-            f"(expected step >= {row_bytes} and {msg.step * msg.height} bytes)."
-        )
-    buffer = np.frombuffer(msg.data, dtype=np.uint8, count=msg.step * msg.height).reshape(msg.height, msg.step)
-    pixels = buffer[:, :row_bytes].reshape(msg.height, msg.width, channels)
-    conversions = {"rgb8": cv2.COLOR_RGB2BGR, "bgra8": cv2.COLOR_BGRA2BGR, "rgba8": cv2.COLOR_RGBA2BGR}
-    if msg.encoding in conversions:
-        return cv2.cvtColor(pixels, conversions[msg.encoding])
-    return pixels[:, :, 0].copy() if channels == 1 else pixels.copy()
-
-
-def array_to_image_msg(image: np.ndarray, stamp: Time | None = None, frame_id: str = "camera") -> Image:
-    """A BGR (h, w, 3) or mono (h, w) uint8 array as an Image message (bgr8 or mono8)."""
-    image = np.ascontiguousarray(image)
-    if image.dtype != np.uint8 or image.ndim not in (2, 3) or (image.ndim == 3 and image.shape[2] != 3):
-        raise InvalidInputError(f"image {image.shape} {image.dtype}; expected uint8 (h, w) mono or (h, w, 3) BGR.")
-    msg = Image()
-    if stamp is not None:
-        msg.header.stamp = stamp
-    msg.header.frame_id = frame_id
-    msg.height, msg.width = image.shape[:2]
-    msg.encoding = "mono8" if image.ndim == 2 else "bgr8"
-    msg.step = msg.width * (1 if image.ndim == 2 else 3)
-    msg.data = image.tobytes()
-    return msg
-
-
-def stamp_to_seconds(stamp: Time) -> float:
-    """A builtin_interfaces/Time in seconds."""
-    return stamp.sec + 1e-9 * stamp.nanosec
-
-
-def seconds_to_stamp(seconds: float) -> Time:
-    """Seconds as a builtin_interfaces/Time."""
-    sec = int(seconds // 1)
-    return Time(sec=sec, nanosec=min(int(round((seconds - sec) * 1e9)), 999_999_999))
 
 
 def tracker_config(params: dict[str, Any]) -> TrackerConfig:

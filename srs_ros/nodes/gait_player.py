@@ -24,7 +24,7 @@ Behaviour, as a robotics user expects it:
   ``/clock``, so a simulation that runs slower than real time still sees the gait's own frequency); after
   a stall longer than 50 ms it advances by 50 ms only, so a late tick never makes the setpoint jump.
 
-The playback logic lives in :mod:`srs_ros.core.playback`; this node is the ROS wiring around it.
+The playback logic lives in :mod:`srs_ros.core.gait.playback`; this node is the ROS wiring around it.
 """
 
 from __future__ import annotations
@@ -41,27 +41,17 @@ from std_srvs.srv import Trigger
 from trajectory_msgs.msg import JointTrajectory
 
 from srs_ros.core.errors import SrsError
-from srs_ros.core.playback import (
-    DEFAULT_RAMP_TIME_S,
+from srs_ros.core.gait.playback import (
     MAX_TRAJECTORY_POINTS,
     GaitPlayback,
     PlaybackState,
     cycle_from_points,
 )
+from srs_ros.core.ramp import DEFAULT_RAMP_TIME_S
 from srs_ros.core.robot import CYCLE_FREQUENCY_RANGE_HZ, load_robot
-from srs_ros.nodes.common import (
-    REALTIME_PRIORITY,
-    SETPOINT_TOPIC,
-    TRAJECTORY_TOPIC,
-    ParameterSpec,
-    check_parameters,
-    declare_parameters,
-    latched_qos,
-    request_realtime_priority,
-    run_node,
-    setpoint_qos,
-    steady_timer,
-)
+from srs_ros.ros.interfaces import SETPOINT_TOPIC, TRAJECTORY_TOPIC, latched_qos, setpoint_qos
+from srs_ros.ros.parameters import REALTIME_PRIORITY, ParameterSpec, check_parameters, declare_parameters
+from srs_ros.ros.process import request_realtime_priority, run_node, steady_timer
 
 #: Largest phase step per tick: a stalled process resumes where it was instead of jumping ahead.
 MAX_STEP_S = 0.05

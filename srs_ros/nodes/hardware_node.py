@@ -34,7 +34,7 @@ Interfaces (relative names, remappable):
 - lengths become pressures through ``pressure_map``: ``paper`` (``P = 100 l``) or ``calibrated`` (each
   muscle's inverted static characteristic from ``calibration_file``, written by ``srs_identify``); with
   ``lag_compensation`` (live) commands lead the supply line's delay and invert its lag
-  (:mod:`srs_ros.core.compensation`), always through the one clamp.
+  (:mod:`srs_ros.core.actuation.compensation`), always through the one clamp.
 - publishes ``commanded_pressure_bar`` and ``command_voltage_v`` (std_msgs/Float64MultiArray, dim 0
   labelled with the comma-joined joint names): what the backend was sent, on each command while
   configured (zeros when inactive, disarmed, stale or e-stopped); ``actuator_state`` (sensor_msgs/JointState)
@@ -68,14 +68,10 @@ from std_msgs.msg import Float64MultiArray
 from std_srvs.srv import Trigger
 
 from srs_ros.backends import BACKENDS, ActuatorBackend, create_backend
-from srs_ros.core.actuation import pressures_to_command_v
-from srs_ros.core.compensation import SetpointShaper, setpoint_shaper
-from srs_ros.core.errors import ConfigurationError, InvalidInputError
-from srs_ros.core.muscle_calibration import CALIBRATED_MAP, PAPER_MAP
-from srs_ros.core.playback import DEFAULT_RAMP_TIME_S
-from srs_ros.core.rig import RigConfig, load_rig
-from srs_ros.core.robot import ABSOLUTE_MAX_PRESSURE_BAR, load_robot
-from srs_ros.core.safety import (
+from srs_ros.core.actuation.compensation import SetpointShaper, setpoint_shaper
+from srs_ros.core.actuation.muscle_calibration import CALIBRATED_MAP, PAPER_MAP
+from srs_ros.core.actuation.pressure import pressures_to_command_v
+from srs_ros.core.actuation.safety import (
     VENT_FAILED,
     CommandGate,
     OutputReason,
@@ -85,22 +81,21 @@ from srs_ros.core.safety import (
     setpoint_lengths_m,
     setpoint_velocities_m_per_s,
 )
-from srs_ros.nodes.common import (
+from srs_ros.core.errors import ConfigurationError, InvalidInputError
+from srs_ros.core.ramp import DEFAULT_RAMP_TIME_S
+from srs_ros.core.rig import RigConfig, load_rig
+from srs_ros.core.robot import ABSOLUTE_MAX_PRESSURE_BAR, load_robot
+from srs_ros.ros.interfaces import (
     ACTUATOR_STATE_TOPIC,
     COMMAND_VOLTAGE_TOPIC,
     COMMANDED_PRESSURE_TOPIC,
     DIAGNOSTICS_TOPIC,
-    REALTIME_PRIORITY,
     SETPOINT_TOPIC,
-    ParameterSpec,
-    check_parameters,
-    declare_parameters,
     labelled_array,
-    request_realtime_priority,
-    run_node,
     setpoint_qos,
-    steady_timer,
 )
+from srs_ros.ros.parameters import REALTIME_PRIORITY, ParameterSpec, check_parameters, declare_parameters
+from srs_ros.ros.process import request_realtime_priority, run_node, steady_timer
 
 NODE_NAME = "hardware_node"
 DIAGNOSTICS_PERIOD_S = 1.0
@@ -185,7 +180,7 @@ class _NodeLogHandler(logging.Handler):
 
 
 class HardwareNode(LifecycleNode):
-    """Lifecycle wiring around a backend and a :class:`~srs_ros.core.safety.CommandGate`."""
+    """Lifecycle wiring around a backend and a :class:`~srs_ros.core.actuation.safety.CommandGate`."""
 
     def __init__(self, **kwargs):
         """Declare parameters, diagnostics and the e-stop/arm services; configure+activate if ``autostart``."""

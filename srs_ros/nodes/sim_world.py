@@ -39,32 +39,32 @@ from sensor_msgs.msg import Image, JointState
 from std_srvs.srv import Trigger
 from visualization_msgs.msg import Marker, MarkerArray
 
-from srs_ros.backends.sim_backend import SIM_BOARD_TIMEOUT_S, SIM_COMMAND_TOPIC, SIM_MONITOR_TOPIC, bus_qos
-from srs_ros.core.actuation import clamp_pressures_bar, pressures_to_lengths_m
+from srs_ros.core.actuation.pressure import clamp_pressures_bar, pressures_to_lengths_m
 from srs_ros.core.errors import InvalidInputError, SrsError
 from srs_ros.core.kinematics import backbone_points
 from srs_ros.core.robot import load_robot
-from srs_ros.core.tracking import yaw_to_quaternion
-from srs_ros.nodes.camera_tracker import IMAGE_TOPIC, array_to_image_msg
-from srs_ros.nodes.common import (
+from srs_ros.core.vision.tracking import yaw_to_quaternion
+from srs_ros.ros.interfaces import (
+    BODY_MARKERS_TOPIC,
+    CLOCK_TOPIC,
     DIAGNOSTICS_TOPIC,
-    REALTIME_PRIORITY,
-    ParameterSpec,
-    declare_parameters,
-    request_realtime_priority,
-    run_node,
-    steady_timer,
+    FLOOR_FRAME,
+    GROUND_TRUTH_TOPIC,
+    IMAGE_TOPIC,
+    SIM_BOARD_TIMEOUT_S,
+    SIM_COMMAND_TOPIC,
+    SIM_MONITOR_TOPIC,
+    array_to_image_msg,
+    bus_qos,
 )
+from srs_ros.ros.parameters import REALTIME_PRIORITY, ParameterSpec, declare_parameters
+from srs_ros.ros.process import request_realtime_priority, run_node, steady_timer
 from srs_ros.sim.camera import OverheadCamera
 from srs_ros.sim.config import load_sim_config
 from srs_ros.sim.realtime import RealTimePacer, SimulatedBoard
 from srs_ros.sim.world import SimWorld
 
 NODE_NAME = "sim_world"
-GROUND_TRUTH_TOPIC = "sim/ground_truth_pose"
-BODY_MARKERS_TOPIC = "sim/body_markers"
-CLOCK_TOPIC = "/clock"
-FLOOR_FRAME = "floor"
 LOG_THROTTLE_S = 1.0
 
 PARAMETERS = (

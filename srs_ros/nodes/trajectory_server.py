@@ -40,17 +40,11 @@ from std_srvs.srv import Trigger
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
 from srs_ros.core.errors import ConfigurationError, SrsError
+from srs_ros.core.gait.trajectory import PoorFitWarning, generate_cycle, list_gaits
 from srs_ros.core.robot import CYCLE_FREQUENCY_RANGE_HZ, load_robot
-from srs_ros.core.trajectory import PoorFitWarning, generate_cycle, list_gaits
-from srs_ros.nodes.common import (
-    TRAJECTORY_TOPIC,
-    ParameterSpec,
-    check_parameters,
-    declare_parameters,
-    latched_qos,
-    run_node,
-    startup_value,
-)
+from srs_ros.ros.interfaces import TRAJECTORY_TOPIC, latched_qos
+from srs_ros.ros.parameters import ParameterSpec, check_parameters, declare_parameters, startup_value
+from srs_ros.ros.process import run_node
 
 #: Longest wait at shutdown for a running fit to finish before the node is destroyed.
 SHUTDOWN_WAIT_S = 30.0
@@ -115,7 +109,7 @@ def trajectory_message(cycle, stamp) -> JointTrajectory:
 
 
 class TrajectoryServer(Node):
-    """ROS wiring of :func:`srs_ros.core.trajectory.generate_cycle`: parameters in, latched trajectory out."""
+    """ROS wiring of :func:`srs_ros.core.gait.trajectory.generate_cycle`: parameters in, latched trajectory out."""
 
     def __init__(self, **kwargs):
         super().__init__("trajectory_server", **kwargs)

@@ -16,12 +16,12 @@ import math
 import cv2
 import numpy as np
 
-from srs_ros.core.camera_calibration import CameraCalibration, load_calibration
 from srs_ros.core.errors import ConfigurationError
 from srs_ros.core.robot import config_file
-from srs_ros.core.tracking import ColorRange, TrackerConfig
+from srs_ros.core.vision.camera_calibration import CameraCalibration, load_calibration
+from srs_ros.core.vision.tracking import ColorRange, TrackerConfig
 from srs_ros.sim.config import CameraConfig, SimConfig, load_sim_config
-from srs_ros.tools.synthetic_scene import floor_texture_bgr
+from srs_ros.sim.scene import floor_texture_bgr
 
 #: Image size assumed when the calibration does not give one (width, height), pixels.
 DEFAULT_IMAGE_SIZE_PX = (640, 480)
@@ -135,7 +135,7 @@ class OverheadCamera:
     def calibration_at_height(self, height_m: float) -> CameraCalibration:
         """The calibration a lab would make with its markers at ``height_m``: image -> (x, y) on that plane.
 
-        The tracker assumes its markers lie in the calibrated plane (srs_ros.core.tracking); the bands
+        The tracker assumes its markers lie in the calibrated plane (srs_ros.core.vision.tracking); the bands
         ride on the body's axis, one skin radius above the floor while it lies there.
         """
         to_image = self.floor_homography(height_m)

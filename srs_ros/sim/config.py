@@ -4,7 +4,7 @@ Every key is checked against a table of its type and range; a bad value raises
 :class:`~srs_ros.core.errors.ConfigurationError` naming the file, the key, the value and what is
 expected, as :mod:`srs_ros.core.robot` and :mod:`srs_ros.core.rig` do. The robot itself (geometry, mass,
 muscle limits) comes from the robot description; the muscles' lag and delay from
-:func:`srs_ros.core.muscle_model.muscle_parameters_from_options`.
+:func:`srs_ros.core.actuation.muscle_model.muscle_parameters_from_options`.
 """
 
 from __future__ import annotations
@@ -16,8 +16,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from srs_ros.core.actuation.muscle_model import MuscleParameters, muscle_parameters_from_options
 from srs_ros.core.errors import ConfigurationError
-from srs_ros.core.muscle_model import MuscleParameters, muscle_parameters_from_options
 from srs_ros.core.robot import RobotDescription, config_dir, default_robot, read_yaml
 
 #: Name of the default file in ``config/``.

@@ -1,10 +1,10 @@
 """One offline experiment on the simulated robot, measured like the paper's Table I (Sec. IV).
 
-:func:`run_experiment` fits the gait's joint-space cycle (:func:`srs_ros.core.trajectory.generate_cycle`),
+:func:`run_experiment` fits the gait's joint-space cycle (:func:`srs_ros.core.gait.trajectory.generate_cycle`),
 samples its pressures ``P = 100 l`` at the command rate, sends them to a fresh :class:`SimWorld` and
 records the tracked reference point at the camera's frame rate. The traveling velocity is the paper's:
 X and Y displacement of the reference point divided by the run time, in cm/s, floor frame
-(:func:`srs_ros.core.tracking.traveling_velocity`). The run starts from rest with the cycle at phase 0
+(:func:`srs_ros.core.vision.tracking.traveling_velocity`). The run starts from rest with the cycle at phase 0
 and is deterministic for a given configuration. A sweep calls this function once per run.
 """
 
@@ -18,12 +18,12 @@ from typing import Any
 
 import numpy as np
 
-from srs_ros.core.actuation import lengths_to_pressures_bar
+from srs_ros.core.actuation.pressure import lengths_to_pressures_bar
 from srs_ros.core.errors import InvalidInputError
+from srs_ros.core.gait.trajectory import GaitCycle, generate_cycle
 from srs_ros.core.rig import load_rig
 from srs_ros.core.robot import RobotDescription, default_robot
-from srs_ros.core.tracking import TravelingVelocity, traveling_velocity
-from srs_ros.core.trajectory import GaitCycle, generate_cycle
+from srs_ros.core.vision.tracking import TravelingVelocity, traveling_velocity
 from srs_ros.sim.config import SimConfig, load_sim_config
 from srs_ros.sim.world import SimState, SimWorld
 

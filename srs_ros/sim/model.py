@@ -55,7 +55,7 @@ def _start_frame(config: SimConfig, robot: RobotDescription) -> tuple[np.ndarray
     """Tail position (3,) and orientation quaternion (w, x, y, z) of the straight robot at the start pose.
 
     The robot frame's +Z points along the heading on the floor and its +Y up (the body frame of the gaits,
-    :func:`srs_ros.core.gaits._in_body_frame`), so planar gaits bend in the floor plane.
+    :func:`srs_ros.core.gait.library._in_body_frame`), so planar gaits bend in the floor plane.
     """
     start = config.start
     heading = np.array([math.cos(start.yaw_rad), math.sin(start.yaw_rad), 0.0])

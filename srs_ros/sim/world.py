@@ -4,8 +4,8 @@
 command arrives and :meth:`SimWorld.advance_to` with its clock (real time); an offline experiment calls
 :meth:`SimWorld.step` as fast as it can. Both run the same fixed-step physics, so a given configuration
 and command sequence always gives the same motion. Commands go through the one clamp
-(:func:`srs_ros.core.actuation.clamp_pressures_bar`) into the muscle model
-(:class:`srs_ros.core.muscle_model.MuscleModel`: deadzone, lag, transport delay, saturation); every
+(:func:`srs_ros.core.actuation.pressure.clamp_pressures_bar`) into the muscle model
+(:class:`srs_ros.core.actuation.muscle_model.MuscleModel`: deadzone, lag, transport delay, saturation); every
 control period the muscles' actual lengths set the joint servos' targets
 (:func:`srs_ros.sim.model.joint_targets`). :meth:`SimWorld.state` reports what a node publishes and an
 experiment measures. A diverged simulation raises :class:`~srs_ros.core.errors.SimulationError` and
@@ -20,10 +20,10 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
-from srs_ros.core.actuation import clamp_pressures_bar
+from srs_ros.core.actuation.muscle_model import MuscleModel
+from srs_ros.core.actuation.pressure import clamp_pressures_bar
 from srs_ros.core.errors import InvalidInputError, SimulationError
 from srs_ros.core.kinematics import lengths_to_bend
-from srs_ros.core.muscle_model import MuscleModel
 from srs_ros.core.robot import RobotDescription, default_robot
 from srs_ros.sim.config import SimConfig, load_sim_config
 from srs_ros.sim.model import BodyLayout, ShapeTargets, build_model
@@ -82,7 +82,7 @@ class SimState:
 
     @property
     def pose(self) -> np.ndarray:
-        """``(x_m, y_m, yaw_rad)`` of the reference point, as :class:`srs_ros.core.tracking.Tracker` reports it."""
+        """``(x_m, y_m, yaw_rad)`` of the reference point, as the camera tracker gives it."""
         return np.array([self.reference_xy_m[0], self.reference_xy_m[1], self.heading_rad])
 
 
@@ -138,7 +138,7 @@ class SimWorld:
     def command_pressures(self, pressure_bar, now_s: float | None = None) -> np.ndarray:
         """Set the nine regulators' pressures (bar) at ``now_s`` (default: the world's time); returns them clamped.
 
-        Every value goes through :func:`~srs_ros.core.actuation.clamp_pressures_bar` (NaN or a wrong size
+        Every value goes through :func:`~srs_ros.core.actuation.pressure.clamp_pressures_bar` (NaN or a wrong size
         raises :class:`InvalidInputError` and changes nothing). The command reaches the muscles after the
         supply line's delay. ``now_s`` must not go back before the previous command nor lie more than one
         control period ahead of the world.

@@ -32,8 +32,10 @@ from typing import Any
 import cv2
 import numpy as np
 
-from srs_ros.core import aruco
-from srs_ros.core.camera_calibration import (
+from srs_ros.core.errors import ConfigurationError, SrsError
+from srs_ros.core.robot import config_dir, read_yaml
+from srs_ros.core.vision import aruco
+from srs_ros.core.vision.camera_calibration import (
     DEFAULT_CALIBRATION_FILE,
     CameraCalibration,
     calibration_from_pairs,
@@ -41,9 +43,7 @@ from srs_ros.core.camera_calibration import (
     read_point_pairs,
     save_calibration,
 )
-from srs_ros.core.errors import ConfigurationError, SrsError
-from srs_ros.core.robot import config_dir, read_yaml
-from srs_ros.core.tracking import DEFAULT_ARUCO_DICTIONARY, quad_centre
+from srs_ros.core.vision.tracking import DEFAULT_ARUCO_DICTIONARY, quad_centre
 
 
 def marker_corners_floor_m(x_m: float, y_m: float, yaw_rad: float, size_m: float) -> np.ndarray:

@@ -28,8 +28,7 @@ from pathlib import Path
 import numpy as np
 
 from srs_ros.backends import BACKENDS, ActuatorBackend
-from srs_ros.core.errors import ConfigurationError, FitError, HardwareError
-from srs_ros.core.identification import (
+from srs_ros.core.actuation.identification import (
     CommandPlan,
     Identification,
     Measurement,
@@ -41,7 +40,7 @@ from srs_ros.core.identification import (
     run_plan,
     step_plan,
 )
-from srs_ros.core.muscle_calibration import (
+from srs_ros.core.actuation.muscle_calibration import (
     DYNAMIC_KEYS,
     STATIC_KEYS,
     MuscleCalibration,
@@ -49,6 +48,7 @@ from srs_ros.core.muscle_calibration import (
     load_calibration,
     save_calibration,
 )
+from srs_ros.core.errors import ConfigurationError, FitError, HardwareError
 from srs_ros.core.rig import RigConfig, default_rig_path, load_rig
 from srs_ros.core.robot import RobotDescription, load_robot
 from srs_ros.tools.rig_session import (
@@ -72,7 +72,7 @@ MAX_HOLD_S = 60.0
 
 
 class BackendIO:
-    """A backend as identification's :class:`~srs_ros.core.identification.RigIO`, on ``clock`` (s).
+    """A backend as identification's :class:`~srs_ros.core.actuation.identification.RigIO`, on ``clock`` (s).
 
     A measurement is dated by the backend's read-back age where it reports one (the sim backend's
     ``monitor_age_s``, the CAN board's ``readback_age_s``), so the delay fitted is the line's.

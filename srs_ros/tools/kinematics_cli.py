@@ -11,7 +11,7 @@ import sys
 
 import numpy as np
 
-from srs_ros.core.actuation import pressures_to_lengths_m
+from srs_ros.core.actuation.pressure import pressures_to_lengths_m
 from srs_ros.core.errors import SrsError
 from srs_ros.core.kinematics import backbone_points, lengths_to_bend
 from srs_ros.core.robot import load_robot

@@ -16,9 +16,9 @@ from collections.abc import Callable, Iterator
 import numpy as np
 
 from srs_ros.backends import ActuatorBackend, create_backend
+from srs_ros.core.actuation.safety import VENT_FAILED
 from srs_ros.core.errors import ConfigurationError, HardwareError
 from srs_ros.core.rig import RigConfig
-from srs_ros.core.safety import VENT_FAILED
 
 EXIT_OK, EXIT_HARDWARE, EXIT_USAGE, EXIT_INTERRUPTED = 0, 1, 2, 130
 

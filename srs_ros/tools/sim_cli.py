@@ -18,7 +18,7 @@ from pathlib import Path
 import cv2
 
 from srs_ros.core.errors import SrsError
-from srs_ros.core.gaits import list_gaits
+from srs_ros.core.gait.library import list_gaits
 from srs_ros.sim.camera import OverheadCamera
 from srs_ros.sim.config import load_sim_config, with_friction
 from srs_ros.sim.experiment import DEFAULT_RECORD_RATE_HZ, run_experiment

@@ -35,7 +35,7 @@ from pathlib import Path
 from tqdm import tqdm
 
 from srs_ros.core.errors import ConfigurationError, SrsError
-from srs_ros.core.gaits import list_gaits
+from srs_ros.core.gait.library import list_gaits
 from srs_ros.experiments.calibration import (
     DEFAULT_MAX_EVALUATIONS,
     FIT_PARAMETERS,

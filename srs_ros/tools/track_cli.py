@@ -15,9 +15,9 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from srs_ros.core.camera_calibration import load_calibration
 from srs_ros.core.errors import ConfigurationError, InvalidInputError, SrsError
-from srs_ros.core.tracking import DEFAULT_ARUCO_DICTIONARY, Tracker, TrackerConfig, traveling_velocity
+from srs_ros.core.vision.camera_calibration import load_calibration
+from srs_ros.core.vision.tracking import DEFAULT_ARUCO_DICTIONARY, Tracker, TrackerConfig, traveling_velocity
 
 
 def track_video(video: str | Path, tracker: Tracker, fps: float | None = None) -> tuple[np.ndarray, int]:

@@ -18,8 +18,8 @@ import warnings
 from pathlib import Path
 
 from srs_ros.core.errors import SrsError
+from srs_ros.core.gait.trajectory import MIN_SAMPLES, PoorFitWarning, generate_cycle, list_gaits
 from srs_ros.core.robot import default_robot, load_robot
-from srs_ros.core.trajectory import MIN_SAMPLES, PoorFitWarning, generate_cycle, list_gaits
 
 
 def _parser() -> argparse.ArgumentParser:

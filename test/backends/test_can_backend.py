@@ -706,7 +706,7 @@ def test_hardware_node_can_fault_goes_to_error_and_recovers(launch_node, ros_cli
     from sensor_msgs.msg import JointState
     from srs_testing import ros_args
 
-    from srs_ros.nodes.common import ACTUATOR_STATE_TOPIC, DIAGNOSTICS_TOPIC, SETPOINT_TOPIC, setpoint_qos
+    from srs_ros.ros.interfaces import ACTUATOR_STATE_TOPIC, DIAGNOSTICS_TOPIC, SETPOINT_TOPIC, setpoint_qos
 
     daemon = FakeSocketcand(monitor_v=3.0)  # 3 V on the ITV monitor output = (3 - 1) / 4 * 9 = 4.5 bar
     try:
@@ -773,7 +773,7 @@ def test_sigkill_of_the_hardware_node_lets_the_board_vent_by_itself(launch_node,
     from sensor_msgs.msg import JointState
     from srs_testing import ros_args
 
-    from srs_ros.nodes.common import SETPOINT_TOPIC, setpoint_qos
+    from srs_ros.ros.interfaces import SETPOINT_TOPIC, setpoint_qos
 
     timeout_s = 0.1
     board = ReferenceDacBoard(timeout_s=timeout_s)

@@ -387,7 +387,7 @@ def test_hardware_node_takes_an_expired_watchdog_through_its_fault_path_and_reco
     from std_msgs.msg import Float64MultiArray
 
     from srs_ros.core.robot import default_robot
-    from srs_ros.nodes.common import COMMANDED_PRESSURE_TOPIC, DIAGNOSTICS_TOPIC, SETPOINT_TOPIC, setpoint_qos
+    from srs_ros.ros.interfaces import COMMANDED_PRESSURE_TOPIC, DIAGNOSTICS_TOPIC, SETPOINT_TOPIC, setpoint_qos
 
     rig = tmp_path / "daq.yaml"
     rig.write_text((config_dir() / "rigs" / "daq.yaml").read_text().replace("setpoint_timeout_s: 0.2",

@@ -9,9 +9,9 @@ from rclpy.executors import SingleThreadedExecutor
 from sensor_msgs.msg import JointState
 
 from srs_ros.backends import create_backend
-from srs_ros.backends.sim_backend import SIM_COMMAND_TOPIC, SIM_MONITOR_TOPIC, bus_qos
 from srs_ros.core.errors import ConfigurationError, HardwareError
 from srs_ros.core.robot import default_robot
+from srs_ros.ros.interfaces import SIM_COMMAND_TOPIC, SIM_MONITOR_TOPIC, bus_qos
 
 NAMES = list(default_robot().joint_names)
 

@@ -5,7 +5,7 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 
 from srs_ros.core.robot import default_robot
-from srs_ros.nodes.common import setpoint_qos
+from srs_ros.ros.interfaces import setpoint_qos
 
 
 def test_bringup_streams_inward_rolling_at_4_bar_and_vents_on_ctrl_c(launch_node, ros_client):

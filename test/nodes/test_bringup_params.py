@@ -5,7 +5,7 @@ import re
 
 from sensor_msgs.msg import JointState
 
-from srs_ros.nodes.common import setpoint_qos
+from srs_ros.ros.interfaces import setpoint_qos
 
 
 def test_ros_args_win_and_the_temporary_params_file_is_gone_while_running(launch_node, ros_client, tmp_path):

@@ -12,11 +12,11 @@ import numpy as np
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import PoseStamped
 
-from srs_ros.core.tracking import TrackResult, ViewWatch
+from srs_ros.core.vision.tracking import TrackResult
+from srs_ros.core.vision.view import ViewWatch
 from srs_ros.nodes.bringup import StatusMonitor
-from srs_ros.nodes.camera_tracker import seconds_to_stamp, tracking_status
-from srs_ros.nodes.common import POSE_TOPIC
-from srs_ros.nodes.sim_world import GROUND_TRUTH_TOPIC
+from srs_ros.nodes.camera_tracker import tracking_status
+from srs_ros.ros.interfaces import GROUND_TRUTH_TOPIC, POSE_TOPIC, seconds_to_stamp
 
 TRACKER = ("camera_tracker: marker tracking", "/image_raw")
 OTHER_ROBOT = ("camera_tracker: marker tracking", "/snake2/image_raw")

@@ -11,9 +11,9 @@ from nav_msgs.msg import Path
 from sensor_msgs.msg import Image
 from srs_testing import ros_args
 
-from srs_ros.core.camera_calibration import save_calibration
-from srs_ros.nodes.camera_tracker import array_to_image_msg, image_msg_to_array, seconds_to_stamp, stamp_to_seconds
-from srs_ros.tools.synthetic_scene import (
+from srs_ros.core.vision.camera_calibration import save_calibration
+from srs_ros.ros.interfaces import array_to_image_msg, image_msg_to_array, seconds_to_stamp, stamp_to_seconds
+from srs_ros.sim.scene import (
     RobotAppearance,
     SyntheticCamera,
     SyntheticScene,

@@ -12,7 +12,7 @@ from rclpy.parameter import Parameter
 from srs_testing import ros_args
 
 from srs_ros.core.errors import ConfigurationError
-from srs_ros.nodes.common import ParameterSpec, check_parameters, declare_parameters, startup_value
+from srs_ros.ros.parameters import ParameterSpec, check_parameters, declare_parameters, startup_value
 
 SPECS = (ParameterSpec("rate_hz", 200.0, "rate, Hz", 1.0, 1000.0), ParameterSpec("cycles", 0, "cycles", 0, 10))
 

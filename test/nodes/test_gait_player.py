@@ -11,9 +11,9 @@ from sensor_msgs.msg import JointState
 from srs_testing import JOINT_NAMES, rolling_cycle, ros_args, trajectory
 from trajectory_msgs.msg import JointTrajectory
 
-from srs_ros.core.interpolation import PeriodicTrajectory
+from srs_ros.core.gait.interpolation import PeriodicTrajectory
 from srs_ros.core.robot import config_dir
-from srs_ros.nodes.common import SETPOINT_TOPIC, TRAJECTORY_TOPIC, latched_qos, setpoint_qos
+from srs_ros.ros.interfaces import SETPOINT_TOPIC, TRAJECTORY_TOPIC, latched_qos, setpoint_qos
 
 NAMES = JOINT_NAMES
 

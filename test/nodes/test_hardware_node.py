@@ -13,9 +13,9 @@ from sensor_msgs.msg import JointState
 from srs_testing import ros_args
 from std_msgs.msg import Float64MultiArray
 
-from srs_ros.core.muscle_calibration import calibration_from_values, save_calibration
+from srs_ros.core.actuation.muscle_calibration import calibration_from_values, save_calibration
 from srs_ros.core.robot import config_dir, default_robot
-from srs_ros.nodes.common import (
+from srs_ros.ros.interfaces import (
     ACTUATOR_STATE_TOPIC,
     COMMAND_VOLTAGE_TOPIC,
     COMMANDED_PRESSURE_TOPIC,
@@ -152,7 +152,7 @@ def test_bad_setpoints_never_reach_the_backend(hardware):
 SETPOINT_SOURCE = """
 import sys, time, rclpy
 from sensor_msgs.msg import JointState
-from srs_ros.nodes.common import SETPOINT_TOPIC, setpoint_qos
+from srs_ros.ros.interfaces import SETPOINT_TOPIC, setpoint_qos
 rclpy.init()
 node = rclpy.create_node('setpoint_source')
 publisher = node.create_publisher(JointState, SETPOINT_TOPIC, setpoint_qos())

@@ -16,9 +16,9 @@ from sensor_msgs.msg import JointState
 from srs_testing import BackendRecord, recorded_rig
 from std_srvs.srv import Trigger
 
+from srs_ros.core.actuation.safety import OutputReason
 from srs_ros.core.errors import HardwareError
 from srs_ros.core.robot import default_robot
-from srs_ros.core.safety import OutputReason
 from srs_ros.nodes.hardware_node import HardwareNode, release_and_report
 
 NAMES = list(default_robot().joint_names)

@@ -13,7 +13,7 @@ from srs_testing import ros_args
 from std_msgs.msg import Float64MultiArray
 from trajectory_msgs.msg import JointTrajectory
 
-from srs_ros.nodes.common import COMMANDED_PRESSURE_TOPIC, TRAJECTORY_TOPIC, latched_qos
+from srs_ros.ros.interfaces import COMMANDED_PRESSURE_TOPIC, TRAJECTORY_TOPIC, latched_qos
 
 
 def _ready_on(topic, msg_type, qos=10):

@@ -15,9 +15,8 @@ from sensor_msgs.msg import JointState
 from srs_testing import ros_args
 from std_msgs.msg import Float64MultiArray
 
-from srs_ros.backends.sim_backend import SIM_BOARD_TIMEOUT_S, SIM_MONITOR_TOPIC, bus_qos
 from srs_ros.core.robot import config_dir, default_robot
-from srs_ros.nodes.common import setpoint_qos
+from srs_ros.ros.interfaces import SIM_BOARD_TIMEOUT_S, SIM_MONITOR_TOPIC, bus_qos, setpoint_qos
 
 SIM_RIG = str(config_dir() / "rigs" / "sim.yaml")
 NAMES = list(default_robot().joint_names)

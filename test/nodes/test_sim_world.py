@@ -10,8 +10,8 @@ from sensor_msgs.msg import Image, JointState
 from srs_testing import ros_args
 from visualization_msgs.msg import MarkerArray
 
-from srs_ros.backends.sim_backend import SIM_COMMAND_TOPIC, bus_qos
 from srs_ros.core.robot import config_dir
+from srs_ros.ros.interfaces import SIM_COMMAND_TOPIC, bus_qos
 
 SIM_RIG = str(config_dir() / "rigs" / "sim.yaml")
 

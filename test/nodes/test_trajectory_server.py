@@ -8,9 +8,9 @@ from srs_testing import ros_args
 from std_srvs.srv import Trigger
 from trajectory_msgs.msg import JointTrajectory
 
-from srs_ros.core.interpolation import PeriodicTrajectory
+from srs_ros.core.gait.interpolation import PeriodicTrajectory
 from srs_ros.core.robot import config_dir
-from srs_ros.nodes.common import SETPOINT_TOPIC, TRAJECTORY_TOPIC, latched_qos, setpoint_qos
+from srs_ros.ros.interfaces import SETPOINT_TOPIC, TRAJECTORY_TOPIC, latched_qos, setpoint_qos
 
 NAMES = [f"m{i}_pma{j}" for i in (1, 2, 3) for j in (1, 2, 3)]
 

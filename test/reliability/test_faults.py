@@ -29,9 +29,9 @@ from geometry_msgs.msg import PoseStamped
 from sensor_msgs.msg import JointState
 from srs_testing import BackendRecord, fastdds_shm_clean, recorded_rig, ros_args
 
-from srs_ros.core.camera_calibration import save_calibration
-from srs_ros.nodes.common import DIAGNOSTICS_TOPIC, SETPOINT_TOPIC, setpoint_qos
-from srs_ros.tools.synthetic_scene import (
+from srs_ros.core.vision.camera_calibration import save_calibration
+from srs_ros.ros.interfaces import DIAGNOSTICS_TOPIC, SETPOINT_TOPIC, setpoint_qos
+from srs_ros.sim.scene import (
     RobotAppearance,
     SyntheticCamera,
     SyntheticScene,

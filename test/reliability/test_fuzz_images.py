@@ -16,9 +16,9 @@ from hypothesis import strategies as st
 from sensor_msgs.msg import Image
 from srs_testing import ros_args
 
-from srs_ros.core.camera_calibration import save_calibration
-from srs_ros.nodes.camera_tracker import array_to_image_msg, seconds_to_stamp, stamp_to_seconds
-from srs_ros.tools.synthetic_scene import RobotAppearance, SyntheticCamera, SyntheticScene
+from srs_ros.core.vision.camera_calibration import save_calibration
+from srs_ros.ros.interfaces import array_to_image_msg, seconds_to_stamp, stamp_to_seconds
+from srs_ros.sim.scene import RobotAppearance, SyntheticCamera, SyntheticScene
 
 SCENE = SyntheticScene(camera=SyntheticCamera(width_px=320, height_px=240, height_m=0.6),
                        robot=RobotAppearance(marker_spacing_m=0.25))

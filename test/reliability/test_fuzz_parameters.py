@@ -25,9 +25,9 @@ from sensor_msgs.msg import JointState
 from srs_testing import JOINT_NAMES, BackendRecord, recorded_rig, rolling_cycle, ros_args, trajectory
 from trajectory_msgs.msg import JointTrajectory
 
-from srs_ros.core.camera_calibration import save_calibration
-from srs_ros.nodes.common import SETPOINT_TOPIC, TRAJECTORY_TOPIC, latched_qos, setpoint_qos
-from srs_ros.tools.synthetic_scene import SyntheticCamera
+from srs_ros.core.vision.camera_calibration import save_calibration
+from srs_ros.ros.interfaces import SETPOINT_TOPIC, TRAJECTORY_TOPIC, latched_qos, setpoint_qos
+from srs_ros.sim.scene import SyntheticCamera
 
 SETTINGS = settings(max_examples=25, deadline=None, database=None, phases=[Phase.explicit, Phase.generate],
                     suppress_health_check=list(HealthCheck), report_multiple_bugs=False)

@@ -22,7 +22,7 @@ from hypothesis import strategies as st
 from sensor_msgs.msg import JointState
 from srs_testing import BackendRecord, recorded_rig, ros_args
 
-from srs_ros.nodes.common import DIAGNOSTICS_TOPIC, SETPOINT_TOPIC, setpoint_qos
+from srs_ros.ros.interfaces import DIAGNOSTICS_TOPIC, SETPOINT_TOPIC, setpoint_qos
 
 NAMES = [f"m{module}_pma{muscle}" for module in (1, 2, 3) for muscle in (1, 2, 3)]
 TIMEOUT_S = 0.2

@@ -23,8 +23,8 @@ from sensor_msgs.msg import JointState
 from srs_testing import JOINT_NAMES, BackendRecord, recorded_rig, rolling_cycle, ros_args, trajectory
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
-from srs_ros.core.interpolation import PeriodicTrajectory
-from srs_ros.nodes.common import SETPOINT_TOPIC, TRAJECTORY_TOPIC, latched_qos, setpoint_qos
+from srs_ros.core.gait.interpolation import PeriodicTrajectory
+from srs_ros.ros.interfaces import SETPOINT_TOPIC, TRAJECTORY_TOPIC, latched_qos, setpoint_qos
 
 NAMES = JOINT_NAMES
 MAX_EXTENSION_M = 0.065

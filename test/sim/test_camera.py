@@ -6,14 +6,14 @@ import cv2
 import numpy as np
 import pytest
 
-from srs_ros.core.camera_calibration import apply_homography
 from srs_ros.core.errors import ConfigurationError
-from srs_ros.core.tracking import Tracker
+from srs_ros.core.vision.camera_calibration import apply_homography
+from srs_ros.core.vision.tracking import Tracker
 from srs_ros.sim.camera import OverheadCamera, band_tracker_config, pinhole_from_homography
 from srs_ros.sim.config import load_sim_config
 from srs_ros.sim.experiment import run_experiment
+from srs_ros.sim.scene import SyntheticCamera
 from srs_ros.sim.world import SimWorld
-from srs_ros.tools.synthetic_scene import SyntheticCamera
 
 CONFIG = load_sim_config()
 

@@ -5,8 +5,8 @@ import copy
 import pytest
 import yaml
 
+from srs_ros.core.actuation.muscle_model import MUSCLE_OPTION_DEFAULTS
 from srs_ros.core.errors import ConfigurationError
-from srs_ros.core.muscle_model import MUSCLE_OPTION_DEFAULTS
 from srs_ros.core.robot import default_robot
 from srs_ros.sim.config import default_sim_config_path, load_sim_config, sim_config_from_dict, with_friction
 

@@ -4,9 +4,9 @@ import cv2
 import numpy as np
 import yaml
 
-from srs_ros.core.camera_calibration import apply_homography, load_calibration
+from srs_ros.core.vision.camera_calibration import apply_homography, load_calibration
+from srs_ros.sim.scene import SyntheticCamera, SyntheticScene
 from srs_ros.tools import calibrate_camera
-from srs_ros.tools.synthetic_scene import SyntheticCamera, SyntheticScene
 
 LAYOUT = [(10, -0.4, -0.25, 0.0), (11, 0.4, -0.25, 0.3), (12, 0.4, 0.25, -0.5), (13, -0.4, 0.25, 1.2),
           (14, 0.0, 0.0, 2.0)]

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 from srs_testing import ros_args, script_path
 
-from srs_ros.core.muscle_calibration import calibration_from_values, load_calibration, save_calibration
+from srs_ros.core.actuation.muscle_calibration import calibration_from_values, load_calibration, save_calibration
 from srs_ros.core.robot import config_dir, default_robot
 from srs_ros.sim.config import load_sim_config
 from srs_ros.tools.identify import main

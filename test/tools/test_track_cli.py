@@ -7,9 +7,9 @@ import numpy as np
 import pytest
 from srs_testing import script_path
 
-from srs_ros.core.camera_calibration import save_calibration
+from srs_ros.core.vision.camera_calibration import save_calibration
+from srs_ros.sim.scene import SyntheticScene, constant_velocity_poses, write_video
 from srs_ros.tools import track_cli
-from srs_ros.tools.synthetic_scene import SyntheticScene, constant_velocity_poses, write_video
 
 VELOCITY_M_S = (0.04, 0.025)
 

@@ -11,10 +11,10 @@ world) and records what was sent and what the rig measured. From the record:
   (:func:`read_length_table`);
 - the supply line's dynamics (:func:`fit_line_dynamics`) come from the pressure read-back against
   the commands: transport delay ``d`` and first-order time constant ``tau`` of
-  :mod:`srs_ros.core.muscle_model`, fitted by simulating the model on the commands actually sent.
+  :mod:`srs_ros.core.actuation.muscle_model`, fitted by simulating the model on the commands actually sent.
 
 :func:`identify` does both per muscle and returns the values of a calibration file
-(:mod:`srs_ros.core.muscle_calibration`).
+(:mod:`srs_ros.core.actuation.muscle_calibration`).
 """
 
 from __future__ import annotations

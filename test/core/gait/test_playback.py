@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 
 from srs_ros.core.errors import InvalidInputError
-from srs_ros.core.interpolation import PeriodicTrajectory
-from srs_ros.core.playback import (
+from srs_ros.core.gait.interpolation import PeriodicTrajectory
+from srs_ros.core.gait.playback import (
     GaitPlayback,
     PlaybackState,
     SmoothTransition,

@@ -1,12 +1,12 @@
 """Per-muscle calibration of a rig and the length -> pressure maps built on it (no ROS).
 
 A :class:`MuscleCalibration` holds, for every muscle, its static characteristic as ``srs_identify``
-measures it (:mod:`srs_ros.core.identification`)::
+measures it (:mod:`srs_ros.core.actuation.identification`)::
 
     l(P) = extension_per_bar_m * clip(P - deadzone_bar, 0, saturation_bar - deadzone_bar)
 
 and, when identified, the supply line's dynamics (``transport_delay_s``, first-order
-``pressure_time_constant_s``), the model of :mod:`srs_ros.core.muscle_model`. The per-rig file
+``pressure_time_constant_s``), the model of :mod:`srs_ros.core.actuation.muscle_model`. The per-rig file
 (docs/identification.md)::
 
     muscle_calibration:
@@ -19,7 +19,7 @@ and, when identified, the supply line's dynamics (``transport_delay_s``, first-o
       fit: {m1_pma1: {static_rms_m: 1.0e-05}}   # informational: residuals of the fits
 
 A :class:`PressureMap` turns actuator lengths (m) into pressures (bar) and always ends in the one clamp
-(:func:`srs_ros.core.actuation.clamp_pressures_bar`): :class:`PaperPressureMap` is the paper's
+(:func:`srs_ros.core.actuation.pressure.clamp_pressures_bar`): :class:`PaperPressureMap` is the paper's
 ``P = 100 l``, :class:`CalibratedPressureMap` inverts each muscle's static characteristic.
 """
 
@@ -35,14 +35,14 @@ from typing import Any
 import numpy as np
 import yaml
 
-from srs_ros.core.actuation import (
+from srs_ros.core.actuation.muscle_model import MUSCLE_OPTION_RANGES
+from srs_ros.core.actuation.pressure import (
     clamp_pressures_bar,
     lengths_to_pressures_bar,
     pressure_limit_bar,
     pressure_limited_length_m,
 )
 from srs_ros.core.errors import ConfigurationError
-from srs_ros.core.muscle_model import MUSCLE_OPTION_RANGES
 from srs_ros.core.robot import RobotDescription, default_robot, read_yaml
 from srs_ros.core.validation import finite_array
 

@@ -7,23 +7,23 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from srs_ros.core.compensation import (
+from srs_ros.core.actuation.compensation import (
     LineDynamics,
     SetpointShaper,
     compensated_pressures_bar,
     setpoint_shaper,
 )
-from srs_ros.core.errors import ConfigurationError, InvalidInputError
-from srs_ros.core.muscle_calibration import (
+from srs_ros.core.actuation.muscle_calibration import (
     CalibratedPressureMap,
     PaperPressureMap,
     calibration_from_values,
     save_calibration,
 )
-from srs_ros.core.muscle_model import MuscleModel, muscle_parameters_from_options
-from srs_ros.core.playback import GaitPlayback
+from srs_ros.core.actuation.muscle_model import MuscleModel, muscle_parameters_from_options
+from srs_ros.core.errors import ConfigurationError, InvalidInputError
+from srs_ros.core.gait.playback import GaitPlayback
+from srs_ros.core.gait.trajectory import generate_cycle
 from srs_ros.core.robot import default_robot
-from srs_ros.core.trajectory import generate_cycle
 
 ROBOT = default_robot()
 NAMES = ROBOT.joint_names

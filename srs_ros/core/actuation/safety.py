@@ -14,9 +14,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from srs_ros.core.actuation import pressure_limited_length_m
+from srs_ros.core.actuation.pressure import pressure_limited_length_m
 from srs_ros.core.errors import InvalidInputError
-from srs_ros.core.playback import smoothstep
+from srs_ros.core.ramp import ramp_fraction
 from srs_ros.core.robot import RobotDescription
 from srs_ros.core.validation import finite_array
 
@@ -75,7 +75,7 @@ def clamped_joints(lengths_m: np.ndarray, robot: RobotDescription, limited_lengt
     """Names of the actuators whose length the one clamp changes: below 0, or longer than the pressure limit allows.
 
     ``limited_length_m`` (m, scalar or per actuator): the longest length the selected pressure map commands
-    within the limit (:attr:`srs_ros.core.muscle_calibration.PressureMap.limited_length_m`); default the
+    within the limit (:attr:`srs_ros.core.actuation.muscle_calibration.PressureMap.limited_length_m`); default the
     paper's map: with ``P = 100 l`` and 4 bar that is 0.04 m, although the muscles extend to 0.065 m.
     """
     limit_m = pressure_limited_length_m(robot) if limited_length_m is None else np.asarray(limited_length_m)
@@ -135,11 +135,6 @@ def setpoint_age_s(stamp_ns: int, now_ns: int, timeout_s: float) -> tuple[float,
 def min_setpoint_rate_hz(setpoint_timeout_s: float) -> float:
     """The slowest setpoint or command rate (Hz) that keeps a ``setpoint_timeout_s`` watchdog fed: two per timeout."""
     return 2.0 / setpoint_timeout_s
-
-
-def ramp_fraction(elapsed_s: float, ramp_time_s: float) -> float:
-    """Raised-cosine ramp 0 -> 1 over ``ramp_time_s`` (0 = no ramp), flat at both ends."""
-    return 1.0 if ramp_time_s <= 0.0 else smoothstep(elapsed_s / ramp_time_s)
 
 
 @dataclass

@@ -7,8 +7,8 @@ import cv2
 import numpy as np
 import pytest
 
-from srs_ros.core import aruco
 from srs_ros.core.errors import ConfigurationError
+from srs_ros.core.vision import aruco
 
 
 def test_a_drawn_marker_is_found_with_its_corners_and_id():

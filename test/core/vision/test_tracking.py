@@ -7,8 +7,9 @@ import cv2
 import numpy as np
 import pytest
 
-from srs_ros.core import aruco
-from srs_ros.core.camera_calibration import (
+from srs_ros.core.errors import ConfigurationError, InvalidInputError
+from srs_ros.core.vision import aruco
+from srs_ros.core.vision.camera_calibration import (
     apply_homography,
     calibration_from_pairs,
     fit_homography,
@@ -16,15 +17,11 @@ from srs_ros.core.camera_calibration import (
     read_point_pairs,
     save_calibration,
 )
-from srs_ros.core.errors import ConfigurationError, InvalidInputError
-from srs_ros.core.tracking import (
+from srs_ros.core.vision.tracking import (
     Tracker,
     TrackerConfig,
     TrackResult,
     VelocityFilter,
-    ViewState,
-    ViewStatus,
-    ViewWatch,
     pose_from_markers,
     quad_centre,
     to_gray,
@@ -33,7 +30,8 @@ from srs_ros.core.tracking import (
     wrap_angle,
     yaw_to_quaternion,
 )
-from srs_ros.tools.synthetic_scene import (
+from srs_ros.core.vision.view import ViewState, ViewStatus, ViewWatch
+from srs_ros.sim.scene import (
     RobotAppearance,
     SyntheticCamera,
     SyntheticScene,

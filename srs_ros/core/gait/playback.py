@@ -25,17 +25,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from srs_ros.core.errors import InvalidInputError
-from srs_ros.core.interpolation import PeriodicTrajectory
+from srs_ros.core.gait.interpolation import PeriodicTrajectory
+from srs_ros.core.ramp import DEFAULT_RAMP_TIME_S, smoothstep
 from srs_ros.core.robot import CYCLE_FREQUENCY_RANGE_HZ
-
-#: Default soft start/stop time (s) of the gait player, also the hardware node's ramp from 0 bar.
-DEFAULT_RAMP_TIME_S = 1.0
-
-
-def smoothstep(progress: float) -> float:
-    """Raised cosine 0 -> 1 over progress 0 -> 1, flat at both ends (no step in value or slope)."""
-    u = min(max(progress, 0.0), 1.0)
-    return 0.5 - 0.5 * math.cos(math.pi * u)
 
 
 class SmoothTransition:

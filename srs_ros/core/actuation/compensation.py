@@ -2,7 +2,7 @@
 
 The paper's main limitation at high frequency (Sec. IV-C, IV-E) is the pneumatic line: a command
 reaches the muscle ``d`` later (transport delay) and its pressure follows with a first-order lag of
-time constant ``tau`` (:mod:`srs_ros.core.muscle_model`). With compensation on, the command at time
+time constant ``tau`` (:mod:`srs_ros.core.actuation.muscle_model`). With compensation on, the command at time
 ``t`` is the one that makes the lagging, delayed pressure follow the reference ``P_ref = map(l)``::
 
     l_lead = l + d * dl/dt                                  # where the setpoint will be when it arrives
@@ -10,7 +10,7 @@ time constant ``tau`` (:mod:`srs_ros.core.muscle_model`). With compensation on, 
 
 per muscle, with the setpoint velocities ``dl/dt`` that ``gait_player`` publishes (or a finite
 difference of successive setpoints when a sender gives none). ``P_cmd`` ALWAYS goes through the one
-clamp (:func:`srs_ros.core.actuation.clamp_pressures_bar`): where the lead asks for more than
+clamp (:func:`srs_ros.core.actuation.pressure.clamp_pressures_bar`): where the lead asks for more than
 ``[0, max_pressure_bar]`` (or more than a muscle's saturation) it is cut, never exceeded, and counted
 (:attr:`SetpointShaper.compensation_clamped`).
 
@@ -25,9 +25,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from srs_ros.core.actuation import clamp_pressures_bar
-from srs_ros.core.errors import ConfigurationError
-from srs_ros.core.muscle_calibration import (
+from srs_ros.core.actuation.muscle_calibration import (
     CALIBRATED_MAP,
     DYNAMIC_KEYS,
     MuscleCalibration,
@@ -35,8 +33,10 @@ from srs_ros.core.muscle_calibration import (
     load_calibration,
     pressure_map,
 )
+from srs_ros.core.actuation.pressure import clamp_pressures_bar
+from srs_ros.core.actuation.safety import clamped_joints
+from srs_ros.core.errors import ConfigurationError
 from srs_ros.core.robot import RobotDescription
-from srs_ros.core.safety import clamped_joints
 from srs_ros.core.validation import finite_array
 
 #: Setpoint rates beyond this many strokes (``max_extension_m``) per second are no gait: they are limited

@@ -1,7 +1,7 @@
 """Joint-space gait cycles: a gait's shapes fitted over one cycle, scaled to a pressure amplitude, timed.
 
 :func:`generate_cycle` is the one entry point (paper Sec. III): it samples the gait's task-space
-shape at N phases, fits the body to every shape (:mod:`srs_ros.core.fitting`, paper eq. 3), scales
+shape at N phases, fits the body to every shape (:mod:`srs_ros.core.gait.fitting`, paper eq. 3), scales
 the joint-space cycle to the requested pressure amplitude and times it by the frequency. The result,
 a :class:`GaitCycle`, plays back smoothly by periodic cubic interpolation in phase and round-trips
 through CSV.
@@ -31,10 +31,11 @@ from typing import Any
 import numpy as np
 import yaml
 
-from srs_ros.core.actuation import lengths_to_pressures_bar, pressure_amplitude_scale
+from srs_ros.core.actuation.pressure import lengths_to_pressures_bar, pressure_amplitude_scale
 from srs_ros.core.errors import InvalidInputError
-from srs_ros.core.fitting import FitSettings, fit_error_mm, fit_shapes
-from srs_ros.core.gaits import (
+from srs_ros.core.gait.fitting import FitSettings, fit_error_mm, fit_shapes
+from srs_ros.core.gait.interpolation import PeriodicTrajectory
+from srs_ros.core.gait.library import (
     ROLLING_TURNS,
     GaitSpec,
     gait_spec,
@@ -44,7 +45,6 @@ from srs_ros.core.gaits import (
     rolling_radius_for_peak,
     shape_curves,
 )
-from srs_ros.core.interpolation import PeriodicTrajectory
 from srs_ros.core.robot import CYCLE_FREQUENCY_RANGE_HZ, RobotDescription, default_robot
 
 __all__ = ["GaitCycle", "GaitSpec", "generate_cycle", "list_gaits", "fit_settings", "MIN_SAMPLES"]

@@ -5,8 +5,7 @@ import math
 import numpy as np
 import pytest
 
-from srs_ros.core.errors import ConfigurationError
-from srs_ros.core.muscle_model import (
+from srs_ros.core.actuation.muscle_model import (
     MUSCLE_OPTION_DEFAULTS,
     MuscleModel,
     MuscleParameters,
@@ -14,6 +13,7 @@ from srs_ros.core.muscle_model import (
     lag_step,
     muscle_parameters_from_options,
 )
+from srs_ros.core.errors import ConfigurationError
 from srs_ros.core.robot import default_robot
 
 PARAMS = MuscleParameters(deadzone_bar=1.0, pressure_time_constant_s=0.1, transport_delay_s=0.05,

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from srs_ros.core.errors import InvalidInputError
+from srs_ros.core.gait.trajectory import GaitCycle, PoorFitWarning, generate_cycle, list_gaits
 from srs_ros.core.robot import default_robot
-from srs_ros.core.trajectory import GaitCycle, PoorFitWarning, generate_cycle, list_gaits
 
 ROBOT = default_robot()
 
@@ -86,8 +86,8 @@ def test_rolling_cycle_commands_the_exact_arc_that_reaches_the_amplitude(gait, a
 
 @pytest.mark.parametrize("gait", ["serpentine", "sidewinding", "helical_rolling"])
 def test_fit_error_and_shape_describe_what_is_commanded(gait):
-    from srs_ros.core.fitting import fit_error_mm
-    from srs_ros.core.gaits import shape_curves
+    from srs_ros.core.gait.fitting import fit_error_mm
+    from srs_ros.core.gait.library import shape_curves
 
     cycle = generate_cycle(gait, 4.0, 1.0, samples=16)
     assert cycle.pressures_bar.max() == pytest.approx(4.0, abs=1e-9)

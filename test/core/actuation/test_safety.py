@@ -3,9 +3,7 @@
 import numpy as np
 import pytest
 
-from srs_ros.core.errors import InvalidInputError
-from srs_ros.core.robot import default_robot
-from srs_ros.core.safety import (
+from srs_ros.core.actuation.safety import (
     CommandGate,
     OutputReason,
     StampCheck,
@@ -15,6 +13,8 @@ from srs_ros.core.safety import (
     setpoint_lengths_m,
     setpoint_velocities_m_per_s,
 )
+from srs_ros.core.errors import InvalidInputError
+from srs_ros.core.robot import default_robot
 
 ROBOT = default_robot()
 NAMES = list(ROBOT.joint_names)

@@ -171,7 +171,7 @@ def list_gaits(path: str | Path | None = None) -> dict[str, GaitSpec]:
     if missing or orphan:
         raise ConfigurationError(
             f"{where}: gaits without a YAML block {missing}, YAML blocks without a shape function {orphan}; "
-            "each gait needs both (a @gait function in srs_ros/core/gaits.py and a block under 'gaits:').")
+            "each gait needs both (a @gait function in srs_ros/core/gait/library.py and a block under 'gaits:').")
     specs = {}
     for name, block in blocks.items():
         params = (block or {}).get("parameters") or {}

@@ -6,8 +6,7 @@ import numpy as np
 import pytest
 
 from srs_ros.backends.mock import MockBackend
-from srs_ros.core.errors import ConfigurationError, FitError
-from srs_ros.core.identification import (
+from srs_ros.core.actuation.identification import (
     chirp_plan,
     fit_line_dynamics,
     fit_static_characteristic,
@@ -16,7 +15,8 @@ from srs_ros.core.identification import (
     run_plan,
     step_plan,
 )
-from srs_ros.core.muscle_model import MuscleModel, muscle_parameters_from_options
+from srs_ros.core.actuation.muscle_model import MuscleModel, muscle_parameters_from_options
+from srs_ros.core.errors import ConfigurationError, FitError
 from srs_ros.core.robot import default_robot
 from srs_ros.tools.identify import BackendIO
 

@@ -6,8 +6,7 @@ import numpy as np
 import pytest
 import yaml
 
-from srs_ros.core.errors import ConfigurationError, InvalidInputError
-from srs_ros.core.muscle_calibration import (
+from srs_ros.core.actuation.muscle_calibration import (
     CalibratedPressureMap,
     PaperPressureMap,
     calibration_from_dict,
@@ -16,8 +15,9 @@ from srs_ros.core.muscle_calibration import (
     pressure_map,
     save_calibration,
 )
+from srs_ros.core.actuation.safety import clamped_joints
+from srs_ros.core.errors import ConfigurationError, InvalidInputError
 from srs_ros.core.robot import default_robot
-from srs_ros.core.safety import clamped_joints
 
 ROBOT = default_robot()
 NAMES = list(ROBOT.joint_names)

@@ -5,10 +5,17 @@ import pytest
 from scipy.optimize import minimize
 
 from srs_ros.core.errors import ConfigurationError
-from srs_ros.core.fitting import FitSettings, closest_points, fit_error_mm, fit_shapes, levenberg_marquardt, shape_cost
-from srs_ros.core.gaits import gait_curves, rolling_arc_lengths
+from srs_ros.core.gait.fitting import (
+    FitSettings,
+    closest_points,
+    fit_error_mm,
+    fit_shapes,
+    levenberg_marquardt,
+    shape_cost,
+)
+from srs_ros.core.gait.library import gait_curves, rolling_arc_lengths
+from srs_ros.core.gait.trajectory import fit_settings
 from srs_ros.core.robot import default_robot
-from srs_ros.core.trajectory import fit_settings
 
 ROBOT = default_robot()
 SETTINGS = fit_settings()

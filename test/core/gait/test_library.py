@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from srs_ros.core.errors import InvalidInputError
-from srs_ros.core.gaits import curve_length_m, gait_curves, gait_spec, list_gaits, rolling_arc_lengths
+from srs_ros.core.gait.library import curve_length_m, gait_curves, gait_spec, list_gaits, rolling_arc_lengths
 from srs_ros.core.kinematics import backbone_points
 from srs_ros.core.robot import default_robot
 

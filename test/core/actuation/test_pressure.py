@@ -8,7 +8,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
-from srs_ros.core.actuation import (
+from srs_ros.core.actuation.pressure import (
     clamp_pressures_bar,
     command_v_to_pressures_bar,
     lengths_to_pressures_bar,

@@ -1,0 +1,17 @@
+"""Gaits as data and their joint-space cycles (paper Sec. III), without ROS.
+
+``library`` (each gait a registered shape function with typed parameters from config/gaits.yaml),
+``fitting`` (backbone onto a target curve, paper eq. 3), ``trajectory`` (a gait's fitted cycle, scaled to a
+pressure amplitude and timed), ``interpolation`` (periodic splines), ``playback`` (the gait player's logic).
+"""
+
+from srs_ros.core import lazy_exports
+
+_EXPORTS = {
+    "gait": "library", "gait_spec": "library", "list_gaits": "library", "GaitSpec": "library",
+    "GaitParameter": "library", "fit_shapes": "fitting", "FitSettings": "fitting", "FitResult": "fitting",
+    "GaitCycle": "trajectory", "generate_cycle": "trajectory", "PeriodicTrajectory": "interpolation",
+    "GaitPlayback": "playback", "PlaybackState": "playback", "cycle_from_points": "playback",
+}
+__all__ = sorted(_EXPORTS)
+__getattr__ = lazy_exports(__name__, _EXPORTS)

@@ -1,0 +1,291 @@
+"""Pose and velocity of the robot from an overhead camera: marker detection, floor projection, smoothing.
+
+The paper tracked the SRS with a fixed camera and perspective projection onto the floor (Sec. IV) and
+reports a traveling velocity = X and Y displacement / experiment time, in cm/s (Table I). Here a head
+and a tail marker (ArUco by default, or coloured blobs) are found in each frame, mapped to the floor
+through the calibration (:mod:`srs_ros.core.vision.camera_calibration`: lens distortion removed when the
+file has the camera's intrinsics, then the homography), and give the pose
+``(x_m, y_m, yaw_rad)``: position at a configurable point between tail and head, heading from tail to
+head. A frame where either marker is missing gives no pose, never a guess
+(:mod:`srs_ros.core.vision.view` tells such frames apart for ``camera_tracker``'s ``/diagnostics``). The
+detectors live in :mod:`srs_ros.core.vision.detectors`. OpenCV and NumPy only.
+
+Markers are assumed to lie in the calibrated plane; a marker raised ``h`` above it by a camera at height
+``H`` appears displaced by ``h/H`` of its distance from the camera's nadir, so calibrate at marker height.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import deque
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from srs_ros.core.errors import ConfigurationError, InvalidInputError
+from srs_ros.core.vision.aruco import dictionary as aruco_dictionary  # noqa: F401 (public name)
+from srs_ros.core.vision.camera_calibration import CameraCalibration, apply_homography
+from srs_ros.core.vision.detectors import (  # noqa: F401 (also public here)
+    DEFAULT_ARUCO_DICTIONARY,
+    ArucoMarkerDetector,
+    ColorBlobDetector,
+    ColorRange,
+    MarkerDetection,
+    quad_centre,
+    to_gray,
+)
+
+
+# ------------------------------------------------------------------------------------------
+# Geometry: pose from head and tail, batched
+# ------------------------------------------------------------------------------------------
+def pose_from_markers(tail_xy_m: Any, head_xy_m: Any, position_ratio: float = 0.5) -> np.ndarray:
+    """Pose ``(x_m, y_m, yaw_rad)`` (..., 3) from tail and head marker centres (..., 2) on the floor.
+
+    Position is ``tail + position_ratio * (head - tail)`` (0 = tail, 0.5 = midpoint, 1 = head); yaw is
+    the heading of the tail -> head vector, ``atan2`` in (-pi, pi]. Example: tail (0, 0), head (0, 0.4)
+    gives (0, 0.2, pi/2).
+    """
+    tail = np.asarray(tail_xy_m, dtype=np.float64)
+    head = np.asarray(head_xy_m, dtype=np.float64)
+    if tail.shape != head.shape or tail.shape[-1:] != (2,):
+        raise InvalidInputError(f"tail {tail.shape} and head {head.shape} must both be (..., 2) floor points.")
+    delta = head - tail
+    position = tail + position_ratio * delta
+    yaw = np.arctan2(delta[..., 1], delta[..., 0])
+    return np.concatenate([position, yaw[..., None]], axis=-1)
+
+
+def yaw_to_quaternion(yaw_rad: Any) -> np.ndarray:
+    """Quaternion (x, y, z, w) (..., 4) of a rotation by ``yaw_rad`` about +Z."""
+    half = 0.5 * np.asarray(yaw_rad, dtype=np.float64)
+    zeros = np.zeros_like(half)
+    return np.stack([zeros, zeros, np.sin(half), np.cos(half)], axis=-1)
+
+
+def wrap_angle(angle_rad: Any) -> np.ndarray:
+    """Angles wrapped to [-pi, pi)."""
+    return (np.asarray(angle_rad, dtype=np.float64) + math.pi) % (2.0 * math.pi) - math.pi
+
+
+# ------------------------------------------------------------------------------------------
+# Marker detection
+# ------------------------------------------------------------------------------------------
+def window_slope(time_s: Any, values: Any) -> np.ndarray:
+    """Least-squares slope d(values)/dt (k,) of samples ``values`` (n, k) at ``time_s`` (n,).
+
+    A straight-line fit over the window is the smoothed derivative: it averages out per-frame detection
+    noise, and for a constant velocity it is exact. Needs two or more distinct times.
+    """
+    t = np.asarray(time_s, dtype=np.float64)
+    v = np.asarray(values, dtype=np.float64).reshape(len(t), -1)
+    dt = t - t.mean()
+    denom = float(dt @ dt)
+    if len(t) < 2 or denom <= 0:
+        raise InvalidInputError("a slope needs at least two samples at different times.")
+    return dt @ (v - v.mean(axis=0)) / denom
+
+
+class VelocityFilter:
+    """Smoothed planar velocity ``(vx_m_s, vy_m_s, yaw_rate_rad_s)`` of the poses of the last ``window_s``.
+
+    Yaw is unwrapped so a heading crossing +-pi does not give a spike. A gap longer than ``max_gap_s``
+    (markers lost) restarts the window: no velocity is reported across a gap.
+    """
+
+    def __init__(self, window_s: float = 0.5, max_gap_s: float = 0.5, min_samples: int = 3):
+        """``window_s`` sets the smoothing (longer = smoother, more lag)."""
+        if not (window_s > 0 and max_gap_s > 0 and min_samples >= 2):
+            raise ConfigurationError(
+                f"velocity window {window_s} s, gap {max_gap_s} s, min samples {min_samples}; "
+                "expected window > 0, gap > 0, min samples >= 2."
+            )
+        self.window_s, self.max_gap_s, self.min_samples = float(window_s), float(max_gap_s), int(min_samples)
+        self._samples: deque[tuple[float, float, float, float]] = deque()
+
+    def reset(self) -> None:
+        """Forget every sample (e.g. when the markers are lost)."""
+        self._samples.clear()
+
+    def update(self, time_s: float, pose: Sequence[float]) -> np.ndarray | None:
+        """Add a pose sample; return the smoothed velocity (3,) or None while the window is too short."""
+        if self._samples and (time_s - self._samples[-1][0] > self.max_gap_s or time_s <= self._samples[-1][0]):
+            self.reset()
+        yaw = float(pose[2])
+        if self._samples:
+            yaw = self._samples[-1][3] + float(wrap_angle(yaw - self._samples[-1][3]))
+        self._samples.append((float(time_s), float(pose[0]), float(pose[1]), yaw))
+        while self._samples[0][0] < time_s - self.window_s:
+            self._samples.popleft()
+        if len(self._samples) < self.min_samples:
+            return None
+        data = np.array(self._samples)
+        return window_slope(data[:, 0], data[:, 1:])
+
+
+# ------------------------------------------------------------------------------------------
+# Traveling velocity (paper Table I)
+# ------------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class TravelingVelocity:
+    """The paper's traveling velocity of one run: X and Y displacement over the run time, in cm/s."""
+
+    vx_cm_s: float
+    vy_cm_s: float
+    displacement_x_m: float
+    displacement_y_m: float
+    duration_s: float
+    samples: int
+
+    @property
+    def speed_cm_s(self) -> float:
+        """Net speed: straight-line displacement / time (cm/s)."""
+        return math.hypot(self.vx_cm_s, self.vy_cm_s)
+
+    def table_text(self) -> str:
+        """``v_x / v_y`` as Table I prints it (magnitudes, cm/s)."""
+        return f"{abs(self.vx_cm_s):.2f} / {abs(self.vy_cm_s):.2f} cm/s"
+
+
+def traveling_velocity(time_s: Any, x_m: Any, y_m: Any, end_window_s: float = 0.0) -> TravelingVelocity:
+    """Traveling velocity of a track (paper Table I): X and Y displacement divided by the run time.
+
+    Table I's caption: "velocity is computed by dividing the mean of the X and Y displacements by the
+    experiment time". Here the displacement runs from the mean position over the first ``end_window_s``
+    of the track to the mean over the last ``end_window_s`` (0 = the first and last samples), and the
+    time between the mean times of the two windows, so averaging the ends removes detection noise
+    without biasing a constant speed. NaN samples (no pose) are skipped. Components are signed (floor
+    frame); :meth:`TravelingVelocity.table_text` gives Table I's magnitudes.
+    """
+    t = np.asarray(time_s, dtype=np.float64).ravel()
+    xy = np.column_stack([np.asarray(x_m, dtype=np.float64).ravel(), np.asarray(y_m, dtype=np.float64).ravel()])
+    if len(t) != len(xy):
+        raise InvalidInputError(f"{len(t)} times but {len(xy)} positions; expected one position per time.")
+    valid = np.isfinite(t) & np.all(np.isfinite(xy), axis=1)
+    t, xy = t[valid], xy[valid]
+    if len(t) < 2 or t[-1] <= t[0]:
+        raise InvalidInputError(
+            f"{len(t)} valid samples spanning {t[-1] - t[0] if len(t) else 0:.3f} s; a traveling velocity needs "
+            "two or more tracked frames at different times (were the markers ever seen?)."
+        )
+    first = t <= t[0] + end_window_s
+    last = t >= t[-1] - end_window_s
+    duration = float(t[last].mean() - t[first].mean())
+    if duration <= 0:
+        raise InvalidInputError(f"end windows of {end_window_s} s overlap the whole track; use a shorter window.")
+    disp = xy[last].mean(axis=0) - xy[first].mean(axis=0)
+    return TravelingVelocity(100.0 * disp[0] / duration, 100.0 * disp[1] / duration, float(disp[0]), float(disp[1]),
+                             duration, int(len(t)))
+
+
+# ------------------------------------------------------------------------------------------
+# The per-frame tracker
+# ------------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class TrackerConfig:
+    """What to look for and how to smooth it (the ``camera_tracker`` node's parameters)."""
+
+    detector: str = "aruco"
+    aruco_dictionary: str = DEFAULT_ARUCO_DICTIONARY
+    tail_marker_id: int = 0
+    head_marker_id: int = 1
+    tail_color: ColorRange = ColorRange((100, 120, 70), (130, 255, 255))
+    head_color: ColorRange = ColorRange((170, 120, 70), (10, 255, 255))
+    min_blob_area_px: float = 20.0
+    position_ratio: float = 0.5
+    velocity_window_s: float = 0.5
+    max_gap_s: float = 0.5
+    roi_margin_px: int = 40
+    max_marker_spacing_m: float = 2.0
+
+    def __post_init__(self):
+        if self.detector not in ("aruco", "color"):
+            raise ConfigurationError(f"detector is {self.detector!r}; expected 'aruco' or 'color'.")
+        if self.tail_marker_id == self.head_marker_id:
+            raise ConfigurationError(f"head and tail marker ids are both {self.head_marker_id}; they must differ.")
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any]) -> TrackerConfig:
+        """Build from a flat mapping (node parameters or YAML); colours as ``[h, s, v]`` lists."""
+        known = {f: data[f] for f in cls.__dataclass_fields__ if f in data and not f.endswith("_color")}
+        for end in ("tail", "head"):
+            low, high = data.get(f"{end}_color_hsv_low"), data.get(f"{end}_color_hsv_high")
+            if low is not None and high is not None:
+                known[f"{end}_color"] = ColorRange(tuple(int(v) for v in low), tuple(int(v) for v in high))
+        return cls(**known)
+
+
+@dataclass(frozen=True)
+class TrackResult:
+    """The outcome of one frame: the pose (None unless both markers were seen) and what was seen."""
+
+    time_s: float
+    pose: np.ndarray | None
+    velocity: np.ndarray | None
+    markers_px: dict[str, np.ndarray] = field(default_factory=dict)
+    markers_m: dict[str, np.ndarray] = field(default_factory=dict)
+    message: str = ""
+
+    @property
+    def tracked(self) -> bool:
+        """True when the frame gave a pose."""
+        return self.pose is not None
+
+
+class Tracker:
+    """Frame in, pose out: detect head and tail, project to the floor, smooth the velocity."""
+
+    def __init__(self, calibration: CameraCalibration, config: TrackerConfig | None = None):
+        """Combine a floor calibration with a marker configuration."""
+        self.calibration = calibration
+        self.config = config or TrackerConfig()
+        cfg = self.config
+        if cfg.detector == "aruco":
+            self.detector: ArucoMarkerDetector | ColorBlobDetector = ArucoMarkerDetector(
+                cfg.aruco_dictionary, {"tail": cfg.tail_marker_id, "head": cfg.head_marker_id}, cfg.roi_margin_px)
+        else:
+            self.detector = ColorBlobDetector({"tail": cfg.tail_color, "head": cfg.head_color}, cfg.min_blob_area_px)
+        self.velocity_filter = VelocityFilter(cfg.velocity_window_s, cfg.max_gap_s)
+
+    def describe_markers(self) -> str:
+        """Human-readable names of the markers looked for."""
+        cfg = self.config
+        if cfg.detector == "aruco":
+            return f"ArUco {cfg.aruco_dictionary} tail id {cfg.tail_marker_id}, head id {cfg.head_marker_id}"
+        return f"colour blobs tail {cfg.tail_color}, head {cfg.head_color}"
+
+    def _floor_centre(self, detection: MarkerDetection) -> np.ndarray:
+        """Floor position of a marker's centre; with lens distortion, from its undistorted corners.
+
+        The centre of a square is projectively exact only in an undistorted image (:func:`quad_centre`).
+        """
+        calibration = self.calibration
+        if calibration.intrinsics is None or not isinstance(self.detector, ArucoMarkerDetector):
+            return calibration.image_to_floor(detection.centre_px)
+        centre = quad_centre(calibration.undistort_px(detection.corners_px))
+        return apply_homography(calibration.homography_image_to_floor, centre)
+
+    def process(self, image: np.ndarray, time_s: float) -> TrackResult:
+        """Track one frame (BGR or mono uint8) taken at ``time_s``; no pose unless both markers are seen."""
+        if image.dtype != np.uint8:
+            raise InvalidInputError(f"image dtype is {image.dtype}; expected uint8.")
+        if isinstance(self.detector, ArucoMarkerDetector):
+            found = self.detector.detect(to_gray(image))
+        else:
+            found = self.detector.detect(image)
+        markers_px = {k: d.centre_px for k, d in found.items()}
+        markers_m = {k: self._floor_centre(d) for k, d in found.items()}
+        missing = [k for k in ("tail", "head") if k not in found]
+        if missing:
+            self.velocity_filter.reset()
+            return TrackResult(time_s, None, None, markers_px, markers_m, f"not seen: {', '.join(missing)}")
+        spacing = float(np.linalg.norm(markers_m["head"] - markers_m["tail"]))
+        if not (np.isfinite(spacing) and 0 < spacing <= self.config.max_marker_spacing_m):
+            self.velocity_filter.reset()
+            return TrackResult(time_s, None, None, markers_px, markers_m,
+                               f"head-tail spacing {spacing:.3f} m outside (0, {self.config.max_marker_spacing_m}] m")
+        pose = pose_from_markers(markers_m["tail"], markers_m["head"], self.config.position_ratio)
+        velocity = self.velocity_filter.update(time_s, pose)
+        return TrackResult(time_s, pose, velocity, markers_px, markers_m, "tracked")

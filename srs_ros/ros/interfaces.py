@@ -1,0 +1,168 @@
+"""The ROS contract of srs_ros in one place: every topic name, QoS profile and message helper.
+
+Topic graph (relative names, remappable with ``--ros-args -r``)::
+
+    trajectory_server --gait_trajectory (JointTrajectory, reliable+transient_local)--> gait_player
+    gait_player       --joint_setpoints (JointState, best effort)--> hardware_node
+    hardware_node     --commanded_pressure_bar / command_voltage_v (Float64MultiArray, labelled)
+                      --actuator_state (JointState), /diagnostics (DiagnosticArray)
+    hardware_node (sim backend) --sim/regulator_command--> sim_world --sim/regulator_monitor--> (back)
+    sim_world         --sim/ground_truth_pose, sim/body_markers, image_raw, /clock (use_sim_time)
+    camera_tracker    --robot_pose (PoseStamped), robot_twist (TwistStamped), robot_path (Path)
+
+Nodes, backends, experiments, tests and benchmarks take names and profiles from here, never as literals.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import cv2
+import numpy as np
+from builtin_interfaces.msg import Time
+from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+from sensor_msgs.msg import Image
+from std_msgs.msg import Float64MultiArray, MultiArrayDimension
+
+from srs_ros.core.errors import InvalidInputError
+
+TRAJECTORY_TOPIC = "gait_trajectory"
+
+
+SETPOINT_TOPIC = "joint_setpoints"
+
+
+COMMANDED_PRESSURE_TOPIC = "commanded_pressure_bar"
+
+
+COMMAND_VOLTAGE_TOPIC = "command_voltage_v"
+
+
+ACTUATOR_STATE_TOPIC = "actuator_state"
+
+
+DIAGNOSTICS_TOPIC = "/diagnostics"
+
+
+POSE_TOPIC = "robot_pose"
+
+
+TWIST_TOPIC = "robot_twist"
+
+
+PATH_TOPIC = "robot_path"
+
+
+def latched_qos(depth: int = 1) -> QoSProfile:
+    """Reliable + transient_local: late subscribers get the last message.
+
+    ``ros2 topic echo`` needs ``--qos-durability transient_local`` to see it.
+    """
+    return QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=depth, reliability=ReliabilityPolicy.RELIABLE,
+                      durability=DurabilityPolicy.TRANSIENT_LOCAL)
+
+
+def setpoint_qos(depth: int = 1) -> QoSProfile:
+    """Best effort, volatile, depth 1: a stream where only the newest sample matters (no backlog after a stall)."""
+    return QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=depth, reliability=ReliabilityPolicy.BEST_EFFORT,
+                      durability=DurabilityPolicy.VOLATILE)
+
+
+def labelled_array(labels: Sequence[str], values) -> Float64MultiArray:
+    """A Float64MultiArray whose one dimension is labelled with the comma-joined joint names."""
+    msg = Float64MultiArray()
+    msg.layout.dim = [MultiArrayDimension(label=",".join(labels), size=len(labels), stride=len(labels))]
+    msg.data = [float(v) for v in values]
+    return msg
+
+
+IMAGE_TOPIC = "image_raw"
+
+
+_CHANNELS = {"bgr8": 3, "rgb8": 3, "mono8": 1, "8UC1": 1, "8UC3": 3, "bgra8": 4, "rgba8": 4}
+
+
+# ------------------------------------------------------------------------------------------
+# sensor_msgs/Image <-> NumPy (no cv_bridge needed)
+# ------------------------------------------------------------------------------------------
+def image_msg_to_array(msg: Image) -> np.ndarray:
+    """An Image message as a BGR (h, w, 3) or mono (h, w) uint8 array (a copy; row padding removed)."""
+    channels = _CHANNELS.get(msg.encoding)
+    if channels is None:
+        raise InvalidInputError(
+            f"image encoding {msg.encoding!r} is not supported; expected one of {sorted(_CHANNELS)}."
+        )
+    if msg.width == 0 or msg.height == 0:
+        raise InvalidInputError(f"image {msg.width}x{msg.height} {msg.encoding} is empty; expected at least 1x1 "
+                                "pixels.")
+    row_bytes = msg.width * channels
+    if msg.step < row_bytes or len(msg.data) < msg.step * msg.height:
+        raise InvalidInputError(
+            f"image {msg.width}x{msg.height} {msg.encoding}: step {msg.step} and {len(msg.data)} bytes are too small "
+            f"(expected step >= {row_bytes} and {msg.step * msg.height} bytes)."
+        )
+    buffer = np.frombuffer(msg.data, dtype=np.uint8, count=msg.step * msg.height).reshape(msg.height, msg.step)
+    pixels = buffer[:, :row_bytes].reshape(msg.height, msg.width, channels)
+    conversions = {"rgb8": cv2.COLOR_RGB2BGR, "bgra8": cv2.COLOR_BGRA2BGR, "rgba8": cv2.COLOR_RGBA2BGR}
+    if msg.encoding in conversions:
+        return cv2.cvtColor(pixels, conversions[msg.encoding])
+    return pixels[:, :, 0].copy() if channels == 1 else pixels.copy()
+
+
+def array_to_image_msg(image: np.ndarray, stamp: Time | None = None, frame_id: str = "camera") -> Image:
+    """A BGR (h, w, 3) or mono (h, w) uint8 array as an Image message (bgr8 or mono8)."""
+    image = np.ascontiguousarray(image)
+    if image.dtype != np.uint8 or image.ndim not in (2, 3) or (image.ndim == 3 and image.shape[2] != 3):
+        raise InvalidInputError(f"image {image.shape} {image.dtype}; expected uint8 (h, w) mono or (h, w, 3) BGR.")
+    msg = Image()
+    if stamp is not None:
+        msg.header.stamp = stamp
+    msg.header.frame_id = frame_id
+    msg.height, msg.width = image.shape[:2]
+    msg.encoding = "mono8" if image.ndim == 2 else "bgr8"
+    msg.step = msg.width * (1 if image.ndim == 2 else 3)
+    msg.data = image.tobytes()
+    return msg
+
+
+def stamp_to_seconds(stamp: Time) -> float:
+    """A builtin_interfaces/Time in seconds."""
+    return stamp.sec + 1e-9 * stamp.nanosec
+
+
+def seconds_to_stamp(seconds: float) -> Time:
+    """Seconds as a builtin_interfaces/Time."""
+    sec = int(seconds // 1)
+    return Time(sec=sec, nanosec=min(int(round((seconds - sec) * 1e9)), 999_999_999))
+
+
+GROUND_TRUTH_TOPIC = "sim/ground_truth_pose"
+
+
+BODY_MARKERS_TOPIC = "sim/body_markers"
+
+
+CLOCK_TOPIC = "/clock"
+
+
+FLOOR_FRAME = "floor"
+
+
+SIM_COMMAND_TOPIC = "sim/regulator_command"
+
+
+SIM_MONITOR_TOPIC = "sim/regulator_monitor"
+
+
+#: How long (s of world time) sim_world's simulated board holds a command before it vents by itself. Longer
+#: than a real board's 0.1 s (docs/can.md): a simulated rig shares an ordinary computer, whose processes stall
+#: 0.2-0.4 s now and then; a real board runs on its own microcontroller.
+SIM_BOARD_TIMEOUT_S = 0.5
+
+
+def bus_qos():
+    """The command 'bus': reliable, depth 1 (only the newest command matters, none is silently dropped)."""
+    from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+
+    return QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1, reliability=ReliabilityPolicy.RELIABLE,
+                      durability=DurabilityPolicy.VOLATILE)
