@@ -322,17 +322,35 @@ class System:
         self.nodes: list[Node] = []
 
     def create_nodes(self, args: argparse.Namespace) -> None:
-        """Every node of the rig's system; the simulated world first, as the hardware node talks to it."""
+        """Every node of the rig's system; the simulated world first, as the hardware node talks to it.
+
+        Each node is kept as soon as it exists, so that :meth:`stop` destroys it whatever fails after it
+        (a simulated world left alive at exit steps and publishes while rclpy shuts down: a segfault).
+        """
         simulated = _rig_backend(args) == "sim"
-        self.world_nodes = _world_nodes(args) if simulated else []
-        self.server, self.player, self.hardware = TrajectoryServer(), GaitPlayer(), HardwareNode()
+        if simulated:
+            self._create_world(args)
+        self.server = self._keep(TrajectoryServer())
+        self.player = self._keep(GaitPlayer())
+        self.hardware = self._keep(HardwareNode())
         tracker = next((n for n in self.world_nodes if isinstance(n, CameraTrackerNode)), None)
-        self.status = StatusMonitor(self.player, self.server, self.hardware, args.status_period_s, simulated,
-                                    None if tracker is None else (tracker.status_name, tracker.hardware_id))
-        self.recorder = next((n for n in self.world_nodes if isinstance(n, VideoRecorder)), None)
-        self.nodes = [self.server, self.player, self.hardware, self.status, *self.world_nodes]
+        self.status = self._keep(StatusMonitor(self.player, self.server, self.hardware, args.status_period_s,
+                                               simulated, None if tracker is None
+                                               else (tracker.status_name, tracker.hardware_id)))
         for node in self.nodes:
             guard_parameter_services(node)
+
+    def _create_world(self, args: argparse.Namespace) -> None:
+        """The simulated robot, the camera tracker on its images and (``--video``) the recorder."""
+        world = self._keep(SimWorldNode())
+        self.world_nodes = [world, self._keep(CameraTrackerNode())]
+        if args.video:
+            self.recorder = self._keep(VideoRecorder(args.video, world.get_parameter("camera_rate_hz").value))
+            self.world_nodes.append(self.recorder)
+
+    def _keep(self, node):
+        self.nodes.append(node)
+        return node
 
     def start(self) -> None:
         """Hand the nodes to their executors and start the two spinning threads."""
@@ -369,14 +387,6 @@ class System:
 
 def _rig_backend(args: argparse.Namespace) -> str:
     return args.backend or load_rig(args.rig or None).backend
-
-
-def _world_nodes(args: argparse.Namespace) -> list[Node]:
-    """The simulated robot, the camera tracker on its images and (``--video``) the recorder."""
-    nodes: list[Node] = [SimWorldNode(), CameraTrackerNode()]
-    if args.video:
-        nodes.append(VideoRecorder(args.video, nodes[0].get_parameter("camera_rate_hz").value))
-    return nodes
 
 
 def _spin_until(executor, stop: threading.Event) -> None:
