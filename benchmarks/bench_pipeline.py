@@ -39,9 +39,11 @@ def _cpu_seconds(pid: int) -> float:
 
 
 def _diagnostic_values(msg) -> dict[str, str]:
+    from srs_ros.ros.interfaces import diagnostic_values
+
     for status in msg.status:
         if status.name.startswith("hardware_node"):
-            return {kv.key: kv.value for kv in status.values}
+            return diagnostic_values(status)
     return {}
 
 
@@ -49,7 +51,7 @@ def run_rate(rate_hz: float, duration_s: float, env: dict[str, str], client: Ros
     from diagnostic_msgs.msg import DiagnosticArray
     from sensor_msgs.msg import JointState
 
-    from srs_ros.ros.interfaces import setpoint_qos
+    from srs_ros.ros.interfaces import setpoint_qos, stamp_to_nanoseconds
 
     received_total = [0]
     total_sub = client.node.create_subscription(
@@ -67,7 +69,7 @@ def run_rate(rate_hz: float, duration_s: float, env: dict[str, str], client: Ros
 
         def on_setpoint(msg):
             if recording[0]:
-                stamps_ns.append(msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec)
+                stamps_ns.append(stamp_to_nanoseconds(msg.header.stamp))
 
         diag: list[dict[str, str]] = []
         sub = client.node.create_subscription(JointState, "joint_setpoints", on_setpoint, setpoint_qos(depth=100))

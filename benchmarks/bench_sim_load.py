@@ -26,6 +26,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "test"))
 from srs_testing import NodeProcess, RosClient, allocate_domain, release_domain, ros_args  # noqa: E402
 
 from srs_ros.core.robot import config_dir  # noqa: E402
+from srs_ros.ros.interfaces import diagnostic_values  # noqa: E402
 
 COUNTERS = ("holds", "stale_vents", "recoveries")
 
@@ -45,7 +46,7 @@ def latest(diagnostics: list, prefix: str) -> dict:
     for msg in reversed(diagnostics):
         for status in msg.status:
             if status.name.startswith(prefix):
-                return {kv.key: kv.value for kv in status.values} | {"_level": int.from_bytes(status.level, "little")}
+                return diagnostic_values(status) | {"_level": int.from_bytes(status.level, "little")}
     return {}
 
 

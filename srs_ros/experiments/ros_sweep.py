@@ -57,6 +57,7 @@ from srs_ros.ros.interfaces import (
     POSE_TOPIC,
     SETPOINT_TOPIC,
     TRAJECTORY_TOPIC,
+    diagnostic_values,
     latched_qos,
     setpoint_qos,
 )
@@ -261,7 +262,7 @@ class RosSweep:
         if not self.spin_until(lambda: self._hardware is not None, timeout):
             raise SweepStopped(f"no '{HARDWARE_STATUS_PREFIX}' status on /diagnostics after {timeout:g} s: is "
                                "hardware_node running?")
-        values = {kv.key: kv.value for kv in self._hardware[1].values}
+        values = diagnostic_values(self._hardware[1])
         # The sim backend talks to a sim_world: wait for it as for the other nodes; elsewhere just look.
         simulated = self.has_service("sim_world", "reset", timeout if values.get("backend") == "sim" else 1.0)
         # Anything but an explicit "False" counts as real air: the go is asked rather than assumed.
@@ -276,7 +277,7 @@ class RosSweep:
         if self._hardware is None:
             return "no hardware_node status on /diagnostics"
         status = self._hardware[1]
-        values = {kv.key: kv.value for kv in status.values}
+        values = diagnostic_values(status)
         if values.get("estop_latched") == "True":
             return f"e-stop latched ({status.message}); release it with hardware_node ~/reset"
         if status.level == DiagnosticStatus.ERROR:
@@ -353,7 +354,7 @@ class RosSweep:
     def _hardware_inactive_since(self, since_s: float) -> bool:
         if self._hardware is None or self._hardware[0] <= since_s:
             return False
-        state = {kv.key: kv.value for kv in self._hardware[1].values}.get("lifecycle_state", "")
+        state = diagnostic_values(self._hardware[1]).get("lifecycle_state", "")
         return state in ("unconfigured", "inactive", "finalized")
 
     def run(self, cell: Cell, duration_s: float, bag_path: Path, go: Callable[[Cell], bool] | None = None

@@ -69,8 +69,10 @@ from srs_ros.ros.interfaces import (
     IMAGE_TOPIC,
     POSE_TOPIC,
     SETPOINT_TOPIC,
+    diagnostic_values,
     image_msg_to_array,
     setpoint_qos,
+    stamp_to_seconds,
 )
 from srs_ros.ros.parameters import guard_parameter_services
 from srs_ros.ros.process import CleanExit, init_ros, spin_until_shutdown, steady_timer
@@ -116,7 +118,7 @@ class StatusMonitor(Node):
     def _on_diagnostics(self, msg: DiagnosticArray) -> None:
         for status in msg.status:
             if (status.name, status.hardware_id) == self._tracker_status:
-                view = ViewStatus.from_values({kv.key: kv.value for kv in status.values}, status.message)
+                view = ViewStatus.from_values(diagnostic_values(status), status.message)
                 if view is not None:
                     self._view = (view, time.monotonic())
 
@@ -171,7 +173,7 @@ class SpeedMeter:
 
     def add(self, msg: PoseStamped) -> None:
         """One pose (stamp s, x m, y m)."""
-        sample = (msg.header.stamp.sec + 1e-9 * msg.header.stamp.nanosec, msg.pose.position.x, msg.pose.position.y)
+        sample = (stamp_to_seconds(msg.header.stamp), msg.pose.position.x, msg.pose.position.y)
         self._first = self._first or sample
         self._last = sample
 
@@ -262,82 +264,129 @@ def _params_file(args: argparse.Namespace, ros_args: list[str]) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
+    """Console script ``srs_bringup``: 0 when stopped, 1 after a failure while running, 2 if it cannot start."""
+    args, ros_args = _parse_arguments(argv)
+    outcome = CleanExit()
+    _init_ros(args, ros_args, outcome)
+    if outcome.exit_code:
+        return outcome.exit_code
+    sys.setswitchinterval(0.0005)  # the real-time thread gets the interpreter back quickly while a fit runs
+    system = System()
+    try:
+        with outcome:
+            system.create_nodes(args)
+            _check_hardware(system.hardware, args)
+            outcome.started = True
+            system.start()
+            spin_until_shutdown(system.realtime, args.duration_s)
+    finally:
+        system.stop(outcome)
+    return outcome.exit_code
+
+
+def _parse_arguments(argv: list[str] | None) -> tuple[argparse.Namespace, list[str]]:
+    """The bringup's own options, and the ROS arguments from ``--ros-args`` on (passed on to rclpy)."""
     argv = list(sys.argv[1:] if argv is None else argv)
     ros_args = argv[argv.index("--ros-args"):] if "--ros-args" in argv else []
-    args = build_parser().parse_args(argv[:len(argv) - len(ros_args)])
+    return build_parser().parse_args(argv[:len(argv) - len(ros_args)]), ros_args
+
+
+def _init_ros(args: argparse.Namespace, ros_args: list[str], outcome: CleanExit) -> None:
+    """Initialise rclpy with the bringup's parameters, then the user's ROS arguments (which win)."""
     params_file = _params_file(args, ros_args)
-    outcome = CleanExit()
     try:
         with outcome:
             init_ros(["srs_bringup", "--ros-args", "--params-file", params_file, *ros_args[1:]])
     finally:
         os.unlink(params_file)  # rcl has parsed it in init
-    if outcome.exit_code:
-        return outcome.exit_code
-    sys.setswitchinterval(0.0005)
-    realtime = EventsExecutor()
-    fitting = MultiThreadedExecutor(num_threads=2)
-    fitting_thread = threading.Thread(target=_spin_quietly, args=(fitting,), name="trajectory_server", daemon=True)
-    world = SingleThreadedExecutor()
-    world_stop = threading.Event()
-    world_thread = threading.Thread(target=_spin_until, args=(world, world_stop), name="sim_world", daemon=True)
-    nodes: list[Node] = []
-    hardware = server = recorder = None
-    try:
-        with outcome:
-            simulated = _rig_backend(args) == "sim"
-            world_nodes = _world_nodes(args) if simulated else []  # the world first: the hardware talks to it
-            server, player, hardware = TrajectoryServer(), GaitPlayer(), HardwareNode()
-            tracker = next((n for n in world_nodes if isinstance(n, CameraTrackerNode)), None)
-            status = StatusMonitor(player, server, hardware, args.status_period_s, simulated,
-                                   None if tracker is None else (tracker.status_name, tracker.hardware_id))
-            recorder = next((n for n in world_nodes if isinstance(n, VideoRecorder)), None)
-            nodes = [server, player, hardware, status, *world_nodes]
-            for node in nodes:
-                guard_parameter_services(node)
-            _check_hardware(hardware, args)
-            outcome.started = True
-            fitting.add_node(server)
-            fitting_thread.start()
-            for node in (player, hardware, status):
-                realtime.add_node(node)
-            for node in world_nodes:
-                world.add_node(node)
-            if world_nodes:
-                world_thread.start()
-            spin_until_shutdown(realtime, args.duration_s)
-    finally:
-        realtime.shutdown()
-        if hardware is not None:
-            release_and_report(hardware, "srs_bringup")
+
+
+class System:
+    """The bringup's nodes and its three executors (see the module docstring), started and stopped in order."""
+
+    def __init__(self) -> None:
+        """The executors and their threads; no node yet."""
+        self.realtime = EventsExecutor()  # gait_player, hardware_node, status: spun by the main thread
+        self.fitting = MultiThreadedExecutor(num_threads=2)  # trajectory_server: a fit never holds up a command
+        self.world = SingleThreadedExecutor()  # sim_world, camera_tracker, the video recorder
+        self._world_stop = threading.Event()
+        self._threads = (
+            threading.Thread(target=_spin_quietly, args=(self.fitting,), name="trajectory_server", daemon=True),
+            threading.Thread(target=_spin_until, args=(self.world, self._world_stop), name="sim_world", daemon=True))
+        self.server: TrajectoryServer | None = None
+        self.player: GaitPlayer | None = None
+        self.hardware: HardwareNode | None = None
+        self.status: StatusMonitor | None = None
+        self.recorder: VideoRecorder | None = None
+        self.world_nodes: list[Node] = []
+        self.nodes: list[Node] = []
+
+    def create_nodes(self, args: argparse.Namespace) -> None:
+        """Every node of the rig's system; the simulated world first, as the hardware node talks to it.
+
+        Each node is kept as soon as it exists, so that :meth:`stop` destroys it whatever fails after it
+        (a simulated world left alive at exit steps and publishes while rclpy shuts down: a segfault).
+        """
+        simulated = _rig_backend(args) == "sim"
+        if simulated:
+            self._create_world(args)
+        self.server = self._keep(TrajectoryServer())
+        self.player = self._keep(GaitPlayer())
+        self.hardware = self._keep(HardwareNode())
+        tracker = next((n for n in self.world_nodes if isinstance(n, CameraTrackerNode)), None)
+        self.status = self._keep(StatusMonitor(self.player, self.server, self.hardware, args.status_period_s,
+                                               simulated, None if tracker is None
+                                               else (tracker.status_name, tracker.hardware_id)))
+        for node in self.nodes:
+            guard_parameter_services(node)
+
+    def _create_world(self, args: argparse.Namespace) -> None:
+        """The simulated robot, the camera tracker on its images and (``--video``) the recorder."""
+        world = self._keep(SimWorldNode())
+        self.world_nodes = [world, self._keep(CameraTrackerNode())]
+        if args.video:
+            self.recorder = self._keep(VideoRecorder(args.video, world.get_parameter("camera_rate_hz").value))
+            self.world_nodes.append(self.recorder)
+
+    def _keep(self, node):
+        self.nodes.append(node)
+        return node
+
+    def start(self) -> None:
+        """Hand the nodes to their executors and start the two spinning threads."""
+        self.fitting.add_node(self.server)
+        self._threads[0].start()
+        for node in (self.player, self.hardware, self.status):
+            self.realtime.add_node(node)
+        for node in self.world_nodes:
+            self.world.add_node(node)
+        if self.world_nodes:
+            self._threads[1].start()
+
+    def stop(self, outcome: CleanExit) -> None:
+        """Vent first; then let a fit finish, stop the threads, finish the video, destroy the nodes, shut down."""
+        self.realtime.shutdown()
+        if self.hardware is not None:
+            release_and_report(self.hardware, "srs_bringup")
         elif outcome.exit_code == 0:
             outcome.exit_code = 1
-        if server is not None:
-            server.wait_for_fit()
-        fitting.shutdown()
-        world_stop.set()
-        for thread in (fitting_thread, world_thread):
+        if self.server is not None:
+            self.server.wait_for_fit()
+        self.fitting.shutdown()
+        self._world_stop.set()
+        for thread in self._threads:
             if thread.is_alive():
                 thread.join(timeout=10.0)
-        world.shutdown()
-        if recorder is not None:
-            recorder.close()
-        for node in nodes:
+        self.world.shutdown()
+        if self.recorder is not None:
+            self.recorder.close()
+        for node in self.nodes:
             node.destroy_node()
         rclpy.try_shutdown()
-    return outcome.exit_code
 
 
 def _rig_backend(args: argparse.Namespace) -> str:
     return args.backend or load_rig(args.rig or None).backend
-
-
-def _world_nodes(args: argparse.Namespace) -> list[Node]:
-    """The simulated robot, the camera tracker on its images and (``--video``) the recorder."""
-    nodes: list[Node] = [SimWorldNode(), CameraTrackerNode()]
-    if args.video:
-        nodes.append(VideoRecorder(args.video, nodes[0].get_parameter("camera_rate_hz").value))
-    return nodes
 
 
 def _spin_until(executor, stop: threading.Event) -> None:

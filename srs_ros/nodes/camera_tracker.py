@@ -28,7 +28,7 @@ from typing import Any
 import cv2
 import numpy as np
 from builtin_interfaces.msg import Time
-from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from geometry_msgs.msg import PoseStamped, TwistStamped
 from nav_msgs.msg import Path as PathMsg
 from rclpy.node import Node
@@ -51,6 +51,8 @@ from srs_ros.ros.interfaces import (
     PATH_TOPIC,
     POSE_TOPIC,
     TWIST_TOPIC,
+    diagnostic_array,
+    diagnostic_status,
     image_msg_to_array,
     seconds_to_stamp,
     stamp_to_seconds,
@@ -63,7 +65,6 @@ STATUS_NAME_SUFFIX = "marker tracking"
 #: A parameter this node no longer has, and what replaced it (said at start-up when it is still given).
 RENAMED_PARAMETERS = {"lost_timeout_s": "image_timeout_s (no images: ERROR camera silent) and lost_after_s "
                                         "(no pose: WARN robot out of the camera's view)"}
-_LEVELS = {"OK": DiagnosticStatus.OK, "WARN": DiagnosticStatus.WARN, "ERROR": DiagnosticStatus.ERROR}
 
 PARAMETERS = (
     ParameterSpec("calibration_file", "", "floor calibration YAML; empty = config/camera_calibration.yaml",
@@ -124,9 +125,7 @@ def tracker_config(params: dict[str, Any]) -> TrackerConfig:
 
 def tracking_status(view: ViewStatus, name: str, hardware_id: str, values: dict[str, Any]) -> DiagnosticStatus:
     """The tracker's DiagnosticStatus: the view's level and message, its key/values after ``values``."""
-    status = DiagnosticStatus(level=_LEVELS[view.level], name=name, message=view.message, hardware_id=hardware_id)
-    status.values = [KeyValue(key=k, value=str(v)) for k, v in {**values, **view.values()}.items()]
-    return status
+    return diagnostic_status(name, hardware_id, view.level, view.message, {**values, **view.values()})
 
 
 def sim_band_calibration():
@@ -293,9 +292,8 @@ class CameraTrackerNode(Node):
         }
         if self.last_result is not None:
             values["seen"] = ",".join(sorted(self.last_result.markers_px)) or "none"
-        array = DiagnosticArray(status=[tracking_status(view, self.status_name, self.hardware_id, values)])
-        array.header.stamp = self.get_clock().now().to_msg()
-        self.diag_pub.publish(array)
+        status = tracking_status(view, self.status_name, self.hardware_id, values)
+        self.diag_pub.publish(diagnostic_array([status], self.get_clock().now().to_msg()))
 
     def destroy_node(self) -> None:
         """Release the video source, then the ROS entities."""

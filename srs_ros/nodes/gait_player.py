@@ -49,7 +49,7 @@ from srs_ros.core.gait.playback import (
 )
 from srs_ros.core.ramp import DEFAULT_RAMP_TIME_S
 from srs_ros.core.robot import CYCLE_FREQUENCY_RANGE_HZ, load_robot
-from srs_ros.ros.interfaces import SETPOINT_TOPIC, TRAJECTORY_TOPIC, latched_qos, setpoint_qos
+from srs_ros.ros.interfaces import SETPOINT_TOPIC, TRAJECTORY_TOPIC, latched_qos, setpoint_qos, stamp_to_seconds
 from srs_ros.ros.parameters import REALTIME_PRIORITY, ParameterSpec, check_parameters, declare_parameters
 from srs_ros.ros.process import request_realtime_priority, run_node, steady_timer
 
@@ -148,7 +148,7 @@ class GaitPlayer(Node):
             self.get_logger().error(f"ignored the trajectory on {TRAJECTORY_TOPIC}: {len(msg.points)} points; expected "
                                     f"5 to {MAX_TRAJECTORY_POINTS}. The previous trajectory (if any) keeps playing.")
             return
-        times = [p.time_from_start.sec + 1e-9 * p.time_from_start.nanosec for p in msg.points]
+        times = [stamp_to_seconds(p.time_from_start) for p in msg.points]
         try:
             samples, frequency_hz = cycle_from_points(
                 msg.joint_names, times, [p.positions for p in msg.points], self._robot.joint_names,

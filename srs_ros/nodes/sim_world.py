@@ -29,11 +29,10 @@ import threading
 import time
 
 import numpy as np
-from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import Point, PoseStamped
 from rclpy.experimental import EventsExecutor
 from rclpy.node import Node
-from rclpy.time import Time
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import Image, JointState
 from std_srvs.srv import Trigger
@@ -56,6 +55,9 @@ from srs_ros.ros.interfaces import (
     SIM_MONITOR_TOPIC,
     array_to_image_msg,
     bus_qos,
+    diagnostic_array,
+    diagnostic_status,
+    seconds_to_stamp,
 )
 from srs_ros.ros.parameters import REALTIME_PRIORITY, ParameterSpec, declare_parameters
 from srs_ros.ros.process import request_realtime_priority, run_node, steady_timer
@@ -191,7 +193,7 @@ class SimWorldNode(Node):
             pressure_bar, length_m = self.world.muscles.state(self.world.time_s)  # the read-back only: cheap
             clock_s = self._clock_base_s + self.world.time_s
         if self._clock_pub is not None:
-            self._clock_pub.publish(Clock(clock=Time(nanoseconds=round(clock_s * 1e9)).to_msg()))
+            self._clock_pub.publish(Clock(clock=seconds_to_stamp(clock_s)))
         msg = self._monitor
         msg.header.stamp = self.get_clock().now().to_msg()
         msg.effort = pressure_bar.tolist()
@@ -289,19 +291,16 @@ class SimWorldNode(Node):
                   "world_rate": f"{(world_s - then_world_s) / span_s:.3f}", "commands": str(self.commands),
                   "silence_vents": str(self.board.silence_vents), "failure": self.failure or "none"}
         level, message = self._summary()
-        status = DiagnosticStatus(level=level, name=f"{NODE_NAME}: simulated robot", message=message,
-                                  hardware_id="mujoco", values=[KeyValue(key=k, value=v) for k, v in values.items()])
-        msg = DiagnosticArray(status=[status])
-        msg.header.stamp = self.get_clock().now().to_msg()
-        self._diag_pub.publish(msg)
+        status = diagnostic_status(f"{NODE_NAME}: simulated robot", "mujoco", level, message, values)
+        self._diag_pub.publish(diagnostic_array([status], self.get_clock().now().to_msg()))
 
-    def _summary(self) -> tuple[bytes, str]:
+    def _summary(self) -> tuple[str, str]:
         if self.failure:
-            return DiagnosticStatus.ERROR, f"stopped: {self.failure}; call ~/reset"
+            return "ERROR", f"stopped: {self.failure}; call ~/reset"
         if self.board.vented_by_silence:
-            return DiagnosticStatus.WARN, (f"vented by the board's own watchdog: no regulator command for "
-                                           f"{self.board.command_timeout_s:g} s (is the hardware node running?)")
-        return DiagnosticStatus.OK, "stepping in real time"
+            return "WARN", (f"vented by the board's own watchdog: no regulator command for "
+                            f"{self.board.command_timeout_s:g} s (is the hardware node running?)")
+        return "OK", "stepping in real time"
 
 
 def _line_strip(marker_id: int, namespace: str, points_m: np.ndarray, width_m: float, rgba, stamp) -> Marker:

@@ -30,7 +30,6 @@ import warnings
 from typing import Any
 
 import numpy as np
-from builtin_interfaces.msg import Duration
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.callback_groups import ReentrantCallbackGroup
 from rclpy.executors import MultiThreadedExecutor
@@ -42,7 +41,7 @@ from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 from srs_ros.core.errors import ConfigurationError, SrsError
 from srs_ros.core.gait.trajectory import PoorFitWarning, generate_cycle, list_gaits
 from srs_ros.core.robot import CYCLE_FREQUENCY_RANGE_HZ, load_robot
-from srs_ros.ros.interfaces import TRAJECTORY_TOPIC, latched_qos
+from srs_ros.ros.interfaces import TRAJECTORY_TOPIC, latched_qos, nanoseconds_to_duration
 from srs_ros.ros.parameters import ParameterSpec, check_parameters, declare_parameters, startup_value
 from srs_ros.ros.process import run_node
 
@@ -103,7 +102,7 @@ def trajectory_message(cycle, stamp) -> JointTrajectory:
         point = JointTrajectoryPoint()
         point.positions = lengths[i % count].tolist()
         point.velocities = slopes[i % count].tolist()
-        point.time_from_start = Duration(sec=int(t_ns // 1_000_000_000), nanosec=int(t_ns % 1_000_000_000))
+        point.time_from_start = nanoseconds_to_duration(t_ns)
         msg.points.append(point)
     return msg
 

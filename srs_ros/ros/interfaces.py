@@ -15,11 +15,13 @@ Nodes, backends, experiments, tests and benchmarks take names and profiles from 
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
+from typing import Any
 
 import cv2
 import numpy as np
-from builtin_interfaces.msg import Time
+from builtin_interfaces.msg import Duration, Time
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import Image
 from std_msgs.msg import Float64MultiArray, MultiArrayDimension
@@ -125,15 +127,65 @@ def array_to_image_msg(image: np.ndarray, stamp: Time | None = None, frame_id: s
     return msg
 
 
-def stamp_to_seconds(stamp: Time) -> float:
-    """A builtin_interfaces/Time in seconds."""
+# ------------------------------------------------------------------------------------------
+# builtin_interfaces/Time and Duration <-> seconds and nanoseconds
+# ------------------------------------------------------------------------------------------
+_NS_PER_S = 1_000_000_000
+
+
+def stamp_to_seconds(stamp: Time | Duration) -> float:
+    """A builtin_interfaces/Time (or Duration) in seconds."""
     return stamp.sec + 1e-9 * stamp.nanosec
 
 
+def stamp_to_nanoseconds(stamp: Time | Duration) -> int:
+    """A builtin_interfaces/Time (or Duration) in integer nanoseconds (exact; 0 for an unstamped message)."""
+    return stamp.sec * _NS_PER_S + stamp.nanosec
+
+
+def nanoseconds_to_stamp(nanoseconds: int) -> Time:
+    """Integer nanoseconds as a builtin_interfaces/Time (exact)."""
+    sec, nanosec = divmod(int(nanoseconds), _NS_PER_S)
+    return Time(sec=sec, nanosec=nanosec)
+
+
+def nanoseconds_to_duration(nanoseconds: int) -> Duration:
+    """Integer nanoseconds as a builtin_interfaces/Duration (exact), e.g. a trajectory point's time_from_start."""
+    sec, nanosec = divmod(int(nanoseconds), _NS_PER_S)
+    return Duration(sec=sec, nanosec=nanosec)
+
+
 def seconds_to_stamp(seconds: float) -> Time:
-    """Seconds as a builtin_interfaces/Time."""
-    sec = int(seconds // 1)
-    return Time(sec=sec, nanosec=min(int(round((seconds - sec) * 1e9)), 999_999_999))
+    """Seconds as a builtin_interfaces/Time, to the nearest nanosecond."""
+    return nanoseconds_to_stamp(round(seconds * _NS_PER_S))
+
+
+# ------------------------------------------------------------------------------------------
+# diagnostic_msgs: one status per report, levels by name as the ROS-free core says them
+# ------------------------------------------------------------------------------------------
+_LEVELS = {"OK": DiagnosticStatus.OK, "WARN": DiagnosticStatus.WARN, "ERROR": DiagnosticStatus.ERROR,
+           "STALE": DiagnosticStatus.STALE}
+
+
+def diagnostic_status(name: str, hardware_id: str, level: str, message: str,
+                      values: Mapping[str, Any]) -> DiagnosticStatus:
+    """A DiagnosticStatus at ``level`` (``"OK"``, ``"WARN"``, ``"ERROR"``, ``"STALE"``), each value as text."""
+    if level not in _LEVELS:
+        raise InvalidInputError(f"diagnostic level {level!r}; expected one of {list(_LEVELS)}.")
+    return DiagnosticStatus(level=_LEVELS[level], name=name, message=message, hardware_id=hardware_id,
+                            values=[KeyValue(key=key, value=str(value)) for key, value in values.items()])
+
+
+def diagnostic_array(statuses: Sequence[DiagnosticStatus], stamp: Time) -> DiagnosticArray:
+    """A DiagnosticArray of ``statuses`` stamped ``stamp``, ready for :data:`DIAGNOSTICS_TOPIC`."""
+    msg = DiagnosticArray(status=list(statuses))
+    msg.header.stamp = stamp
+    return msg
+
+
+def diagnostic_values(status: DiagnosticStatus) -> dict[str, str]:
+    """A DiagnosticStatus's key/values as a dict."""
+    return {pair.key: pair.value for pair in status.values}
 
 
 GROUND_TRUTH_TOPIC = "sim/ground_truth_pose"

@@ -1,8 +1,12 @@
-"""A node process from start to exit: init, the steady-clock timers, spinning, signals, real-time priority, errors."""
+"""A node process from start to exit: init, the steady-clock timers, spinning, signals, real-time priority, errors.
+
+Also the Python log records of the libraries a node drives (:func:`forward_python_logs`).
+"""
 
 from __future__ import annotations
 
 import gc
+import logging
 import math
 import os
 import signal
@@ -58,6 +62,31 @@ def request_realtime_priority(priority: int, logger) -> bool:
         return False
     logger.info(f"real-time scheduling: every thread on SCHED_FIFO priority {priority}")
     return True
+
+
+class _NodeLogHandler(logging.Handler):
+    """Forwards Python log records to a node's logger (and so to /rosout)."""
+
+    def __init__(self, node_logger):
+        super().__init__()
+        self._node_logger = node_logger
+
+    def emit(self, record: logging.LogRecord) -> None:
+        text = self.format(record)
+        if record.levelno >= logging.ERROR:  # rclpy fixes a call site's severity, hence one call per level
+            self._node_logger.error(text)
+        elif record.levelno >= logging.WARNING:
+            self._node_logger.warning(text)
+        else:
+            self._node_logger.info(text)
+
+
+def forward_python_logs(logger_name: str, node_logger) -> None:
+    """Send the INFO and louder Python log records of ``logger_name`` to ``node_logger`` instead of stderr."""
+    python_logger = logging.getLogger(logger_name)
+    python_logger.addHandler(_NodeLogHandler(node_logger))
+    python_logger.setLevel(logging.INFO)
+    python_logger.propagate = False
 
 
 class ShutdownSignals:

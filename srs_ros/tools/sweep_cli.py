@@ -235,75 +235,97 @@ def _calibrate(args: argparse.Namespace, out: Path) -> int:
 
 
 def _ros(args: argparse.Namespace, grid: SweepGrid, reference: MeasuredTable, out: Path) -> int:
-    from srs_ros.experiments.ros_sweep import RosSweep, RosSweepOptions, SweepStopped
+    """``--ros``: the grid against running nodes, a bag per run in ``out/bags``; then the table as offline."""
+    from srs_ros.experiments.ros_sweep import RosSweep, RosSweepOptions
 
     options = RosSweepOptions(settle_s=args.settle_s, namespace=args.namespace, reset_sim=not args.no_sim_reset)
     sweep = RosSweep(options, log=lambda text: tqdm.write(text, file=sys.stderr))
     sweep.install_interrupt_handler()
-    records: list[RunRecord] = []
-    cells = grid.cells()
     started = time.perf_counter()
-    code = EXIT_OK
     try:
-        try:
-            rig = sweep.discover()
-        except SweepStopped as exc:
-            raise ConfigurationError(str(exc)) from None
-        print(f"{PROG}: rig {rig.rig!r}: " + ("real regulators: each run needs the operator's go"
-                                              + (" (--yes given)" if args.yes else "") if rig.requires_arm
-                                              else "no arm needed") + ("; simulated world" if rig.simulated else ""),
-              file=sys.stderr, flush=True)
+        _discover_rig(sweep, args)
         bags = out / "bags"
         bags.mkdir(exist_ok=True)
-        with _progress(len(cells), args, "runs") as bar:
-            def go(cell) -> bool:
-                if args.yes:
-                    return True
-                bar.clear()
-                handler = signal.signal(signal.SIGINT, signal.default_int_handler)  # Ctrl-C at the prompt: quit
-                try:
-                    answer = input(f"{PROG}: run {cell[0]} {cell[1]:g} bar {cell[2]:g} Hz for {grid.duration_s:g} s "
-                                   "on the real rig? Place the robot, then [y]es / [n]o, skip / [q]uit: ")
-                except (EOFError, KeyboardInterrupt):
-                    answer = "q"
-                finally:
-                    signal.signal(signal.SIGINT, handler)
-                bar.refresh()
-                if answer.strip().lower() in ("q", "quit"):
-                    raise SweepStopped("the operator stopped the sweep")
-                return answer.strip().lower() in ("y", "yes")
-
-            for index, cell in enumerate(cells, start=1):
-                bag = bags / f"{index:02d}_{cell[0]}_{cell[1]:g}bar_{cell[2]:g}hz"
-                if bag.exists():
-                    raise ConfigurationError(f"{bag} exists already; use a new --out folder.")
-                try:
-                    record = sweep.run(cell, grid.duration_s, bag, go)
-                except SweepStopped as exc:
-                    records.append(RunRecord.failed(cell, str(exc)))
-                    tqdm.write(f"{PROG}: stopped: {exc}", file=sys.stderr)
-                    break
-                except KeyboardInterrupt:
-                    records.append(RunRecord.failed(cell, "interrupted (Ctrl-C); its bag keeps what was recorded"))
-                    code = EXIT_INTERRUPTED
-                    break
-                records.append(record)
-                bar.update()
-                text = f"{record.speed_cm_s:.2f} cm/s" if record.ok else record.status
-                tqdm.write(f"{PROG}: {cell[0]} {cell[1]:g} bar {cell[2]:g} Hz: {text}", file=sys.stderr)
-                if not record.ok and args.on_failure == "stop":
-                    tqdm.write(f"{PROG}: stopping at the first failed run (--on-failure stop)", file=sys.stderr)
-                    break
+        with _progress(len(grid), args, "runs") as bar:
+            records, code = _run_cells(sweep, grid, bags, args, bar)
     finally:
         sweep.close()
     if not records:
         print(f"{PROG}: no run was made; nothing written", file=sys.stderr)
         return code or EXIT_FAILED_RUNS
-    how = f"over ROS, {grid.duration_s:g} s each, rig {sweep.rig.rig if sweep.rig else '?'}, bags in {out / 'bags'}"
+    how = f"over ROS, {grid.duration_s:g} s each, rig {sweep.rig.rig if sweep.rig else '?'}, bags in {bags}"
     result = _finish(records, reference, out, "tracked", time.perf_counter() - started, how)
-    if len(records) < len(cells):
-        print(f"{len(cells) - len(records)} runs of the grid were not made")
+    if len(records) < len(grid):
+        print(f"{len(grid) - len(records)} runs of the grid were not made")
     return code or result
+
+
+def _discover_rig(sweep, args: argparse.Namespace) -> None:
+    """Find the running rig (a ConfigurationError if it does not answer) and say what each run will need."""
+    from srs_ros.experiments.ros_sweep import SweepStopped
+
+    try:
+        rig = sweep.discover()
+    except SweepStopped as exc:
+        raise ConfigurationError(str(exc)) from None
+    print(f"{PROG}: rig {rig.rig!r}: " + ("real regulators: each run needs the operator's go"
+                                          + (" (--yes given)" if args.yes else "") if rig.requires_arm
+                                          else "no arm needed") + ("; simulated world" if rig.simulated else ""),
+          file=sys.stderr, flush=True)
+
+
+def _run_cells(sweep, grid: SweepGrid, bags: Path, args: argparse.Namespace,
+               bar: tqdm) -> tuple[list[RunRecord], int]:
+    """Each cell in turn, a bag each, until done, stopped or interrupted: the records and the exit code so far."""
+    from srs_ros.experiments.ros_sweep import SweepStopped
+
+    go = _operator_go(args, grid, bar)
+    records: list[RunRecord] = []
+    for index, cell in enumerate(grid.cells(), start=1):
+        bag = bags / f"{index:02d}_{cell[0]}_{cell[1]:g}bar_{cell[2]:g}hz"
+        if bag.exists():
+            raise ConfigurationError(f"{bag} exists already; use a new --out folder.")
+        try:
+            record = sweep.run(cell, grid.duration_s, bag, go)
+        except SweepStopped as exc:
+            records.append(RunRecord.failed(cell, str(exc)))
+            tqdm.write(f"{PROG}: stopped: {exc}", file=sys.stderr)
+            break
+        except KeyboardInterrupt:
+            records.append(RunRecord.failed(cell, "interrupted (Ctrl-C); its bag keeps what was recorded"))
+            return records, EXIT_INTERRUPTED
+        records.append(record)
+        bar.update()
+        text = f"{record.speed_cm_s:.2f} cm/s" if record.ok else record.status
+        tqdm.write(f"{PROG}: {cell[0]} {cell[1]:g} bar {cell[2]:g} Hz: {text}", file=sys.stderr)
+        if not record.ok and args.on_failure == "stop":
+            tqdm.write(f"{PROG}: stopping at the first failed run (--on-failure stop)", file=sys.stderr)
+            break
+    return records, EXIT_OK
+
+
+def _operator_go(args: argparse.Namespace, grid: SweepGrid, bar: tqdm):
+    """Whether a cell may run on a real rig: always with ``--yes``, else the operator's answer (``q`` stops)."""
+    from srs_ros.experiments.ros_sweep import SweepStopped
+
+    def go(cell) -> bool:
+        if args.yes:
+            return True
+        bar.clear()
+        handler = signal.signal(signal.SIGINT, signal.default_int_handler)  # Ctrl-C at the prompt: quit
+        try:
+            answer = input(f"{PROG}: run {cell[0]} {cell[1]:g} bar {cell[2]:g} Hz for {grid.duration_s:g} s "
+                           "on the real rig? Place the robot, then [y]es / [n]o, skip / [q]uit: ")
+        except (EOFError, KeyboardInterrupt):
+            answer = "q"
+        finally:
+            signal.signal(signal.SIGINT, handler)
+        bar.refresh()
+        if answer.strip().lower() in ("q", "quit"):
+            raise SweepStopped("the operator stopped the sweep")
+        return answer.strip().lower() in ("y", "yes")
+
+    return go
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -12,7 +12,13 @@ from sensor_msgs.msg import Image
 from srs_testing import ros_args
 
 from srs_ros.core.vision.camera_calibration import save_calibration
-from srs_ros.ros.interfaces import array_to_image_msg, image_msg_to_array, seconds_to_stamp, stamp_to_seconds
+from srs_ros.ros.interfaces import (
+    array_to_image_msg,
+    diagnostic_values,
+    image_msg_to_array,
+    seconds_to_stamp,
+    stamp_to_seconds,
+)
 from srs_ros.sim.scene import (
     RobotAppearance,
     SyntheticCamera,
@@ -141,7 +147,7 @@ def test_tracker_node_reads_a_video_file_source(tmp_path, launch_node, ros_clien
 
 
 def values_of(status):
-    return {kv.key: kv.value for kv in status.values}
+    return diagnostic_values(status)
 
 
 @pytest.mark.timeout(120)

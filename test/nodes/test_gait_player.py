@@ -13,13 +13,13 @@ from trajectory_msgs.msg import JointTrajectory
 
 from srs_ros.core.gait.interpolation import PeriodicTrajectory
 from srs_ros.core.robot import config_dir
-from srs_ros.ros.interfaces import SETPOINT_TOPIC, TRAJECTORY_TOPIC, latched_qos, setpoint_qos
+from srs_ros.ros.interfaces import SETPOINT_TOPIC, TRAJECTORY_TOPIC, latched_qos, setpoint_qos, stamp_to_seconds
 
 NAMES = JOINT_NAMES
 
 
 def stamps_s(msgs):
-    return np.array([m.header.stamp.sec + 1e-9 * m.header.stamp.nanosec for m in msgs])
+    return np.array([stamp_to_seconds(m.header.stamp) for m in msgs])
 
 
 def positions(msgs):
@@ -63,8 +63,7 @@ def test_start_follows_the_trajectory_at_the_rate_and_stop_ramps_to_zero(player,
 
     assert setpoints[0].name == NAMES
     assert np.max(setpoints[0].position) < 0.005  # soft start: begins near zero
-    steady = [m for m in setpoints if m.header.stamp.sec + 1e-9 * m.header.stamp.nanosec
-              > stamps_s(setpoints[:1])[0] + 0.5]
+    steady = [m for m in setpoints if stamp_to_seconds(m.header.stamp) > stamps_s(setpoints[:1])[0] + 0.5]
     median_period_s = float(np.median(np.diff(stamps_s(steady))))
     assert median_period_s == pytest.approx(1 / 200.0, rel=0.2)
     # Positions follow the cycle at phase = phase0 + f * t (phase0 found from the data, f = 1 Hz).

@@ -21,6 +21,7 @@ from srs_ros.ros.interfaces import (
     COMMANDED_PRESSURE_TOPIC,
     DIAGNOSTICS_TOPIC,
     SETPOINT_TOPIC,
+    diagnostic_values,
     setpoint_qos,
 )
 
@@ -75,7 +76,7 @@ class Rig:
         if not self.diagnostics:
             return None
         status = self.diagnostics[-1].status[0]
-        return status if key is None else {kv.key: kv.value for kv in status.values}.get(key)
+        return status if key is None else diagnostic_values(status).get(key)
 
     def wait_vented(self, what: str) -> None:
         self.client.spin_until(lambda: self.commanded(ZEROS), what=what)

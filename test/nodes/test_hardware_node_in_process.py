@@ -20,6 +20,7 @@ from srs_ros.core.actuation.safety import OutputReason
 from srs_ros.core.errors import HardwareError
 from srs_ros.core.robot import default_robot
 from srs_ros.nodes.hardware_node import HardwareNode, release_and_report
+from srs_ros.ros.interfaces import diagnostic_values
 
 NAMES = list(default_robot().joint_names)
 COMMAND_BAR = np.full(9, 2.0)  # P = 100 l for 0.02 m
@@ -57,7 +58,7 @@ class Driven:
 
     def diagnostic(self, key: str) -> str:
         self.node._publish_diagnostics()
-        return {kv.key: kv.value for kv in self.diagnostics[-1].status[0].values}[key]
+        return diagnostic_values(self.diagnostics[-1].status[0])[key]
 
 
 @pytest.fixture

@@ -8,6 +8,8 @@ import numpy as np
 from geometry_msgs.msg import PoseStamped
 from rosgraph_msgs.msg import Clock
 
+from srs_ros.ros.interfaces import stamp_to_seconds
+
 #: Absolute by ROS convention, shared by every robot of a domain.
 GLOBAL_TOPICS = ("/rosout", "/parameter_events", "/diagnostics")
 LIGHT = ["--samples", "16"]  # a quick start-up fit
@@ -55,12 +57,12 @@ def test_with_use_sim_time_sim_world_publishes_clock_and_the_loop_follows_it(lau
     truth = ros_client.subscribe(PoseStamped, "sim/ground_truth_pose")
 
     def clock_s():
-        return np.array([m.clock.sec + 1e-9 * m.clock.nanosec for m in clock])
+        return np.array([stamp_to_seconds(m.clock) for m in clock])
 
     ros_client.spin_until(lambda: moved_m(truth) > 0.05 and len(clock) > 2 and np.ptp(clock_s()) > 2.0, 90.0,
                           "the robot rolling and /clock advancing 2 s")
     seconds = clock_s()
     assert np.all(np.diff(seconds) >= 0.0) and len(seconds) > 100  # every control period (10 ms of world time)
     # Every node's ROS clock is the world's: the ground truth is stamped in simulated seconds, not the epoch.
-    stamp_s = truth[-1].header.stamp.sec + 1e-9 * truth[-1].header.stamp.nanosec
+    stamp_s = stamp_to_seconds(truth[-1].header.stamp)
     assert abs(stamp_s - seconds[-1]) < 1.0, (stamp_s, seconds[-1])

@@ -11,13 +11,13 @@ from srs_testing import ros_args
 from visualization_msgs.msg import MarkerArray
 
 from srs_ros.core.robot import config_dir
-from srs_ros.ros.interfaces import SIM_COMMAND_TOPIC, bus_qos
+from srs_ros.ros.interfaces import SIM_COMMAND_TOPIC, bus_qos, stamp_to_seconds
 
 SIM_RIG = str(config_dir() / "rigs" / "sim.yaml")
 
 
 def stamps_s(msgs):
-    return np.array([m.header.stamp.sec + 1e-9 * m.header.stamp.nanosec for m in msgs])
+    return np.array([stamp_to_seconds(m.header.stamp) for m in msgs])
 
 
 def test_the_gait_moves_the_simulated_robot_and_the_camera_tracks_it_by_pixels(launch_node, ros_client):

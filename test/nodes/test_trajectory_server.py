@@ -10,13 +10,13 @@ from trajectory_msgs.msg import JointTrajectory
 
 from srs_ros.core.gait.interpolation import PeriodicTrajectory
 from srs_ros.core.robot import config_dir
-from srs_ros.ros.interfaces import SETPOINT_TOPIC, TRAJECTORY_TOPIC, latched_qos, setpoint_qos
+from srs_ros.ros.interfaces import SETPOINT_TOPIC, TRAJECTORY_TOPIC, latched_qos, setpoint_qos, stamp_to_seconds
 
 NAMES = [f"m{i}_pma{j}" for i in (1, 2, 3) for j in (1, 2, 3)]
 
 
 def seconds(duration):
-    return duration.sec + 1e-9 * duration.nanosec
+    return stamp_to_seconds(duration)
 
 
 def latest_trajectory(client) -> JointTrajectory:

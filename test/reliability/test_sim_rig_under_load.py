@@ -17,6 +17,7 @@ from geometry_msgs.msg import PoseStamped
 from srs_testing import ros_args
 
 from srs_ros.core.robot import config_dir
+from srs_ros.ros.interfaces import diagnostic_values, stamp_to_seconds
 
 DURATION_S = 60.0
 BUSY_PROCESSES = 3
@@ -80,7 +81,7 @@ def test_the_launch_layout_keeps_moving_for_a_minute_beside_busy_processes_and_p
             proc.wait()
     windows_m = [_moved_m(truth, 20.0, end_s=start_s + k * 20.0) for k in (1, 2, 3)]
     hardware = [s for m in diagnostics for s in m.status if s.name.startswith("hardware_node")]
-    values = {kv.key: kv.value for kv in hardware[-1].values}
+    values = diagnostic_values(hardware[-1])
     print(f"{DURATION_S:g} s beside {BUSY_PROCESSES} busy processes, {reads} parameter reads, {len(getters)} "
           f"param-get processes: travel per 20 s {[round(m, 3) for m in windows_m]} m; hardware node: "
           f"{values['holding']!r} now, stale vents {values['stale_vents']}, stalls {values['command_stalls']}, "
@@ -98,7 +99,7 @@ def _moved_m(poses, span_s: float, end_s: float | None = None) -> float:
     """Ground-truth travel (m) over the ``span_s`` seconds of poses before ``end_s`` (arrival, default now)."""
     if not poses:
         return 0.0
-    stamps = np.array([p.header.stamp.sec + 1e-9 * p.header.stamp.nanosec for p in poses])
+    stamps = np.array([stamp_to_seconds(p.header.stamp) for p in poses])
     last = stamps[-1] if end_s is None else stamps[-1] - (time.monotonic() - end_s)
     inside = [p for p, t in zip(poses, stamps) if last - span_s <= t <= last]
     if len(inside) < 2:

@@ -1,7 +1,9 @@
 """From a setpoint to the air in the muscles, without ROS: the one clamp and every rule around it.
 
 ``pressure`` (length -> pressure -> regulator volts through the one [0, 4] bar clamp, paper Sec. IV-B),
-``safety`` (what the hardware node may send: setpoint checks, staleness, arm, e-stop, ramps), ``muscle_model``
+``safety`` (what the hardware node may send: setpoint checks, staleness, arm, e-stop, ramps), the hardware
+node's other ROS-free pieces (``timing``: its clocks checked at configure; ``intake``: one setpoint into the
+gate; ``status``: its counters and /diagnostics report; ``operator``: what its services do and say), ``muscle_model``
 (simulated muscles behind regulators), ``muscle_calibration`` (each muscle's measured characteristic and the
 maps built on it), ``compensation`` (leading the supply line's delay and lag), ``identification`` (measuring
 a rig's muscles). The pressure functions are this package's face: ``from srs_ros.core.actuation import
@@ -15,6 +17,7 @@ _PRESSURE = ("clamp_pressures_bar", "lengths_to_pressures_bar", "pressure_limit_
              "pressure_amplitude_scale")
 _EXPORTS = {**dict.fromkeys(_PRESSURE, "pressure"),
             "CommandGate": "safety", "OutputReason": "safety", "VENT_FAILED": "safety",
+            "CommandTiming": "timing", "Setpoint": "intake", "take_setpoint": "intake", "HardwareStatus": "status",
             "MuscleModel": "muscle_model", "MuscleParameters": "muscle_model",
             "PressureMap": "muscle_calibration", "MuscleCalibration": "muscle_calibration",
             "SetpointShaper": "compensation", "identify": "identification"}

@@ -173,6 +173,13 @@ class CommandGate:
     _fresh_s: float = math.nan  # when the stored command was fresh (its arrival less its age at arrival)
     _output_since_s: float | None = None  # when output last went from 0 bar to commanding
 
+    def configure(self, joint_count: int, setpoint_timeout_s: float, ramp_time_s: float, requires_arm: bool,
+                  max_gap_s: float = math.inf) -> None:
+        """Set up for a (re)configured rig; the e-stop latch, the operator's disarm and the stall count stay."""
+        self.joint_count, self.setpoint_timeout_s, self.ramp_time_s = joint_count, setpoint_timeout_s, ramp_time_s
+        self.requires_arm, self.max_gap_s = requires_arm, max_gap_s
+        self.restart_stall_watch()
+
     def accept(self, pressure_bar: np.ndarray, now_s: float, age_s: float = 0.0) -> None:
         """Store a validated, clamped command (bar) that arrives at ``now_s`` (s) already ``age_s`` old (s)."""
         self._pressure_bar = np.array(pressure_bar, dtype=np.float64)
