@@ -15,26 +15,19 @@ import os
 import resource
 import time
 
-from srs_ros.experiments.sweep import (
-    PAPER_AMPLITUDES_BAR,
-    PAPER_DURATION_S,
-    PAPER_FREQUENCIES_HZ,
-    SweepGrid,
-    default_workers,
-    run_offline_sweep,
-)
+from srs_ros.experiments.sweep import SweepGrid, default_workers, run_offline_sweep
+from srs_ros.experiments.table import paper_table
 from srs_ros.sim.config import load_sim_config
-from srs_ros.tools.sweep_cli import PAPER_GAITS
 
 TARGET_S = 120.0
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--duration-s", type=float, default=PAPER_DURATION_S)
+    parser.add_argument("--duration-s", type=float, default=paper_table().duration_s)
     parser.add_argument("--workers", type=int, default=default_workers())
     args = parser.parse_args()
-    grid = SweepGrid.create(PAPER_GAITS, PAPER_AMPLITUDES_BAR, PAPER_FREQUENCIES_HZ, args.duration_s)
+    grid = SweepGrid.of_table(paper_table(), args.duration_s)
     config = load_sim_config()
     load = os.getloadavg()[0]
     started = time.perf_counter()

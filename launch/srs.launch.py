@@ -14,7 +14,9 @@ transitions (``ChangeState`` events); with ``autostart:=true`` it configures and
 Numbers are handed to the nodes as doubles whether written ``3`` or ``3.0``; a number that is not one
 (``amplitude_bar:=abc``) stops the launch before any node starts, with an error naming the argument, its
 value and what it takes; a switch takes ``true`` or ``false`` only. ``ros2 launch srs_ros srs.launch.py
---show-args`` lists the arguments.
+--show-args`` lists the arguments. Their defaults (gait, amplitude, frequency, rig) are read from the
+parameter specs of srs_ros (:mod:`srs_ros.core.gait.request`, :data:`srs_ros.core.rig.SYSTEM_RIG`), as
+``srs_bringup``'s are, so neither restates a value.
 """
 
 import math
@@ -27,6 +29,11 @@ from launch.conditions import IfCondition
 from launch.substitutions import LaunchConfiguration
 from launch_ros.actions import LifecycleNode, Node
 from launch_ros.parameter_descriptions import ParameterValue
+
+from srs_ros.core.gait.library import list_gaits
+from srs_ros.core.gait.request import FREQUENCY_FIELD, gait_field
+from srs_ros.core.rig import SYSTEM_RIG
+from srs_ros.core.robot import amplitude_field, default_robot
 
 #: The numeric launch arguments: (unit, an example value).
 NUMBERS = {"amplitude_bar": ("bar", "3"), "frequency_hz": ("Hz", "1")}
@@ -57,12 +64,14 @@ def _typed(name: str, value_type: type) -> ParameterValue:
 
 def generate_launch_description():
     config = os.path.join(get_package_share_directory("srs_ros"), "config")
+    gait, amplitude = gait_field(list_gaits()), amplitude_field(default_robot())
     args = [
-        DeclareLaunchArgument("gait", default_value="inward_rolling", description="gait to stream"),
-        DeclareLaunchArgument("amplitude_bar", default_value="4.0",
-                              description="largest pressure of the cycle, bar (3 or 3.0)"),
-        DeclareLaunchArgument("frequency_hz", default_value="1.0", description="gait frequency, Hz (1 or 1.0)"),
-        DeclareLaunchArgument("rig_file", default_value=os.path.join(config, "rigs", "sim.yaml"),
+        DeclareLaunchArgument("gait", default_value=gait.default, description=f"gait to stream, {gait.expected}"),
+        DeclareLaunchArgument("amplitude_bar", default_value=str(amplitude.default),
+                              description=f"largest pressure of the cycle, {amplitude.expected} (3 or 3.0)"),
+        DeclareLaunchArgument("frequency_hz", default_value=str(FREQUENCY_FIELD.default),
+                              description=f"gait frequency, {FREQUENCY_FIELD.expected} (1 or 1.0)"),
+        DeclareLaunchArgument("rig_file", default_value=os.path.join(config, "rigs", f"{SYSTEM_RIG}.yaml"),
                               description="rig YAML (backend, channels, rates); rigs/sim.yaml = the simulated robot"),
         DeclareLaunchArgument("sim", default_value="true", choices=["true", "false"],
                               description="start sim_world, the simulated robot (for rigs/sim.yaml)"),

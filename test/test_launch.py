@@ -14,6 +14,10 @@ import yaml
 from srs_testing import ros_args
 from trajectory_msgs.msg import JointTrajectory
 
+from srs_ros.core.gait.library import list_gaits
+from srs_ros.core.gait.request import FREQUENCY_FIELD, gait_field
+from srs_ros.core.rig import SYSTEM_RIG
+from srs_ros.core.robot import amplitude_field, default_robot
 from srs_ros.ros.interfaces import TRAJECTORY_TOPIC, latched_qos
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -32,10 +36,13 @@ def ament_prefix(tmp_path_factory):
     return prefix
 
 
-def evaluate(ament_prefix, *arguments):
-    env = dict(os.environ, AMENT_PREFIX_PATH=str(ament_prefix), PYTHONPATH=str(FAKES))
-    done = subprocess.run([sys.executable, str(FAKES / "evaluate_launch.py"), str(ROOT / "launch" / "srs.launch.py"),
-                           *arguments], capture_output=True, text=True, env=env, timeout=60, cwd=FAKES)
+def evaluate(ament_prefix, *arguments, prelude=None):
+    """The nodes the launch file starts; ``prelude`` (a Python file) runs first in the launch's own process."""
+    # The launch file imports srs_ros (its defaults come from the specs): this checkout's, after the stand-in.
+    env = dict(os.environ, AMENT_PREFIX_PATH=str(ament_prefix), PYTHONPATH=os.pathsep.join([str(FAKES), str(ROOT)]))
+    command = [str(FAKES / "evaluate_launch.py"), str(ROOT / "launch" / "srs.launch.py"), *arguments]
+    command = [str(prelude), *command] if prelude else command
+    done = subprocess.run([sys.executable, *command], capture_output=True, text=True, env=env, timeout=60, cwd=FAKES)
     if done.returncode:
         raise RuntimeError(done.stderr)
     return {node["name"]: node for node in json.loads(done.stdout)["nodes"]}
@@ -57,6 +64,35 @@ def test_defaults_run_the_simulated_robot_with_hardware_node_as_a_lifecycle_node
     assert Path(nodes["hardware_node"]["parameters"]["rig_file"]).name == "sim.yaml"
     real = evaluate(ament_prefix, "sim:=false", "camera:=false", "rig_file:=/etc/srs/can.yaml")
     assert sorted(real) == ["gait_player", "hardware_node", "trajectory_server"]
+
+
+#: Run before the launch file in its process: every default the launch takes from srs_ros's specs changed.
+CHANGED_SPECS = """
+import dataclasses, runpy, sys
+from srs_ros.core import rig, robot
+from srs_ros.core.gait import request
+request.DEFAULT_GAIT = "serpentine"
+request.FREQUENCY_FIELD = dataclasses.replace(request.FREQUENCY_FIELD, default=0.5)
+amplitude_field = robot.amplitude_field
+robot.amplitude_field = lambda r: dataclasses.replace(amplitude_field(r), default=2.5)
+rig.SYSTEM_RIG = "mock"
+sys.argv = sys.argv[1:]
+runpy.run_path(sys.argv[0], run_name="__main__")
+"""
+
+
+def test_the_defaults_are_read_from_the_specs_so_a_changed_spec_changes_the_launch(ament_prefix, tmp_path):
+    nodes = evaluate(ament_prefix)
+    server = nodes["trajectory_server"]["parameters"]
+    assert (server["gait"], server["amplitude_bar"], server["frequency_hz"]) == (
+        gait_field(list_gaits()).default, amplitude_field(default_robot()).default, FREQUENCY_FIELD.default)
+    assert Path(nodes["hardware_node"]["parameters"]["rig_file"]).name == f"{SYSTEM_RIG}.yaml"
+    prelude = tmp_path / "changed_specs.py"
+    prelude.write_text(CHANGED_SPECS)
+    nodes = evaluate(ament_prefix, prelude=prelude)
+    server = nodes["trajectory_server"]["parameters"]
+    assert (server["gait"], server["amplitude_bar"], server["frequency_hz"]) == ("serpentine", 2.5, 0.5)
+    assert Path(nodes["hardware_node"]["parameters"]["rig_file"]).name == "mock.yaml"
 
 
 @pytest.mark.parametrize("written", ["3", "3.0"])

@@ -22,15 +22,17 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Mapping, Sequence
+from collections.abc import Mapping
+from functools import partial
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from srs_ros.backends.base import ActuatorBackend
-from srs_ros.core.errors import BackendUnavailableError, ConfigurationError, HardwareError
+from srs_ros.core.errors import BackendUnavailableError, HardwareError
 from srs_ros.core.robot import RobotDescription, config_file
+from srs_ros.core.schema import Field, Table, refusal
 
 DEFAULT_DBC_FILE = "srs_dac.dbc"
 DEFAULT_COMMAND_SIGNAL = "CMD_CH{channel}"
@@ -46,15 +48,37 @@ BOARD_TIMEOUT_RANGE_S = (0.005, 5.0)
 #: Most read-back frames handled per call, so a flooded bus cannot stall the command loop.
 MAX_FRAMES_PER_DRAIN = 256
 
-_KNOWN_OPTIONS = {
-    "interface", "channel", "bitrate", "can_config_file", "can_config_context", "bus_options",
-    "dbc_file", "channels", "command_signal", "monitor_signal", "readback", "monitor_range_v",
-    "send_timeout_s", "alive_signal", "checksum_signal", "board_timeout_s",
-}
-
-
-def _fail(key: str, value: Any, expected: str) -> ConfigurationError:
-    return ConfigurationError(f"can backend_options: '{key}' is {value!r}; expected {expected}.")
+#: Where an option error says it is.
+WHERE = "can backend_options"
+#: The options of the can backend (``backend_options`` of a rig file; see :class:`CanBackend`).
+CAN_OPTIONS = Table("", (
+    Field("interface", str, None, nonempty=True, example="'socketcan' or 'pcan'",
+          description="python-can interface name; leave out for python-can's own configuration"),
+    Field("channel", object, None, expected_text="a channel name or number, e.g. 'can0' or 0",
+          description="the bus channel, passed to can.Bus"),
+    Field("bitrate", int, None, 10_000, 1_000_000, "bit/s", "bit rate, passed to can.Bus", example="500000"),
+    Field("can_config_file", object, None, expected_text="an existing python-can INI config file",
+          description="python-can config file (instead of interface, channel, bitrate)"),
+    Field("can_config_context", object, None, expected_text="a section name of the config file",
+          description="the section of can_config_file (default 'default')"),
+    Field("bus_options", dict, None, description="further keyword arguments of can.Bus"),
+    Field("dbc_file", str, DEFAULT_DBC_FILE, nonempty=True, description="the frame layout"),
+    Field("channels", list, None, minimum=0, item=int, description="DAC channel of each joint in joint order",
+          expected_text="distinct DAC channel numbers (integers >= 0), one per joint in joint order"),
+    Field("command_signal", str, DEFAULT_COMMAND_SIGNAL, description="command signal-name pattern with {channel}"),
+    Field("monitor_signal", str, DEFAULT_MONITOR_SIGNAL, description="read-back signal-name pattern with {channel}"),
+    Field("readback", bool, True, description="decode monitor frames into measured pressures"),
+    Field("monitor_range_v", list, DEFAULT_MONITOR_RANGE_V, item=float, length=2, unit="V",
+          description="[V at 0 bar, V at full scale] of a monitor signal"),
+    Field("send_timeout_s", float, DEFAULT_SEND_TIMEOUT_S, minimum=0.0, above_minimum=True, unit="s",
+          description="how long one frame may wait for the bus"),
+    Field("alive_signal", str, DEFAULT_ALIVE_SIGNAL, nonempty=True, description="alive-counter signal name"),
+    Field("checksum_signal", str, DEFAULT_CHECKSUM_SIGNAL, nonempty=True, description="CRC-8 signal name"),
+    Field("board_timeout_s", float, DEFAULT_BOARD_TIMEOUT_S, *BOARD_TIMEOUT_RANGE_S, unit="s",
+          description="the board vents by itself without a valid command this long"),
+), description="a mapping of option: value")
+#: Raise what it returns: the one error format with this backend's place.
+_refuse = partial(refusal, WHERE)
 
 
 def _crc8_table() -> tuple[int, ...]:
@@ -109,17 +133,14 @@ class CanBackend(ActuatorBackend):
     def __init__(self, robot: RobotDescription | None = None, options: Mapping[str, Any] | None = None):
         """Validate the options and load the DBC (ConfigurationError naming the key on any problem)."""
         super().__init__(robot, options)
-        unknown = sorted(set(self.options) - _KNOWN_OPTIONS)
-        if unknown:
-            raise ConfigurationError(f"can backend_options: unknown key(s) {unknown}; expected some of "
-                                     f"{sorted(_KNOWN_OPTIONS)}.")
+        self._opts = CAN_OPTIONS.read(self.options, WHERE)
         self._bus_kwargs = self._bus_config()
-        self.send_timeout_s = self._positive("send_timeout_s", DEFAULT_SEND_TIMEOUT_S)
-        self.board_timeout_s = self._in_range("board_timeout_s", DEFAULT_BOARD_TIMEOUT_S, *BOARD_TIMEOUT_RANGE_S)
+        self.send_timeout_s: float = self._opts["send_timeout_s"]
+        self.board_timeout_s: float = self._opts["board_timeout_s"]
         #: How long the hardware keeps the last command after the host stops writing (s).
         self.host_loss_timeout_s = self.board_timeout_s
         self.channels = self._channel_list()
-        self.dbc_path = config_file(self.options.get("dbc_file", DEFAULT_DBC_FILE))
+        self.dbc_path = config_file(self._opts["dbc_file"])
         self.database = self._load_dbc(self.dbc_path)
         self._command_layout = self._command_signals()
         names = {message.name for message, _ in self._command_layout}
@@ -128,10 +149,7 @@ class CanBackend(ActuatorBackend):
         self._checksum_layout = self._sequence_signals("checksum_signal", DEFAULT_CHECKSUM_SIGNAL,
                                                        self._check_checksum)
         self.monitor_range_v = self._monitor_range()
-        readback = self.options.get("readback", True)
-        if not isinstance(readback, bool):
-            raise _fail("readback", readback, "true or false")
-        self._monitor_layout = self._monitor_signals() if readback else {}
+        self._monitor_layout = self._monitor_signals() if self._opts["readback"] else {}
         self.measures_pressure = bool(self._monitor_layout)
         self._bus = None
         self._measured_bar = np.full(self.robot.joint_count, np.nan)
@@ -143,89 +161,65 @@ class CanBackend(ActuatorBackend):
 
     # -- option validation ----------------------------------------------------------------
     def _bus_config(self) -> dict[str, Any]:
-        opts = self.options
+        opts = self._opts
         kwargs: dict[str, Any] = {}
-        extra = opts.get("bus_options", {}) or {}
-        if not isinstance(extra, Mapping) or not all(isinstance(k, str) for k in extra):
-            raise _fail("bus_options", extra, "a mapping of can.Bus keyword arguments")
-        if "can_config_file" in opts:
+        extra = opts["bus_options"] or {}
+        if not all(isinstance(k, str) for k in extra):
+            raise _refuse("bus_options", extra, "a mapping of can.Bus keyword arguments")
+        if opts["can_config_file"] is not None:
             import can
 
             path = Path(str(opts["can_config_file"])).expanduser()
             if not path.is_file():
-                raise _fail("can_config_file", opts["can_config_file"], "an existing python-can INI config file")
-            section = opts.get("can_config_context", "default")
+                raise _refuse("can_config_file", opts["can_config_file"], CAN_OPTIONS["can_config_file"].expected)
+            section = opts["can_config_context"] if opts["can_config_context"] is not None else "default"
             kwargs.update(can.util.load_file_config(path, section=str(section)))
             if not kwargs:
-                raise _fail("can_config_context", section, f"a section of {path} with interface and channel")
-        elif "can_config_context" in opts:
+                raise _refuse("can_config_context", section, f"a section of {path} with interface and channel")
+        elif opts["can_config_context"] is not None:
             kwargs["config_context"] = str(opts["can_config_context"])
         kwargs.update(extra)
-        if "interface" in opts:
-            interface = opts["interface"]
-            if not isinstance(interface, str) or not interface:
-                raise _fail("interface", interface, "a python-can interface name such as 'socketcan' or 'pcan'")
-            kwargs["interface"] = interface
-        if "channel" in opts:
+        for key in ("interface", "bitrate"):
+            if opts[key] is not None:
+                kwargs[key] = opts[key]
+        if opts["channel"] is not None:
             if not isinstance(opts["channel"], (str, int)) or isinstance(opts["channel"], bool):
-                raise _fail("channel", opts["channel"], "a channel name or number, e.g. 'can0' or 0")
+                raise _refuse("channel", opts["channel"], CAN_OPTIONS["channel"].expected)
             kwargs["channel"] = opts["channel"]
-        if "bitrate" in opts:
-            bitrate = opts["bitrate"]
-            if isinstance(bitrate, bool) or not isinstance(bitrate, int) or not 10_000 <= bitrate <= 1_000_000:
-                raise _fail("bitrate", bitrate, "an integer bit rate in [10000, 1000000] bit/s, e.g. 500000")
-            kwargs["bitrate"] = bitrate
-        if "can_config_file" in opts:
+        if opts["can_config_file"] is not None:
             kwargs["ignore_config"] = True
         return kwargs
 
-    def _positive(self, key: str, default: float) -> float:
-        value = self.options.get(key, default)
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or not (0 < value < math.inf):
-            raise _fail(key, value, "a number > 0")
-        return float(value)
-
-    def _in_range(self, key: str, default: float, low: float, high: float) -> float:
-        value = self.options.get(key, default)
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or not low <= value <= high:
-            raise _fail(key, value, f"a number of seconds in [{low}, {high}]")
-        return float(value)
-
     def _channel_list(self) -> tuple[int, ...]:
         count = self.robot.joint_count
-        channels = self.options.get("channels", list(range(1, count + 1)))
-        ok = (isinstance(channels, Sequence) and not isinstance(channels, str) and len(channels) == count
-              and all(isinstance(c, int) and not isinstance(c, bool) and c >= 0 for c in channels)
-              and len(set(channels)) == count)
-        if not ok:
-            raise _fail("channels", channels, f"{count} distinct DAC channel numbers in joint order "
+        channels = self._opts["channels"]
+        channels = tuple(range(1, count + 1)) if channels is None else channels
+        if len(channels) != count or len(set(channels)) != count:
+            raise _refuse("channels", list(channels), f"{count} distinct DAC channel numbers in joint order "
                         f"{list(self.robot.joint_names)}")
         return tuple(channels)
 
     def _monitor_range(self) -> tuple[float, float]:
-        value = self.options.get("monitor_range_v", list(DEFAULT_MONITOR_RANGE_V))
-        ok = (isinstance(value, Sequence) and len(value) == 2
-              and all(isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) for v in value)
-              and value[1] > value[0])
-        if not ok:
-            raise _fail("monitor_range_v", value, "[volts at 0 bar, volts at full scale], e.g. [1.0, 5.0]")
-        return float(value[0]), float(value[1])
+        low_v, high_v = self._opts["monitor_range_v"]
+        if high_v <= low_v:
+            raise _refuse("monitor_range_v", [low_v, high_v], "[volts at 0 bar, volts at full scale], e.g. [1.0, 5.0]")
+        return low_v, high_v
 
     @staticmethod
     def _load_dbc(path: Path):
         import cantools
 
         if not path.is_file():
-            raise _fail("dbc_file", str(path), "an existing DBC file (default: srs_dac.dbc in the package config/)")
+            raise _refuse("dbc_file", str(path), "an existing DBC file (default: srs_dac.dbc in the package config/)")
         try:
             return cantools.database.load_file(str(path), database_format="dbc")
         except Exception as exc:  # cantools raises parser-specific errors
-            raise _fail("dbc_file", str(path), f"a valid DBC file (cantools: {exc})") from exc
+            raise _refuse("dbc_file", str(path), f"a valid DBC file (cantools: {exc})") from exc
 
     def _signal_names(self, key: str, default: str) -> list[str]:
-        pattern = self.options.get(key, default)
-        if not isinstance(pattern, str) or "{channel}" not in pattern:
-            raise _fail(key, pattern, "a signal-name pattern containing '{channel}', e.g. " + repr(default))
+        pattern = self._opts[key]
+        if "{channel}" not in pattern:
+            raise _refuse(key, pattern, "a signal-name pattern containing '{channel}', e.g. " + repr(default))
         return [pattern.format(channel=channel) for channel in self.channels]
 
     def _find_signals(self, names: list[str], key: str) -> dict[str, Any]:
@@ -237,7 +231,7 @@ class CanBackend(ActuatorBackend):
                     found[signal.name] = (message, signal)
         missing = [n for n in names if n not in found]
         if missing:
-            raise _fail(key, self.options.get(key), f"signals present in {self.dbc_path}; missing {missing}")
+            raise _refuse(key, self.options.get(key), f"signals present in {self.dbc_path}; missing {missing}")
         return found
 
     def _command_signals(self) -> list[tuple[Any, Any]]:
@@ -248,27 +242,25 @@ class CanBackend(ActuatorBackend):
         for name in names:
             _, signal = found[name]
             if (signal.unit or "").strip() != "V":
-                raise _fail("dbc_file", str(self.dbc_path), f"command signal {name} in unit \"V\" (found "
+                raise _refuse("dbc_file", str(self.dbc_path), f"command signal {name} in unit \"V\" (found "
                             f"{signal.unit!r}); scale counts or millivolts with the signal's factor")
             low = 0.0 if signal.minimum is None else signal.minimum
             high = math.inf if signal.maximum is None else signal.maximum
             if low > 0.0 or high < full_v * self.robot.max_pressure_bar / self.robot.command_full_scale_pressure_bar:
-                raise _fail("dbc_file", str(self.dbc_path), f"command signal {name} with a range covering 0 V "
+                raise _refuse("dbc_file", str(self.dbc_path), f"command signal {name} with a range covering 0 V "
                             f"up to the command at the pressure limit (found [{low}, {high}] V)")
         return [found[name] for name in names]
 
     def _sequence_signals(self, key: str, default: str, check) -> dict[str, tuple[Any, int]]:
         """Command message name -> (signal, detail from ``check``) for the alive or checksum signal."""
-        name = self.options.get(key, default)
-        if not isinstance(name, str) or not name:
-            raise _fail(key, name, f"a signal name, e.g. {default!r}")
+        name = self._opts[key]
         layout = {}
         for message in self._command_messages:
             signal = next((s for s in message.signals if s.name == name), None)
             if signal is not None:
                 layout[message.name] = (signal, check(message, signal))
         if not layout and key in self.options:
-            raise _fail(key, name, f"a signal of the command messages in {self.dbc_path} (none has it)")
+            raise _refuse(key, name, f"a signal of the command messages in {self.dbc_path} (none has it)")
         return layout
 
     def _check_alive(self, message, signal) -> int:
@@ -278,7 +270,7 @@ class CanBackend(ActuatorBackend):
         ok = (not signal.is_signed and not signal.is_float and signal.scale == 1 and signal.offset == 0
               and signal.length >= 2 and (signal.minimum or 0) == 0 and float(top).is_integer() and 2 <= top < full)
         if not ok:
-            raise _fail("alive_signal", signal.name, f"an unsigned integer counter of at least 2 bits with factor 1, "
+            raise _refuse("alive_signal", signal.name, f"an unsigned integer counter of at least 2 bits with factor 1, "
                         f"offset 0, range [0, max] in {message.name} of {self.dbc_path}")
         return int(top) + 1
 
@@ -291,7 +283,7 @@ class CanBackend(ActuatorBackend):
         ok = (not signal.is_signed and not signal.is_float and signal.scale == 1 and signal.offset == 0
               and signal.length == 8 and len(filled) == 1 and data[filled[0]] == 0xFF)
         if not ok:
-            raise _fail("checksum_signal", signal.name, f"an unsigned 8-bit byte-aligned signal (factor 1, offset 0) "
+            raise _refuse("checksum_signal", signal.name, f"an unsigned 8-bit byte-aligned signal (factor 1, offset 0) "
                         f"in {message.name} of {self.dbc_path}")
         return filled[0]
 
@@ -304,7 +296,7 @@ class CanBackend(ActuatorBackend):
             message, signal = found[name]
             unit = (signal.unit or "").strip()
             if unit not in ("V", "bar"):
-                raise _fail("dbc_file", str(self.dbc_path), f"monitor signal {name} in \"V\" or \"bar\" "
+                raise _refuse("dbc_file", str(self.dbc_path), f"monitor signal {name} in \"V\" or \"bar\" "
                             f"(found {signal.unit!r}); or set readback: false")
             key = (message.frame_id, message.is_extended_frame)
             layout.setdefault(key, (message, []))[1].append((joint, name, unit))
@@ -326,13 +318,13 @@ class CanBackend(ActuatorBackend):
             from can.interfaces import BACKENDS
 
             if interface is None or interface not in BACKENDS:
-                raise _fail("interface", interface, f"one of {sorted(BACKENDS)}, here or in python-can's config "
+                raise _refuse("interface", interface, f"one of {sorted(BACKENDS)}, here or in python-can's config "
                             f"(can_config_file / CAN_INTERFACE); python-can: {exc}") from exc
             raise BackendUnavailableError(
                 f"CAN interface {description} is not available on this machine ({exc}); install its driver "
                 "(see python-can's interface docs) or choose another 'interface'.") from exc
         except TypeError as exc:  # a keyword the interface does not take
-            raise _fail("bus_options", self.options.get("bus_options", {}),
+            raise _refuse("bus_options", self.options.get("bus_options", {}),
                         f"keyword arguments that the {description} interface accepts ({exc})") from exc
         except (can.CanError, OSError, ValueError) as exc:
             raise HardwareError(f"cannot open CAN bus {description}: {exc}. Check the adapter is connected, "

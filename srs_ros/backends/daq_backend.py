@@ -17,18 +17,19 @@ from __future__ import annotations
 import logging
 import re
 from collections.abc import Mapping, Sequence
+from functools import partial
 from typing import Any
 
 import numpy as np
 
 from srs_ros.backends.base import ActuatorBackend
-from srs_ros.core.errors import BackendUnavailableError, ConfigurationError, HardwareError
+from srs_ros.core.errors import BackendUnavailableError, HardwareError
 from srs_ros.core.robot import RobotDescription
+from srs_ros.core.schema import Field, Table, refusal
 
 DRIVER_HINT = ("Install the NI-DAQmx driver (https://www.ni.com/en/support/downloads/drivers/download.ni-daq-mx.html, "
                "or `python -m nidaqmx installdriver`), or choose another backend (mock, can).")
 _RANGE = re.compile(r"^(?P<prefix>.*?)(?P<first>\d+):(?P<last>\d+)$")
-_KNOWN_OPTIONS = {"physical_channels", "watchdog_timeout_s", "require_watchdog"}
 DEFAULT_PHYSICAL_CHANNELS = "Dev1/ao0:8"
 #: Outputs go to 0 V by themselves when the host has not written for this long (s); 0 disables the watchdog.
 DEFAULT_WATCHDOG_TIMEOUT_S = 0.1
@@ -44,8 +45,20 @@ _EXPIRED_ERRORS = ("WRITE_FAILED_BECAUSE_WATCHDOG_EXPIRED", "CANT_RESET_EXPIRED_
 _LOG = logging.getLogger(__name__)
 
 
-def _fail(key: str, value: Any, expected: str) -> ConfigurationError:
-    return ConfigurationError(f"daq backend_options: '{key}' is {value!r}; expected {expected}.")
+#: Where an option error says it is.
+WHERE = "daq backend_options"
+#: The options of the daq backend (``backend_options`` of a rig file; see :class:`DaqBackend`).
+DAQ_OPTIONS = Table("", (
+    Field("physical_channels", object, DEFAULT_PHYSICAL_CHANNELS, description="the AO channels in joint order",
+          expected_text="distinct NI analog-output channels in joint order, e.g. 'Dev1/ao0:8'"),
+    Field("watchdog_timeout_s", float, DEFAULT_WATCHDOG_TIMEOUT_S, 0.0, WATCHDOG_TIMEOUT_RANGE_S[1], "",
+          "the device zeroes its outputs when no write came for this long; 0 disables it",
+          expected_text=f"0 (no watchdog) or seconds in [{WATCHDOG_TIMEOUT_RANGE_S[0]:g}, "
+                        f"{WATCHDOG_TIMEOUT_RANGE_S[1]:g}], at least a few command periods, e.g. 0.1"),
+    Field("require_watchdog", bool, False, description="refuse a device without an analog-output watchdog"),
+), description="a mapping of option: value")
+#: Raise what it returns: the one error format with this backend's place.
+_refuse = partial(refusal, WHERE)
 
 
 def expand_physical_channels(spec: str | Sequence[str]) -> list[str]:
@@ -95,31 +108,23 @@ class DaqBackend(ActuatorBackend):
     def __init__(self, robot: RobotDescription | None = None, options: Mapping[str, Any] | None = None):
         """Validate the options (ConfigurationError naming the key); nothing is opened yet."""
         super().__init__(robot, options)
-        unknown = sorted(set(self.options) - _KNOWN_OPTIONS)
-        if unknown:
-            raise ConfigurationError(f"daq backend_options: unknown key(s) {unknown}; expected some of "
-                                     f"{sorted(_KNOWN_OPTIONS)}.")
-        spec = self.options.get("physical_channels", DEFAULT_PHYSICAL_CHANNELS)
+        options = DAQ_OPTIONS.read(self.options, WHERE)
+        spec = options["physical_channels"]
         count = self.robot.joint_count
         expected = f"{count} distinct NI analog-output channels in joint order, e.g. 'Dev1/ao0:{count - 1}'"
         try:
             self.physical_channels = expand_physical_channels(spec)
         except ValueError as exc:
-            raise _fail("physical_channels", spec, f"{expected} ({exc})") from exc
+            raise _refuse("physical_channels", spec, f"{expected} ({exc})") from exc
         if len(self.physical_channels) != count or len(set(self.physical_channels)) != count:
-            raise _fail("physical_channels", spec, f"{expected}; it names {len(self.physical_channels)}")
-        timeout_s = self.options.get("watchdog_timeout_s", DEFAULT_WATCHDOG_TIMEOUT_S)
-        low, high = WATCHDOG_TIMEOUT_RANGE_S
-        if isinstance(timeout_s, bool) or not isinstance(timeout_s, (int, float)) or not (
-                timeout_s == 0 or low <= timeout_s <= high):
-            raise _fail("watchdog_timeout_s", timeout_s, f"0 (no watchdog) or seconds in [{low}, {high}], at least "
-                        "a few command periods, e.g. 0.1")
-        self.watchdog_timeout_s = float(timeout_s)
-        self.require_watchdog = self.options.get("require_watchdog", False)
-        if not isinstance(self.require_watchdog, bool):
-            raise _fail("require_watchdog", self.require_watchdog, "true or false")
+            raise _refuse("physical_channels", spec, f"{expected}; it names {len(self.physical_channels)}")
+        self.watchdog_timeout_s: float = options["watchdog_timeout_s"]
+        low_s, high_s = WATCHDOG_TIMEOUT_RANGE_S
+        if 0.0 < self.watchdog_timeout_s < low_s:
+            raise _refuse("watchdog_timeout_s", self.watchdog_timeout_s, DAQ_OPTIONS["watchdog_timeout_s"].expected)
+        self.require_watchdog: bool = options["require_watchdog"]
         if self.require_watchdog and self.watchdog_timeout_s == 0:
-            raise _fail("watchdog_timeout_s", 0, "seconds in [0.01, 10] since require_watchdog is true")
+            raise _refuse("watchdog_timeout_s", 0, f"seconds in [{low_s:g}, {high_s:g}] since require_watchdog is true")
         self._task = None
         self._nidaqmx = None
         self._watchdogs: list[tuple[str, Any]] = []  # (watchdog device, nidaqmx.system.WatchdogTask)
@@ -165,7 +170,7 @@ class DaqBackend(ActuatorBackend):
                     channel, min_val=0.0, max_val=self.robot.regulator.command_full_scale_v)
         except nidaqmx.errors.Error as exc:
             _close_quietly(task)
-            spec = self.options.get("physical_channels", DEFAULT_PHYSICAL_CHANNELS)
+            spec = self.options.get("physical_channels", DAQ_OPTIONS["physical_channels"].default)
             raise HardwareError(f"cannot add analog output {channel!r} (daq backend_options 'physical_channels' = "
                                 f"{spec!r}): {_one_line(exc)}. Check the device name in NI MAX and that it has "
                                 "enough AO channels.") from exc

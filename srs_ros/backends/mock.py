@@ -33,12 +33,27 @@ from typing import Any
 import numpy as np
 
 from srs_ros.backends.base import ActuatorBackend
-from srs_ros.core.actuation.muscle_model import MuscleModel, MuscleParameters, muscle_parameters_from_options
-from srs_ros.core.errors import ConfigurationError, HardwareError
+from srs_ros.core.actuation.muscle_model import (
+    MUSCLE_OPTIONS,
+    MuscleModel,
+    MuscleParameters,
+    muscle_parameters_from_options,
+)
+from srs_ros.core.errors import HardwareError
 from srs_ros.core.robot import RobotDescription
+from srs_ros.core.schema import Field, Table, check_known, mapping, refusal
 
-_FAULT_OPTIONS = ("fail_after_writes", "fail_on_open", "record_file")
-_PER_MUSCLE = "per_muscle"
+#: Where an option error says it is.
+WHERE = "mock backend_options"
+#: The mock's own options beside the muscle options (:data:`~srs_ros.core.actuation.muscle_model.MUSCLE_OPTIONS`).
+MOCK_OPTIONS = Table("", (
+    Field("per_muscle", dict, None, description="muscles that differ from the others: {joint name: {option: value}}"),
+    Field("fail_after_writes", int, None, minimum=0, unit="writes",
+          description="fault injection (tests): every write after the first N since open() raises HardwareError"),
+    Field("fail_on_open", bool, False, description="fault injection (tests): open() raises HardwareError"),
+    Field("record_file", str, None, nonempty=True,
+          description="tests and benchmarks: every command is appended to this file (read_record parses it)"),
+), description="a mapping of option: value")
 
 
 class MockBackend(ActuatorBackend):
@@ -57,12 +72,12 @@ class MockBackend(ActuatorBackend):
         """Validate the options (``ConfigurationError`` naming the key); the simulation starts at ``open()``."""
         super().__init__(robot, options)
         self.clock = clock
-        self.params = muscle_parameters_from_options(self.options, self.robot, "mock backend_options",
-                                                     extra_keys=(*_FAULT_OPTIONS, _PER_MUSCLE))
-        self.muscle_params = _per_muscle_parameters(self.options, self.robot)
-        self.fail_after_writes = _fault_count(self.options.get("fail_after_writes"))
-        self.fail_on_open = _flag(self.options, "fail_on_open")
-        self.record_path = _record_path(self.options.get("record_file"))
+        self.params = muscle_parameters_from_options(self.options, self.robot, WHERE, extra_keys=MOCK_OPTIONS.names)
+        own = MOCK_OPTIONS.read(self.options, WHERE, extra=MUSCLE_OPTIONS.names)
+        self.muscle_params = _per_muscle_parameters(self.options, own["per_muscle"] or {}, self.robot)
+        self.fail_after_writes: int | None = own["fail_after_writes"]
+        self.fail_on_open: bool = own["fail_on_open"]
+        self.record_path = _record_path(own["record_file"])
         self._record_fd: int | None = None
         self.write_count = 0
         self.models: list[tuple[list[int], MuscleModel]] = []  # (joint indices, their muscles), per parameter set
@@ -114,41 +129,25 @@ class MockBackend(ActuatorBackend):
                 "details": {"simulated": True, "writes": self.write_count}}
 
 
-def _per_muscle_parameters(options: Mapping[str, Any], robot: RobotDescription) -> list[MuscleParameters]:
+def _per_muscle_parameters(options: Mapping[str, Any], per_muscle: Mapping[str, Any],
+                           robot: RobotDescription) -> list[MuscleParameters]:
     """Each joint's muscle parameters: the shared options, overridden by its ``per_muscle`` entry."""
-    per_muscle = options.get(_PER_MUSCLE) or {}
-    where = f"mock backend_options '{_PER_MUSCLE}'"
-    if not isinstance(per_muscle, Mapping):
-        raise ConfigurationError(f"{where} is {per_muscle!r}; expected a mapping of joint name: {{option: value}}.")
-    unknown = sorted(set(per_muscle) - set(robot.joint_names), key=str)
-    if unknown:
-        raise ConfigurationError(f"{where}: unknown joint {unknown[0]!r}; expected some of {list(robot.joint_names)}.")
-    shared = {key: value for key, value in options.items() if key not in (*_FAULT_OPTIONS, _PER_MUSCLE)}
+    check_known(per_muscle, robot.joint_names, WHERE, "per_muscle")
+    shared = {key: value for key, value in options.items() if key in MUSCLE_OPTIONS}
     params = []
     for name in robot.joint_names:
-        own = per_muscle.get(name) or {}
-        if not isinstance(own, Mapping):
-            raise ConfigurationError(f"{where}.{name} is {own!r}; expected a mapping of option: value.")
-        params.append(muscle_parameters_from_options({**shared, **own}, robot, f"{where}.{name}"))
+        own = mapping(per_muscle.get(name) or {}, WHERE, f"per_muscle.{name}", "a mapping of option: value")
+        params.append(muscle_parameters_from_options({**shared, **own}, robot, WHERE, path=f"per_muscle.{name}"))
     return params
 
 
-def _fault_count(value: Any) -> int | None:
+def _record_path(value: str | None) -> Path | None:
     if value is None:
         return None
-    if isinstance(value, bool) or not isinstance(value, int) or value < 0:
-        raise ConfigurationError(f"mock backend_options: 'fail_after_writes' is {value!r}; expected an integer >= 0 "
-                                 "(writes that succeed before every later one fails), or leave it out.")
-    return value
-
-
-def _record_path(value: Any) -> Path | None:
-    if value is None:
-        return None
-    path = Path(value) if isinstance(value, str) and value else None
-    if path is None or not path.parent.is_dir() or (path.exists() and not path.is_file()):
-        raise ConfigurationError(f"mock backend_options: 'record_file' is {value!r}; expected the path of a regular "
-                                 "file (or of a new file) in an existing folder, or leave it out.")
+    path = Path(value)
+    if not path.parent.is_dir() or (path.exists() and not path.is_file()):
+        raise refusal(WHERE, "record_file", value, "the path of a regular file (or of a new file) in an existing "
+                                                   "folder, or leave it out")
     return path
 
 
@@ -167,10 +166,3 @@ def read_record(path: str | Path, offset: int = 0) -> tuple[np.ndarray, np.ndarr
             if line and not line.startswith("#")]
     table = np.array(rows, dtype=np.float64).reshape(len(rows), -1) if rows else np.zeros((0, 1))
     return table[:, 0], table[:, 1:], offset + len(complete)
-
-
-def _flag(options: Mapping[str, Any], key: str) -> bool:
-    value = options.get(key, False)
-    if not isinstance(value, bool):
-        raise ConfigurationError(f"mock backend_options: '{key}' is {value!r}; expected true or false.")
-    return value

@@ -47,8 +47,9 @@ from typing import Any
 import numpy as np
 
 from srs_ros.backends.base import ActuatorBackend
-from srs_ros.core.errors import ConfigurationError, HardwareError
+from srs_ros.core.errors import HardwareError
 from srs_ros.core.robot import RobotDescription
+from srs_ros.core.schema import Field, Table, refusal
 from srs_ros.ros.interfaces import SIM_BOARD_TIMEOUT_S, SIM_COMMAND_TOPIC, SIM_MONITOR_TOPIC, bus_qos
 
 #: The node name of the backend's bus (under the process's namespace).
@@ -58,13 +59,16 @@ VENT_ACK_TIMEOUT_S = 0.5
 
 _LOG = logging.getLogger(__name__)
 
-#: option -> (default, lowest, highest) of the numeric options.
-_NUMBERS: dict[str, tuple[float, float, float]] = {
-    "readback_timeout_s": (0.2, 0.02, 5.0),
-    "world_lost_timeout_s": (2.0, 0.1, 60.0),
-    "startup_timeout_s": (15.0, 0.1, 120.0),
-}
-_TOPICS = {"command_topic": SIM_COMMAND_TOPIC, "monitor_topic": SIM_MONITOR_TOPIC}
+#: Where an option error says it is.
+WHERE = "sim backend_options"
+#: The options of the sim backend (``backend_options`` of a rig file).
+SIM_OPTIONS = Table("", (
+    Field("command_topic", str, SIM_COMMAND_TOPIC, nonempty=True, description="the bus to sim_world (pressures)"),
+    Field("monitor_topic", str, SIM_MONITOR_TOPIC, nonempty=True, description="sim_world's read-back"),
+    Field("readback_timeout_s", float, 0.2, 0.02, 5.0, "s", "the world silent this long: vent and hold (a pause)"),
+    Field("world_lost_timeout_s", float, 2.0, 0.1, 60.0, "s", "silent this long: HardwareError"),
+    Field("startup_timeout_s", float, 15.0, 0.1, 120.0, "s", "how long the world may take to answer first"),
+), description="a mapping of option: value")
 
 
 class SimBackend(ActuatorBackend):
@@ -81,25 +85,16 @@ class SimBackend(ActuatorBackend):
     def __init__(self, robot: RobotDescription | None = None, options: Mapping[str, Any] | None = None):
         """Validate the options (``ConfigurationError`` naming the key); nothing connects before ``open()``."""
         super().__init__(robot, options)
-        unknown = sorted(set(self.options) - set(_NUMBERS) - set(_TOPICS))
-        if unknown:
-            raise ConfigurationError(f"sim backend_options: unknown key {unknown[0]!r}; expected some of "
-                                     f"{sorted(_NUMBERS) + sorted(_TOPICS)}.")
-        for key, (default, low, high) in _NUMBERS.items():
-            value = self.options.get(key, default)
-            if isinstance(value, bool) or not isinstance(value, (int, float)) or not (low <= value <= high):
-                raise ConfigurationError(f"sim backend_options: '{key}' is {value!r}; expected a number in "
-                                         f"[{low}, {high}] s.")
-            setattr(self, key, float(value))
+        options = SIM_OPTIONS.read(self.options, WHERE)
+        self.command_topic: str = options["command_topic"]
+        self.monitor_topic: str = options["monitor_topic"]
+        self.readback_timeout_s: float = options["readback_timeout_s"]
+        self.world_lost_timeout_s: float = options["world_lost_timeout_s"]
+        self.startup_timeout_s: float = options["startup_timeout_s"]
         if self.world_lost_timeout_s < self.readback_timeout_s:
-            raise ConfigurationError(f"sim backend_options: 'world_lost_timeout_s' is {self.world_lost_timeout_s:g} "
-                                     f"s, less than readback_timeout_s {self.readback_timeout_s:g} s; expected at "
-                                     "least it (a pause first holds, only a longer silence is a fault).")
-        for key, default in _TOPICS.items():
-            value = self.options.get(key, default)
-            if not isinstance(value, str) or not value:
-                raise ConfigurationError(f"sim backend_options: '{key}' is {value!r}; expected a topic name.")
-            setattr(self, key, value)
+            raise refusal(WHERE, "world_lost_timeout_s", self.world_lost_timeout_s,
+                          f"at least readback_timeout_s = {self.readback_timeout_s:g} s (a pause first holds, only "
+                          "a longer silence is a fault)")
         self._node = self._executor = self._thread = self._publisher = None
         self._stop = threading.Event()
         self._lock = threading.Lock()

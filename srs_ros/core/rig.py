@@ -12,8 +12,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from srs_ros.core.errors import ConfigurationError
 from srs_ros.core.robot import RobotDescription, config_dir, default_robot, read_yaml, robot_from_dict
+from srs_ros.core.schema import Field, Table, refusal, section
 
 #: Allowed ranges of the rig's rates (inclusive).
 COMMAND_RATE_RANGE_HZ = (1.0, 1000.0)
@@ -33,61 +33,61 @@ class RigConfig:
     source: str = "<defaults>"
 
 
+#: The rig a whole system starts on by default (``srs_bringup``, ``launch/srs.launch.py``): the simulated robot.
+#: A hardware node started alone takes the mock rig (:func:`default_rig_path`).
+SYSTEM_RIG = "sim"
+
+
+def rig_path(name: str) -> Path:
+    """The rig file ``name`` shipped with the package (``config/rigs/<name>.yaml``)."""
+    return config_dir() / "rigs" / f"{name}.yaml"
+
+
 def default_rig_path() -> Path:
     """The mock rig shipped with the package."""
-    return config_dir() / "rigs" / "mock.yaml"
+    return rig_path("mock")
 
 
-def _number(section: Mapping[str, Any], key: str, low: float, high: float, where: str) -> float:
-    value = section.get(key)
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not (low <= value <= high):
-        raise ConfigurationError(f"{where}: '{key}' is {value!r}; expected a number in [{low}, {high}].")
-    return float(value)
+#: The ``rig:`` section of a rig file.
+RIG_TABLE = Table("rig", (
+    Field("name", str, nonempty=True, description="name of the rig"),
+    Field("backend", str, nonempty=True, description="the backend that drives it: mock, sim, can or daq"),
+    Field("regulator_model", str, default=None, description="replaces the robot's regulator model (optional)"),
+    Field("command_rate_hz", float, minimum=COMMAND_RATE_RANGE_HZ[0], maximum=COMMAND_RATE_RANGE_HZ[1], unit="Hz",
+          description="commands sent to the regulators per second"),
+    Field("setpoint_timeout_s", float, minimum=SETPOINT_TIMEOUT_RANGE_S[0], maximum=SETPOINT_TIMEOUT_RANGE_S[1],
+          unit="s", description="setpoints older than this vent to 0 bar"),
+    Field("backend_options", dict, default=None, description="the backend's own options (validated by it)"),
+), description="a mapping of name, backend, command_rate_hz, setpoint_timeout_s, backend_options")
 
 
 def rig_from_dict(data: Mapping[str, Any], robot: RobotDescription | None = None, source: str = "<dict>") -> RigConfig:
     """Validate a parsed rig file; the rig's ``regulator_model`` (if given) replaces the robot's."""
     robot = robot or default_robot()
-    where = f"{source} [rig]"
-    section = data.get("rig") if isinstance(data, Mapping) else None
-    if not isinstance(section, Mapping):
-        raise ConfigurationError(f"{source}: missing section 'rig:' (name, backend, command_rate_hz, ...).")
-    for key in ("name", "backend"):
-        if not isinstance(section.get(key), str) or not section.get(key):
-            raise ConfigurationError(f"{where}: '{key}' is {section.get(key)!r}; expected a non-empty string.")
-    options = section.get("backend_options", {}) or {}
-    if not isinstance(options, Mapping):
-        raise ConfigurationError(f"{where}: 'backend_options' is {options!r}; expected a mapping of option: value.")
-    model = section.get("regulator_model")
-    if model is not None:
-        if not isinstance(model, str):
-            raise ConfigurationError(f"{where}: 'regulator_model' is {model!r}; expected a model name string.")
-        robot = _with_regulator(robot, model, where)
-    return RigConfig(
-        name=section["name"], backend=section["backend"], robot=robot,
-        command_rate_hz=_number(section, "command_rate_hz", *COMMAND_RATE_RANGE_HZ, where),
-        setpoint_timeout_s=_number(section, "setpoint_timeout_s", *SETPOINT_TIMEOUT_RANGE_S, where),
-        backend_options=dict(options), source=source,
-    )
+    rig = RIG_TABLE.read(section(data, "rig", source, what=RIG_TABLE.description), source)
+    if rig["regulator_model"] is not None:
+        robot = _with_regulator(robot, rig["regulator_model"], source)
+    return RigConfig(name=rig["name"], backend=rig["backend"], robot=robot, command_rate_hz=rig["command_rate_hz"],
+                     setpoint_timeout_s=rig["setpoint_timeout_s"], backend_options=rig["backend_options"] or {},
+                     source=source)
 
 
 def _with_regulator(robot: RobotDescription, model: str, where: str) -> RobotDescription:
     """The robot with another regulator model, re-validated from the robot's own file."""
     if model == robot.regulator.name:
         return robot
+    key = RIG_TABLE.key("regulator_model")
     data = read_yaml(robot.source) if Path(robot.source).is_file() else None
     if not isinstance(data, Mapping) or model not in (data.get("regulator_models") or {}):
         known = sorted((data or {}).get("regulator_models") or {}) if isinstance(data, Mapping) else []
-        raise ConfigurationError(f"{where}: 'regulator_model' is {model!r}; expected one of {known} "
-                                 f"(regulator_models of {robot.source}).")
+        raise refusal(where, key, model, f"one of {known} (regulator_models of {robot.source})")
     data = dict(data)
     data["actuation"] = dict(data["actuation"], regulator_model=model)
     regulator = robot_from_dict(data, source=robot.source).regulator  # validates the model against the file
     # Swap only the regulator: the caller's robot may carry a lowered pressure limit that must survive.
     if regulator.full_scale_pressure_bar < robot.max_pressure_bar:
-        raise ConfigurationError(
-            f"{where}: 'regulator_model' {model!r} reaches {regulator.full_scale_pressure_bar} bar; "
-            f"expected at least max_pressure_bar = {robot.max_pressure_bar} bar.")
+        raise refusal(where, key, model, f"a model reaching max_pressure_bar = {robot.max_pressure_bar:g} bar "
+                                         f"(it reaches {regulator.full_scale_pressure_bar:g} bar)")
     return dataclasses.replace(robot, regulator=regulator)
 
 

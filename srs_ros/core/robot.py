@@ -17,6 +17,7 @@ import numpy as np
 import yaml
 
 from srs_ros.core.errors import ConfigurationError
+from srs_ros.core.schema import Field, Table, refusal, section
 
 #: Absolute ceiling of any commanded pressure, whatever a config file says (docs/conventions.md).
 ABSOLUTE_MAX_PRESSURE_BAR = 4.0
@@ -93,125 +94,105 @@ class RobotDescription:
         return self.regulator.full_scale_pressure_bar
 
 
-_ROBOT_KEYS: dict[str, tuple[type, str]] = {
-    "name": (str, "a name"),
-    "module_count": (int, "an integer >= 1"),
-    "actuators_per_module": (int, "an integer >= 3"),
-    "unactuated_length_m": (float, "a length > 0 in metres"),
-    "actuator_radius_m": (float, "a radius > 0 in metres"),
-    "max_extension_m": (float, "a length > 0 in metres"),
-    "module_twist_rad": (float, "an angle in radians"),
-    "mounting_offset_m": (float, "a length >= 0 in metres"),
-    "mass_kg": (float, "a mass > 0 in kg"),
-    "backbone_points_per_module": (int, "an integer >= 1"),
-    "joint_names": (list, "a list of unique joint names, one per actuator"),
-}
-_ACTUATION_KEYS: dict[str, tuple[type, str]] = {
-    "pressure_per_length_bar_per_m": (float, "a gain > 0 in bar per metre"),
-    "max_pressure_bar": (float, f"a pressure in (0, {ABSOLUTE_MAX_PRESSURE_BAR}] bar"),
-    "deadzone_bar": (float, "a pressure >= 0 in bar"),
-    "deadzone_offset_bar": (float, "a pressure >= 0 in bar (0 = off)"),
-    "supply_pressure_bar": (float, "a pressure > 0 in bar"),
-    "regulator_model": (str, "the name of an entry of regulator_models"),
-}
-_REGULATOR_KEYS: dict[str, tuple[type, str]] = {
-    "full_scale_pressure_bar": (float, "a pressure > 0 in bar"),
-    "command_full_scale_v": (float, "a voltage > 0 in volts"),
-    "supply_margin_bar": (float, "a pressure >= 0 in bar"),
-}
-
-
-def _typed(section: Mapping[str, Any], key: str, spec: tuple[type, str], where: str) -> Any:
-    if key not in section:
-        raise ConfigurationError(f"{where}: missing key '{key}' (expected {spec[1]}).")
-    value = section[key]
-    kind, expected = spec
-    if kind is float and isinstance(value, (int, float)) and not isinstance(value, bool):
-        value = float(value)
-        if not math.isfinite(value):
-            raise ConfigurationError(f"{where}: '{key}' is {value!r}; expected {expected}.")
-        return value
-    if not isinstance(value, kind) or isinstance(value, bool):
-        raise ConfigurationError(
-            f"{where}: '{key}' is {value!r} ({type(value).__name__}); expected {expected}."
-        )
-    return value
-
-
-def _section(data: Mapping[str, Any], key: str, where: str) -> Mapping[str, Any]:
-    section = data.get(key) if isinstance(data, Mapping) else None
-    if not isinstance(section, Mapping):
-        raise ConfigurationError(f"{where}: missing section '{key}:' (a mapping of keys to values).")
-    return section
-
-
-def _check(condition: bool, where: str, key: str, value: Any, expected: str) -> None:
-    if not condition:
-        raise ConfigurationError(f"{where}: '{key}' is {value!r}; expected {expected}.")
+#: The ``robot:`` section of a robot file: geometry and mass.
+ROBOT_TABLE = Table("robot", (
+    Field("name", str, description="name of the robot"),
+    Field("module_count", int, minimum=1, unit="modules", description="soft modules in series, tail first"),
+    Field("actuators_per_module", int, minimum=3, unit="actuators", description="extending PMAs per module"),
+    Field("unactuated_length_m", float, minimum=0.0, above_minimum=True, unit="m", description="L0 of a module"),
+    Field("actuator_radius_m", float, minimum=0.0, above_minimum=True, unit="m",
+          description="r, distance of the actuators from the module axis"),
+    Field("max_extension_m", float, minimum=0.0, above_minimum=True, unit="m", description="largest extension"),
+    Field("module_twist_rad", float, unit="rad", description="sigma, twist between modules"),
+    Field("mounting_offset_m", float, minimum=0.0, unit="m", description="delta, offset between modules"),
+    Field("mass_kg", float, minimum=0.0, above_minimum=True, unit="kg", description="mass of the body"),
+    Field("backbone_points_per_module", int, minimum=1, unit="points", description="backbone samples per module"),
+    Field("joint_names", list, item=str, description="one unique name per actuator, module by module"),
+), description="a mapping of the robot's geometry (name, module_count, ...)")
+#: The ``actuation:`` section: the planning map, the pressure limit, the deadzone and the supply.
+ACTUATION_TABLE = Table("actuation", (
+    Field("pressure_per_length_bar_per_m", float, minimum=0.0, above_minimum=True, unit="bar/m",
+          description="planning map P = k l"),
+    Field("max_pressure_bar", float, minimum=0.0, maximum=ABSOLUTE_MAX_PRESSURE_BAR, above_minimum=True,
+          unit="bar", description="hard limit of every command"),
+    Field("deadzone_bar", float, minimum=0.0, unit="bar", description="no extension below this pressure"),
+    Field("deadzone_offset_bar", float, minimum=0.0, unit="bar",
+          description="added to every non-zero command (0 = off)"),
+    Field("supply_pressure_bar", float, minimum=0.0, above_minimum=True, unit="bar", description="compressor"),
+    Field("regulator_model", str, description="the name of an entry of regulator_models"),
+), description="a mapping of the actuation constants (max_pressure_bar, ...)")
+#: One entry of ``regulator_models:``.
+REGULATOR_TABLE = Table("regulator_models.<model>", (
+    Field("full_scale_pressure_bar", float, minimum=0.0, above_minimum=True, unit="bar",
+          description="pressure at the full-scale command"),
+    Field("command_full_scale_v", float, minimum=0.0, above_minimum=True, unit="V",
+          description="full-scale command voltage"),
+    Field("supply_margin_bar", float, minimum=0.0, unit="bar", description="supply needed above the output"),
+), description="a mapping of full_scale_pressure_bar, command_full_scale_v, supply_margin_bar")
 
 
 def robot_from_dict(data: Mapping[str, Any], source: str = "<dict>") -> RobotDescription:
     """Build and validate a :class:`RobotDescription` from the parsed YAML mapping.
 
-    Raises :class:`ConfigurationError` naming the key, the value found and the value expected.
+    Raises :class:`ConfigurationError` naming the file, the key, the value found and the value expected
+    (:mod:`srs_ros.core.schema`).
     """
-    robot_section = _section(data, "robot", source)
-    act_section = _section(data, "actuation", source)
-    models_section = _section(data, "regulator_models", source)
-    where_r, where_a = f"{source} [robot]", f"{source} [actuation]"
-    robot = {k: _typed(robot_section, k, s, where_r) for k, s in _ROBOT_KEYS.items()}
-    act = {k: _typed(act_section, k, s, where_a) for k, s in _ACTUATION_KEYS.items()}
-
-    for key in ("unactuated_length_m", "actuator_radius_m", "max_extension_m", "mass_kg"):
-        _check(robot[key] > 0, where_r, key, robot[key], _ROBOT_KEYS[key][1])
-    _check(robot["mounting_offset_m"] >= 0, where_r, "mounting_offset_m",
-           robot["mounting_offset_m"], _ROBOT_KEYS["mounting_offset_m"][1])
-    _check(robot["module_count"] >= 1, where_r, "module_count", robot["module_count"], "an integer >= 1")
-    _check(robot["actuators_per_module"] >= 3, where_r, "actuators_per_module",
-           robot["actuators_per_module"], "an integer >= 3")
-    _check(robot["backbone_points_per_module"] >= 1, where_r, "backbone_points_per_module",
-           robot["backbone_points_per_module"], "an integer >= 1")
-    names = robot["joint_names"]
-    count = robot["module_count"] * robot["actuators_per_module"]
-    _check(len(names) == count and len(set(names)) == count and all(isinstance(n, str) for n in names),
-           where_r, "joint_names", names, f"{count} unique names (module_count x actuators_per_module)")
-
-    _check(act["pressure_per_length_bar_per_m"] > 0, where_a, "pressure_per_length_bar_per_m",
-           act["pressure_per_length_bar_per_m"], _ACTUATION_KEYS["pressure_per_length_bar_per_m"][1])
-    _check(0 < act["max_pressure_bar"] <= ABSOLUTE_MAX_PRESSURE_BAR, where_a, "max_pressure_bar",
-           act["max_pressure_bar"], _ACTUATION_KEYS["max_pressure_bar"][1])
-    for key in ("deadzone_bar", "deadzone_offset_bar"):
-        _check(act[key] >= 0, where_a, key, act[key], _ACTUATION_KEYS[key][1])
-    _check(act["deadzone_offset_bar"] < act["max_pressure_bar"], where_a, "deadzone_offset_bar",
-           act["deadzone_offset_bar"], "a pressure below max_pressure_bar")
-
-    model_name = act["regulator_model"]
-    if model_name not in models_section:
-        raise ConfigurationError(
-            f"{where_a}: 'regulator_model' is {model_name!r}; expected one of "
-            f"{sorted(models_section)} (the keys of regulator_models)."
-        )
-    where_m = f"{source} [regulator_models.{model_name}]"
-    model_data = models_section[model_name]
-    if not isinstance(model_data, Mapping):
-        raise ConfigurationError(f"{where_m}: expected a mapping with {sorted(_REGULATOR_KEYS)}.")
-    model = {k: _typed(model_data, k, s, where_m) for k, s in _REGULATOR_KEYS.items()}
-    for key in ("full_scale_pressure_bar", "command_full_scale_v"):
-        _check(model[key] > 0, where_m, key, model[key], _REGULATOR_KEYS[key][1])
-    _check(model["full_scale_pressure_bar"] >= act["max_pressure_bar"], where_m,
-           "full_scale_pressure_bar", model["full_scale_pressure_bar"],
-           f"at least max_pressure_bar = {act['max_pressure_bar']} bar (the regulator must reach it)")
-    needed = act["max_pressure_bar"] + model["supply_margin_bar"]
-    _check(act["supply_pressure_bar"] >= needed, where_a, "supply_pressure_bar",
-           act["supply_pressure_bar"], f"at least max_pressure_bar + supply_margin_bar = {needed} bar")
-
+    robot = _geometry(data, source)
+    act = _actuation(data, source)
+    regulator = _regulator(data, act, source)
     return RobotDescription(
         **{k: v for k, v in robot.items() if k != "joint_names"},
-        joint_names=tuple(names),
+        joint_names=tuple(robot["joint_names"]),
         **{k: v for k, v in act.items() if k != "regulator_model"},
-        regulator=RegulatorModel(name=model_name, **model),
+        regulator=regulator,
         source=source,
     )
+
+
+def _geometry(data: Mapping[str, Any], source: str) -> dict[str, Any]:
+    """The ``robot:`` section, with one unique joint name per actuator."""
+    robot = ROBOT_TABLE.read(section(data, "robot", source, what=ROBOT_TABLE.description), source)
+    names = robot["joint_names"]
+    count = robot["module_count"] * robot["actuators_per_module"]
+    if len(names) != count or len(set(names)) != count:
+        raise refusal(source, ROBOT_TABLE.key("joint_names"), list(names),
+                      f"{count} unique names (module_count x actuators_per_module)")
+    return robot
+
+
+def _actuation(data: Mapping[str, Any], source: str) -> dict[str, Any]:
+    """The ``actuation:`` section, its deadzone offset below the pressure limit."""
+    act = ACTUATION_TABLE.read(section(data, "actuation", source, what=ACTUATION_TABLE.description), source)
+    if act["deadzone_offset_bar"] >= act["max_pressure_bar"]:
+        raise refusal(source, ACTUATION_TABLE.key("deadzone_offset_bar"), act["deadzone_offset_bar"],
+                      f"a pressure below max_pressure_bar = {act['max_pressure_bar']:g} bar")
+    return act
+
+
+def _regulator(data: Mapping[str, Any], act: Mapping[str, Any], source: str) -> RegulatorModel:
+    """The regulator model the actuation names: it reaches the pressure limit, the supply feeds it."""
+    models = section(data, "regulator_models", source, what="a mapping of model name: {full_scale_pressure_bar, ...}")
+    name = act["regulator_model"]
+    if name not in models:
+        raise refusal(source, ACTUATION_TABLE.key("regulator_model"), name,
+                      f"one of {sorted(models)} (the keys of regulator_models)")
+    table = REGULATOR_TABLE.at(f"regulator_models.{name}")
+    model = table.read(models[name], source)
+    limit_bar = act["max_pressure_bar"]
+    if model["full_scale_pressure_bar"] < limit_bar:
+        raise refusal(source, table.key("full_scale_pressure_bar"), model["full_scale_pressure_bar"],
+                      f"at least max_pressure_bar = {limit_bar:g} bar (the regulator must reach it)")
+    needed_bar = limit_bar + model["supply_margin_bar"]
+    if act["supply_pressure_bar"] < needed_bar:
+        raise refusal(source, ACTUATION_TABLE.key("supply_pressure_bar"), act["supply_pressure_bar"],
+                      f"at least max_pressure_bar + supply_margin_bar = {needed_bar:g} bar")
+    return RegulatorModel(name=name, **model)
+
+
+def amplitude_field(robot: RobotDescription) -> Field:
+    """A cycle's pressure amplitude: above the robot's deadzone offset, at most its limit (also the default)."""
+    return Field("amplitude_bar", float, robot.max_pressure_bar, robot.deadzone_offset_bar, robot.max_pressure_bar,
+                 unit="bar", description="largest pressure of the cycle", above_minimum=True)
 
 
 def config_dir() -> Path:

@@ -1,4 +1,7 @@
-"""Argument checks shared by the core: arrays of the right shape, finite, with errors that say so."""
+"""Argument checks shared by the core: arrays of the right shape, finite, with errors that say so.
+
+Scalars, config keys and option tables are checked by :mod:`srs_ros.core.schema`.
+"""
 
 from __future__ import annotations
 
@@ -40,13 +43,3 @@ def finite_array(name: str, value, tail: Sequence[int | None] = (), unit: str = 
         )
     return array
 
-
-def check_range(name: str, array: np.ndarray, low: float, high: float, unit: str = "") -> None:
-    """Raise :class:`InvalidInputError` if any value of ``array`` lies outside ``[low, high]``."""
-    outside = (array < low) | (array > high)
-    if np.any(outside):
-        bad = np.argwhere(outside)[0]
-        raise InvalidInputError(
-            f"{name}: values must lie in [{low}, {high}]{unit and ' ' + unit}, "
-            f"got {array[tuple(bad)]} at index {tuple(int(i) for i in bad)}."
-        )

@@ -179,6 +179,111 @@ def _round(value: float) -> float:
     return float(f"{value:.{FIT_DIGITS}g}")
 
 
+@dataclass(frozen=True)
+class _SearchSpace:
+    """What the search varies, over which box (a configured value outside a range widens it), on which cells."""
+
+    parameters: list[FitParameter]
+    lows: np.ndarray
+    highs: np.ndarray
+    initial: dict[str, float]
+    fit_cells: list[Cell]
+    fit_duration_s: float
+    max_evaluations: int
+
+    def decode(self, u: np.ndarray) -> dict[str, float]:
+        """Unit-box point -> parameter values (rounded to what is written to sim.yaml)."""
+        x = self.lows + np.clip(u, 0.0, 1.0) * (self.highs - self.lows)
+        return {p.name: _round(v) for p, v in zip(self.parameters, x)}
+
+    def encode(self, values: np.ndarray) -> np.ndarray:
+        """Parameter values -> unit-box point (a flat range maps to 0)."""
+        span = np.where(self.highs > self.lows, self.highs - self.lows, 1.0)
+        return np.clip((values - self.lows) / span, 0.0, 1.0)
+
+
+def _search_space(reference: MeasuredTable, config: SimConfig, parameters: Sequence[str] | None,
+                  fit_duration_s: float | None, max_evaluations: int) -> _SearchSpace:
+    """Check the request (:class:`InvalidInputError` says what is wrong) and set up the search box and cells."""
+    params = fit_parameters(list(parameters) if parameters else list(default_fit(config)))
+    if isinstance(max_evaluations, bool) or not isinstance(max_evaluations, int) or max_evaluations < 1:
+        raise InvalidInputError(f"max_evaluations: {max_evaluations!r}; expected an integer >= 1.")
+    fit_duration_s = float(fit_duration_s or reference.duration_s)
+    if not (math.isfinite(fit_duration_s) and fit_duration_s > 0):
+        raise InvalidInputError(f"fit_duration_s: {fit_duration_s!r}; expected a run time > 0 s.")
+    for p in params:
+        if config.contact.friction != "anisotropic" and p.name.startswith("friction_a"):
+            raise InvalidInputError(f"{p.name} is fitted but the floor friction is {config.contact.friction}; "
+                                    "fit friction_coefficient, or use anisotropic friction (--friction A,B).")
+    lows = np.array([min(p.low, p.value(config)) for p in params])
+    highs = np.array([max(p.high, p.value(config)) for p in params])
+    deadzone_floor = next((lows[i] for i, p in enumerate(params) if p.name == "deadzone_bar"),
+                          config.muscles.deadzone_bar)
+    fit_cells = [c for c in reference.cells if c[1] > deadzone_floor]
+    if not fit_cells:
+        raise InvalidInputError(f"{reference.source}: every cell's amplitude is at or below the muscles' deadzone "
+                                f"({deadzone_floor:g} bar): nothing moves, there is nothing to fit.")
+    return _SearchSpace(params, lows, highs, {p.name: p.value(config) for p in params}, fit_cells, fit_duration_s,
+                        max_evaluations)
+
+
+class _Search:
+    """The cost over the search box (cached, counted) and the coarse-to-fine search that minimises it."""
+
+    def __init__(self, space: _SearchSpace, reference: MeasuredTable, config: SimConfig, runner: OfflineRunner,
+                 on_evaluation: Callable[[Evaluation], None] | None):
+        self.space, self.reference, self.config, self.runner = space, reference, config, runner
+        self.on_evaluation = on_evaluation
+        self.robot = default_robot()
+        self.history: list[Evaluation] = []
+        self._cache: dict[tuple, float] = {}
+
+    @property
+    def global_count(self) -> int:
+        """Sobol points of the coarse stage (none for one parameter: Nelder-Mead alone)."""
+        return (self.space.max_evaluations - 1) // 2 if len(self.space.parameters) > 1 else 0
+
+    def cost(self, u: np.ndarray) -> float:
+        """RMS error of the search's short runs at ``u``; raises _Budget when the evaluations are used."""
+        values = self.space.decode(u)
+        key = tuple(values.values())
+        if key in self._cache:
+            return self._cache[key]
+        if len(self.history) >= self.space.max_evaluations:
+            raise _Budget
+        t0 = time.perf_counter()
+        records = self.runner.run(self.space.fit_cells, self.space.fit_duration_s,
+                                  apply_values(self.config, values, self.robot), keep_track=False)
+        error = self._cache[key] = table_error(records, self.reference)
+        self.history.append(Evaluation(len(self.history) + 1, values, error, time.perf_counter() - t0))
+        if self.on_evaluation:
+            self.on_evaluation(self.history[-1])
+        return error
+
+    def run(self) -> Evaluation:
+        """The start, Sobol points over the box, then bounded Nelder-Mead from the best; the best evaluation."""
+        space = self.space
+        count = len(space.parameters)
+        try:
+            self.cost(space.encode(np.array(list(space.initial.values()))))
+            if self.global_count:  # coarse: the cost is rugged (contacts), a local search alone stalls near the start
+                for u in qmc.Sobol(count, scramble=True, seed=SOBOL_SEED).random(self.global_count):
+                    self.cost(u)
+            start = space.encode(np.array(list(self.best().values.values())))
+            step = INITIAL_STEP / 2 if self.global_count else INITIAL_STEP  # fine: around the best point
+            simplex = [start] + [start + np.eye(count)[i] * (step if start[i] + step <= 1.0 else -step)
+                                 for i in range(count)]
+            minimize(self.cost, start, method="Nelder-Mead", bounds=[(0.0, 1.0)] * count,
+                     options={"initial_simplex": np.array(simplex), "maxfev": space.max_evaluations,
+                              "xatol": 0.01, "fatol": 1e-3})
+        except _Budget:
+            pass
+        return self.best()
+
+    def best(self) -> Evaluation:
+        return min(self.history, key=lambda e: e.error)
+
+
 def calibrate(reference: MeasuredTable, config: SimConfig, parameters: Sequence[str] | None = None,
               fit_duration_s: float | None = None, max_evaluations: int = DEFAULT_MAX_EVALUATIONS,
               workers: int | None = None, on_evaluation: Callable[[Evaluation], None] | None = None,
@@ -190,96 +295,30 @@ def calibrate(reference: MeasuredTable, config: SimConfig, parameters: Sequence[
     ``on_result`` each finished run of the before/after sweeps (for a progress bar).
     """
     started = time.perf_counter()
-    robot = default_robot()
-    names = list(parameters) if parameters else list(default_fit(config))
-    params = fit_parameters(names)
-    if isinstance(max_evaluations, bool) or not isinstance(max_evaluations, int) or max_evaluations < 1:
-        raise InvalidInputError(f"max_evaluations: {max_evaluations!r}; expected an integer >= 1.")
-    fit_duration_s = float(fit_duration_s or reference.duration_s)
-    if not (math.isfinite(fit_duration_s) and fit_duration_s > 0):
-        raise InvalidInputError(f"fit_duration_s: {fit_duration_s!r}; expected a run time > 0 s.")
-    for p in params:
-        if config.contact.friction != "anisotropic" and p.name.startswith("friction_a"):
-            raise InvalidInputError(f"{p.name} is fitted but the floor friction is {config.contact.friction}; "
-                                    "fit friction_coefficient, or use anisotropic friction (--friction A,B).")
-    # A configured value outside a parameter's range widens the range (the search starts from it).
-    lows = np.array([min(p.low, p.value(config)) for p in params])
-    highs = np.array([max(p.high, p.value(config)) for p in params])
-    initial = {p.name: p.value(config) for p in params}
-
-    deadzone_floor = next((lows[i] for i, p in enumerate(params) if p.name == "deadzone_bar"),
-                          config.muscles.deadzone_bar)
-    cells = list(reference.cells)
-    fit_cells = [c for c in cells if c[1] > deadzone_floor]
-    if not fit_cells:
-        raise InvalidInputError(f"{reference.source}: every cell's amplitude is at or below the muscles' deadzone "
-                                f"({deadzone_floor:g} bar): nothing moves, there is nothing to fit.")
-
-    def decode(u: np.ndarray) -> dict[str, float]:
-        x = lows + np.clip(u, 0.0, 1.0) * (highs - lows)
-        return {p.name: _round(v) for p, v in zip(params, x)}
-
-    history: list[Evaluation] = []
-    cache: dict[tuple, float] = {}
+    space = _search_space(reference, config, parameters, fit_duration_s, max_evaluations)
+    stage = on_stage or (lambda _text: None)
+    cells, duration_s = list(reference.cells), reference.duration_s
     with OfflineRunner(workers) as runner:
-        if on_stage:
-            on_stage(f"before: {len(cells)} runs of {reference.duration_s:g} s with {config.source}")
-        before = runner.run(cells, reference.duration_s, config, on_result=on_result)
-        error_before = table_error(before, reference)
-
-        def cost(u: np.ndarray) -> float:
-            values = decode(u)
-            key = tuple(values.values())
-            if key in cache:
-                return cache[key]
-            if len(history) >= max_evaluations:
-                raise _Budget
-            t0 = time.perf_counter()
-            records = runner.run(fit_cells, fit_duration_s, apply_values(config, values, robot), keep_track=False)
-            error = table_error(records, reference)
-            cache[key] = error
-            history.append(Evaluation(len(history) + 1, values, error, time.perf_counter() - t0))
-            if on_evaluation:
-                on_evaluation(history[-1])
-            return error
-
-        global_count = (max_evaluations - 1) // 2 if len(params) > 1 else 0
-        if on_stage:
-            on_stage(f"search: {[p.name for p in params]} over {len(fit_cells)} cells, runs of {fit_duration_s:g} s, "
-                     f"at most {max_evaluations} evaluations (the start, {global_count} Sobol points over the ranges, "
-                     "then Nelder-Mead from the best)")
-        u0 = np.array([(initial[p.name] - lo) / (hi - lo) if hi > lo else 0.0
-                       for p, lo, hi in zip(params, lows, highs)])
-        try:
-            cost(u0)
-            if global_count:  # coarse: the cost is rugged (contacts), a local search alone stalls near the start
-                for u in qmc.Sobol(len(params), scramble=True, seed=SOBOL_SEED).random(global_count):
-                    cost(u)
-            best_x = np.array(list(min(history, key=lambda e: e.error).values.values()))
-            start = np.clip((best_x - lows) / np.where(highs > lows, highs - lows, 1.0), 0.0, 1.0)
-            step = INITIAL_STEP / 2 if global_count else INITIAL_STEP  # fine: around the best point
-            simplex = [start] + [start + np.eye(len(params))[i] * (step if start[i] + step <= 1.0 else -step)
-                                 for i in range(len(params))]
-            minimize(cost, start, method="Nelder-Mead", bounds=[(0.0, 1.0)] * len(params),
-                     options={"initial_simplex": np.array(simplex), "maxfev": max_evaluations,
-                              "xatol": 0.01, "fatol": 1e-3})
-        except _Budget:
-            pass
-        best = min(history, key=lambda e: e.error)
-        fitted = apply_values(config, best.values, robot)
-        if on_stage:
-            on_stage(f"after: {len(cells)} runs of {reference.duration_s:g} s with the best of {len(history)} "
-                     f"evaluations {best.values}")
-        after = runner.run(cells, reference.duration_s, fitted, on_result=on_result)
-    error_after = table_error(after, reference)
+        stage(f"before: {len(cells)} runs of {duration_s:g} s with {config.source}")
+        before = runner.run(cells, duration_s, config, on_result=on_result)
+        search = _Search(space, reference, config, runner, on_evaluation)
+        stage(f"search: {[p.name for p in space.parameters]} over {len(space.fit_cells)} cells, runs of "
+              f"{space.fit_duration_s:g} s, at most {space.max_evaluations} evaluations (the start, "
+              f"{search.global_count} Sobol points over the ranges, then Nelder-Mead from the best)")
+        best = search.run()
+        fitted = apply_values(config, best.values, search.robot)
+        stage(f"after: {len(cells)} runs of {duration_s:g} s with the best of {len(search.history)} evaluations "
+              f"{best.values}")
+        after = runner.run(cells, duration_s, fitted, on_result=on_result)
+    error_before, error_after = table_error(before, reference), table_error(after, reference)
     accepted = error_after <= error_before
     if not accepted:  # the search's short runs misled it: keep what was there
         fitted, after, error_after = config, before, error_before
-    return CalibrationResult(parameters=params, initial_values=initial,
-                             fitted_values=best.values if accepted else dict(initial), config=fitted,
+    return CalibrationResult(parameters=space.parameters, initial_values=space.initial,
+                             fitted_values=best.values if accepted else dict(space.initial), config=fitted,
                              before=before, after=after, error_before=error_before, error_after=error_after,
-                             accepted=accepted, history=history, fit_cells=fit_cells,
-                             fit_duration_s=fit_duration_s, wall_time_s=time.perf_counter() - started)
+                             accepted=accepted, history=search.history, fit_cells=space.fit_cells,
+                             fit_duration_s=space.fit_duration_s, wall_time_s=time.perf_counter() - started)
 
 
 # ------------------------------------------------------------------------------------------

@@ -2,17 +2,17 @@
 
 :class:`SweepGrid` validates what a user asks for (known gaits, ``0 < A <= max_pressure_bar``,
 frequencies in :data:`~srs_ros.core.robot.CYCLE_FREQUENCY_RANGE_HZ`, non-empty lists, a run time > 0)
-and lists its cells in the paper's order. :class:`OfflineRunner` runs cells on the simulated robot
-(:func:`srs_ros.sim.experiment.run_experiment`, faster than real time) in a pool of worker processes, one
-per core by default; a run that diverges becomes a failed :class:`~srs_ros.experiments.table.RunRecord`
-with the reason, never a velocity. Runs are deterministic for a given configuration, whatever the
-number of workers. Each worker fits a cell's gait cycle once and keeps it for later runs (calibration
-runs the same cells many times).
+and lists its cells in the paper's order; the paper's own grid is that of its Table I
+(``SweepGrid.of_table(paper_table())``, :mod:`srs_ros.experiments.table`). :class:`OfflineRunner` runs
+cells on the simulated robot (:func:`srs_ros.sim.experiment.run_experiment`, faster than real time) in a
+pool of worker processes, one per core by default; a run that diverges becomes a failed
+:class:`~srs_ros.experiments.table.RunRecord` with the reason, never a velocity. Runs are deterministic
+for a given configuration, whatever the number of workers. Each worker fits a cell's gait cycle once and
+keeps it for later runs (calibration runs the same cells many times).
 """
 
 from __future__ import annotations
 
-import math
 import multiprocessing
 import os
 import warnings
@@ -20,37 +20,31 @@ from collections.abc import Callable, Iterable, Sequence
 from concurrent.futures import Future, ProcessPoolExecutor, as_completed
 from dataclasses import dataclass
 from functools import lru_cache
+from typing import Any
 
 from srs_ros.core.errors import InvalidInputError, SrsError
 from srs_ros.core.gait.library import list_gaits
+from srs_ros.core.gait.request import FREQUENCY_FIELD, SAMPLES_FIELD, amplitude_field, gait_field
 from srs_ros.core.gait.trajectory import GaitCycle, PoorFitWarning, generate_cycle
-from srs_ros.core.robot import CYCLE_FREQUENCY_RANGE_HZ, RobotDescription, default_robot
-from srs_ros.experiments.table import Cell, RunRecord, cell_key
+from srs_ros.core.robot import RobotDescription, default_robot
+from srs_ros.core.schema import Field, refusal
+from srs_ros.experiments.table import Cell, MeasuredTable, RunRecord, cell_key, paper_table
 from srs_ros.sim.config import SimConfig
 from srs_ros.sim.experiment import run_experiment
 
-#: The paper's grid (Sec. IV): amplitudes (bar), frequencies (Hz) and run time (s).
-PAPER_AMPLITUDES_BAR = (1.0, 2.0, 3.0, 4.0)
-PAPER_FREQUENCIES_HZ = (0.25, 0.5, 0.75, 1.0)
-PAPER_DURATION_S = 15.0
-#: Shapes fitted per gait cycle (as the trajectory server's default).
-CYCLE_SAMPLES = 64
+#: Shapes fitted per gait cycle (the trajectory server's default).
+CYCLE_SAMPLES = SAMPLES_FIELD.default
+#: Where a refused grid value says it is.
+WHERE = "sweep grid"
 
 
-def _numbers(name: str, values: Iterable[float], low: float, high: float, low_open: bool, unit: str) -> list[float]:
+def _values(name: str, values: Iterable[Any], field: Field) -> list[Any]:
+    """``values`` checked with ``field`` (``amplitudes[2]`` named on a refusal), repeats dropped, order kept."""
     values = list(values)
     if not values:
-        raise InvalidInputError(f"{name}: the list is empty; expected at least one value in {unit}.")
-    out = []
-    for value in values:
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-            raise InvalidInputError(f"{name}: {value!r} is not a number; expected values in {unit}.")
-        if value > high or value < low or (low_open and value == low):
-            bound = f"{low:g} < x" if low_open else f"{low:g} <= x"
-            raise InvalidInputError(f"{name}: {value:g} is out of range; expected {bound} <= {high:g} {unit}.")
-        if float(value) not in out:
-            out.append(float(value))
-    return out
+        raise refusal(WHERE, name, values, f"at least one value, each {field.expected}", InvalidInputError)
+    checked = [field.check(v, WHERE, f"{name}[{i}]", InvalidInputError) for i, v in enumerate(values)]
+    return list(dict.fromkeys(checked))
 
 
 @dataclass(frozen=True)
@@ -64,22 +58,20 @@ class SweepGrid:
 
     @classmethod
     def create(cls, gaits: Iterable[str], amplitudes_bar: Iterable[float], frequencies_hz: Iterable[float],
-               duration_s: float = PAPER_DURATION_S, robot: RobotDescription | None = None) -> SweepGrid:
-        """A validated grid; :class:`InvalidInputError` names the bad value and what is allowed."""
+               duration_s: float | None = None, robot: RobotDescription | None = None) -> SweepGrid:
+        """A validated grid (default run time: the paper's); :class:`InvalidInputError` names a bad value."""
         robot = robot or default_robot()
-        known = list_gaits()
-        gaits = list(dict.fromkeys(gaits))
-        if not gaits:
-            raise InvalidInputError(f"gaits: the list is empty; expected one or more of {sorted(known)}.")
-        for gait in gaits:
-            if gait not in known:
-                raise InvalidInputError(f"gait {gait!r} is unknown; expected one of {sorted(known)}.")
-        amplitudes = _numbers("amplitudes", amplitudes_bar, 0.0, robot.max_pressure_bar, True, "bar")
-        frequencies = _numbers("frequencies", frequencies_hz, *CYCLE_FREQUENCY_RANGE_HZ, False, "Hz")
-        if isinstance(duration_s, bool) or not isinstance(duration_s, (int, float)) or not (
-                math.isfinite(duration_s) and duration_s > 0):
-            raise InvalidInputError(f"duration_s: {duration_s!r}; expected a run time > 0 s.")
-        return cls(tuple(gaits), tuple(amplitudes), tuple(frequencies), float(duration_s))
+        duration = DURATION_FIELD.check(paper_table().duration_s if duration_s is None else duration_s, WHERE,
+                                        error=InvalidInputError)
+        return cls(tuple(_values("gaits", gaits, gait_field(list_gaits()))),
+                   tuple(_values("amplitudes", amplitudes_bar, amplitude_field(robot))),
+                   tuple(_values("frequencies", frequencies_hz, FREQUENCY_FIELD)), duration)
+
+    @classmethod
+    def of_table(cls, table: MeasuredTable, duration_s: float | None = None) -> SweepGrid:
+        """The grid of a measured table's cells at its run time; ``SweepGrid.of_table(paper_table())``: the paper's."""
+        return cls.create(table.gaits, table.amplitudes_bar, table.frequencies_hz,
+                          table.duration_s if duration_s is None else duration_s)
 
     def cells(self) -> list[Cell]:
         """Every cell, gait by gait, then amplitude, then frequency (Table I's order)."""
@@ -87,6 +79,10 @@ class SweepGrid:
 
     def __len__(self) -> int:
         return len(self.gaits) * len(self.amplitudes_bar) * len(self.frequencies_hz)
+
+
+#: The run time of one cell.
+DURATION_FIELD = Field("duration_s", float, minimum=0.0, above_minimum=True, unit="s", description="run time")
 
 
 # ------------------------------------------------------------------------------------------

@@ -27,7 +27,9 @@ import numpy as np
 
 from srs_ros.core.errors import ConfigurationError
 from srs_ros.core.gait.library import list_gaits
-from srs_ros.core.robot import CYCLE_FREQUENCY_RANGE_HZ, RobotDescription, config_dir, default_robot, read_yaml
+from srs_ros.core.gait.request import FREQUENCY_FIELD, amplitude_field, gait_field
+from srs_ros.core.robot import RobotDescription, config_dir, default_robot, read_yaml
+from srs_ros.core.schema import Field, Table, refusal, section
 
 #: The paper's Table I in ``config/``.
 PAPER_TABLE_FILE = "paper_table1.yaml"
@@ -81,60 +83,48 @@ class MeasuredTable:
         return sorted({c[2] for c in self.cells})
 
 
-def _measured_error(where: str, text: str) -> ConfigurationError:
-    return ConfigurationError(f"{where}: {text}")
+#: The ``measured_table:`` section of a measured table file (its rows: :func:`row_fields`).
+MEASURED_TABLE = Table("measured_table", (
+    Field("name", str, None, description="where the table comes from (default: the file)"),
+    Field("velocity_definition", str, "", description="how the velocities were measured"),
+    Field("duration_s", float, minimum=0.0, above_minimum=True, unit="s", description="run time of every cell"),
+    Field("signed", bool, False, description="true if the velocities carry the sign of the displacement"),
+    Field("columns", list, item=str, expected_text=f"{list(MEASURED_COLUMNS)}", description="the row layout"),
+    Field("rows", list, nonempty=True, expected_text=f"a non-empty list of rows {list(MEASURED_COLUMNS)}",
+          description="one row per cell"),
+), description="a mapping of name, velocity_definition, duration_s, signed, columns, rows; see "
+               f"config/{PAPER_TABLE_FILE}")
+
+
+def row_fields(robot: RobotDescription, gait_names: Iterable[str]) -> tuple[Field, ...]:
+    """The columns of a measured table's row (:data:`MEASURED_COLUMNS`): a cell and its velocity (cm/s)."""
+    return (gait_field(gait_names), amplitude_field(robot), FREQUENCY_FIELD,
+            Field("vx_cm_s", float, unit="cm/s"), Field("vy_cm_s", float, unit="cm/s"))
 
 
 def measured_table_from_dict(data: Any, source: str = "<dict>", robot: RobotDescription | None = None
                              ) -> MeasuredTable:
     """Validate a parsed measured table (``measured_table:``); a :class:`ConfigurationError` says what is wrong."""
-    robot = robot or default_robot()
-    section = data.get("measured_table") if isinstance(data, Mapping) else None
-    if not isinstance(section, Mapping):
-        raise _measured_error(source, "missing section 'measured_table:' (name, velocity_definition, duration_s, "
-                                      f"signed, columns, rows); see config/{PAPER_TABLE_FILE}.")
-    columns = section.get("columns")
-    if list(columns or []) != list(MEASURED_COLUMNS):
-        raise _measured_error(source, f"'columns' is {columns!r}; expected {list(MEASURED_COLUMNS)}.")
-    duration = section.get("duration_s")
-    if isinstance(duration, bool) or not isinstance(duration, (int, float)) or not (math.isfinite(duration)
-                                                                                    and duration > 0):
-        raise _measured_error(source, f"'duration_s' is {duration!r}; expected the run time in s (> 0).")
-    signed = section.get("signed", False)
-    if not isinstance(signed, bool):
-        raise _measured_error(source, f"'signed' is {signed!r}; expected true or false.")
-    rows = section.get("rows")
-    if not isinstance(rows, Sequence) or isinstance(rows, str) or not rows:
-        raise _measured_error(source, "'rows' is empty or not a list; expected one row "
-                                      f"{list(MEASURED_COLUMNS)} per cell.")
-    gaits = list_gaits()
-    low_hz, high_hz = CYCLE_FREQUENCY_RANGE_HZ
+    section_ = MEASURED_TABLE.read(section(data, "measured_table", source, what=MEASURED_TABLE.description), source)
+    if list(section_["columns"]) != list(MEASURED_COLUMNS):
+        raise refusal(source, MEASURED_TABLE.key("columns"), list(section_["columns"]), f"{list(MEASURED_COLUMNS)}")
+    columns = row_fields(robot or default_robot(), list_gaits())
     cells: dict[Cell, tuple[float, float]] = {}
-    for index, row in enumerate(rows):
-        where = f"{source} [measured_table.rows[{index}]]"
-        if not isinstance(row, Sequence) or isinstance(row, str) or len(row) != len(MEASURED_COLUMNS):
-            raise _measured_error(where, f"{row!r}; expected a list {list(MEASURED_COLUMNS)}.")
-        gait, amplitude, frequency, vx, vy = row
-        if gait not in gaits:
-            raise _measured_error(where, f"gait {gait!r}; expected one of {sorted(gaits)}.")
-        numbers = {"amplitude_bar": amplitude, "frequency_hz": frequency, "vx_cm_s": vx, "vy_cm_s": vy}
-        for name, value in numbers.items():
-            if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-                raise _measured_error(where, f"{name} is {value!r}; expected a finite number.")
-        if not 0 < amplitude <= robot.max_pressure_bar:
-            raise _measured_error(where, f"amplitude_bar {amplitude!r}; expected 0 < A <= {robot.max_pressure_bar:g}.")
-        if not low_hz <= frequency <= high_hz:
-            raise _measured_error(where, f"frequency_hz {frequency!r}; expected {low_hz:g} <= f <= {high_hz:g}.")
-        if not signed and (vx < 0 or vy < 0):
-            raise _measured_error(where, f"negative velocity ({vx}, {vy}) in a table of magnitudes; set "
-                                         "'signed: true' if the signs are meant.")
-        key = cell_key(gait, amplitude, frequency)
-        if key in cells:
-            raise _measured_error(where, f"cell {key} appears twice; expected one row per cell.")
-        cells[key] = (float(vx), float(vy))
-    return MeasuredTable(name=str(section.get("name", source)),
-                         velocity_definition=str(section.get("velocity_definition", "")),
-                         duration_s=float(duration), signed=signed, cells=cells, source=source)
+    for index, row in enumerate(section_["rows"]):
+        key = MEASURED_TABLE.key(f"rows[{index}]")
+        if not isinstance(row, Sequence) or isinstance(row, str) or len(row) != len(columns):
+            raise refusal(source, key, row, f"a list {list(MEASURED_COLUMNS)}")
+        gait, amplitude, frequency, vx, vy = (f.check(v, source, f"{key}.{f.name}") for f, v in zip(columns, row))
+        if not section_["signed"] and (vx < 0 or vy < 0):
+            name, value = ("vx_cm_s", row[3]) if vx < 0 else ("vy_cm_s", row[4])  # as written
+            raise refusal(source, f"{key}.{name}", value,
+                          "a magnitude >= 0 in a table of magnitudes; set 'signed: true' if the signs are meant")
+        cell = cell_key(gait, amplitude, frequency)
+        if cell in cells:
+            raise refusal(source, key, list(row), f"one row per cell; cell {cell} appears twice")
+        cells[cell] = (vx, vy)
+    return MeasuredTable(name=section_["name"] or source, velocity_definition=section_["velocity_definition"],
+                         duration_s=section_["duration_s"], signed=section_["signed"], cells=cells, source=source)
 
 
 def load_measured_table(path: str | Path | None = None, robot: RobotDescription | None = None) -> MeasuredTable:
@@ -144,7 +134,7 @@ def load_measured_table(path: str | Path | None = None, robot: RobotDescription 
 
 
 def paper_table() -> MeasuredTable:
-    """The paper's Table I (all 48 cells)."""
+    """The paper's Table I (all 48 cells), and so the paper's grid: its gaits, amplitudes, frequencies, run time."""
     return load_measured_table()
 
 

@@ -40,6 +40,7 @@ import sys
 import tempfile
 import threading
 import time
+from typing import Any
 
 import cv2
 import rclpy
@@ -52,11 +53,15 @@ from rclpy.node import Node
 from sensor_msgs.msg import Image, JointState
 from std_msgs.msg import Float64MultiArray
 
+from srs_ros.core import rig as rig_config
 from srs_ros.core.actuation.safety import min_setpoint_rate_hz
 from srs_ros.core.errors import ConfigurationError
+from srs_ros.core.gait import request
+from srs_ros.core.gait.library import list_gaits
 from srs_ros.core.rig import load_rig
-from srs_ros.core.robot import config_dir, default_robot
+from srs_ros.core.robot import amplitude_field, default_robot
 from srs_ros.core.vision.view import ViewStatus
+from srs_ros.nodes import gait_player
 from srs_ros.nodes.camera_tracker import CameraTrackerNode
 from srs_ros.nodes.gait_player import GaitPlayer
 from srs_ros.nodes.hardware_node import HardwareNode, release_and_report
@@ -212,24 +217,40 @@ class VideoRecorder(Node):
             print(f"srs_bringup: saved {self.frames} camera frames to {self.path}", flush=True)
 
 
+def spec_defaults() -> dict[str, Any]:
+    """The defaults of the options that set node parameters, read from the nodes' specs (as the launch file's)."""
+    player = {spec.name: spec for spec in gait_player.PARAMETERS}
+    return {"gait": request.gait_field(list_gaits()).default,
+            "amplitude_bar": amplitude_field(default_robot()).default,
+            "frequency_hz": request.FREQUENCY_FIELD.default, "samples": request.SAMPLES_FIELD.default,
+            "rate_hz": player["rate_hz"].default, "rig": str(rig_config.rig_path(rig_config.SYSTEM_RIG)),
+            "realtime_priority": player["realtime_priority"].default}
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="srs_bringup", description=__doc__.split("\n")[0])
-    parser.add_argument("--gait", default="inward_rolling", help="gait to stream (default inward_rolling)")
-    parser.add_argument("--amplitude-bar", type=float, default=None,
-                        help="largest pressure, bar (default: the robot's max_pressure_bar, 4)")
-    parser.add_argument("--frequency-hz", type=float, default=1.0, help="gait frequency, Hz (default 1)")
-    parser.add_argument("--samples", type=int, default=64, help="samples per fitted cycle (default 64)")
-    parser.add_argument("--rate-hz", type=float, default=200.0, help="setpoint rate, Hz (default 200)")
-    parser.add_argument("--rig", default=str(config_dir() / "rigs" / "sim.yaml"),
-                        help="rig YAML (default: config/rigs/sim.yaml, the simulated robot; config/rigs/mock.yaml "
-                             "is the muscle-only mock, can.yaml and daq.yaml drive real regulators)")
+    default = spec_defaults()
+    parser.add_argument("--gait", default=default["gait"], help=f"gait to stream (default {default['gait']})")
+    parser.add_argument("--amplitude-bar", type=float, default=default["amplitude_bar"],
+                        help=f"largest pressure, bar (default: the robot's limit, {default['amplitude_bar']:g})")
+    parser.add_argument("--frequency-hz", type=float, default=default["frequency_hz"],
+                        help=f"gait frequency, Hz (default {default['frequency_hz']:g})")
+    parser.add_argument("--samples", type=int, default=default["samples"],
+                        help=f"samples per fitted cycle (default {default['samples']})")
+    parser.add_argument("--rate-hz", type=float, default=default["rate_hz"],
+                        help=f"setpoint rate, Hz (default {default['rate_hz']:g})")
+    parser.add_argument("--rig", default=default["rig"],
+                        help=f"rig YAML (default: config/rigs/{rig_config.SYSTEM_RIG}.yaml, the simulated robot; "
+                             "config/rigs/mock.yaml is the muscle-only mock, can.yaml and daq.yaml drive real "
+                             "regulators)")
     parser.add_argument("--backend", default="", help="override the rig's backend: sim, mock, can or daq")
     parser.add_argument("--sim-config", default="", help="simulation YAML for the sim rig (default config/sim.yaml)")
     parser.add_argument("--video", default="", help="sim rig: save the overhead camera's view to this file (.avi)")
     parser.add_argument("--arm", action="store_true",
                         help="the operator's go for a rig with real regulators: command pressures at once "
                              "(without it such a rig stays at 0 bar until ~/arm is called)")
-    parser.add_argument("--realtime-priority", type=int, default=0, choices=range(0, 99), metavar="0-98",
+    parser.add_argument("--realtime-priority", type=int, default=default["realtime_priority"],
+                        choices=range(0, 99), metavar="0-98",
                         help="SCHED_FIFO priority of the process, so CPU load cannot delay setpoints (needs an "
                              "rtprio limit or CAP_SYS_NICE; default 0 = the normal scheduler)")
     parser.add_argument("--duration-s", type=float, default=0.0, help="stop after this long; 0 = until Ctrl-C")
@@ -244,8 +265,6 @@ def _params_file(args: argparse.Namespace, ros_args: list[str]) -> str:
     file beat a wildcard: so a name given with ``-p`` is left out here for the user's value to win.
     The file is passed before the user's ROS arguments, so their own ``--params-file`` wins too.
     """
-    if args.amplitude_bar is None:
-        args.amplitude_bar = default_robot().max_pressure_bar
     given = {value.split(":=", 1)[0] for flag, value in zip(ros_args, ros_args[1:]) if flag in ("-p", "--param")}
     params = {
         "trajectory_server": {"gait": args.gait, "amplitude_bar": args.amplitude_bar,

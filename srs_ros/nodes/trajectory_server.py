@@ -39,8 +39,9 @@ from std_srvs.srv import Trigger
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
 from srs_ros.core.errors import ConfigurationError, SrsError
+from srs_ros.core.gait.request import FREQUENCY_FIELD, SAMPLES_FIELD, gait_field
 from srs_ros.core.gait.trajectory import PoorFitWarning, generate_cycle, list_gaits
-from srs_ros.core.robot import CYCLE_FREQUENCY_RANGE_HZ, load_robot
+from srs_ros.core.robot import RobotDescription, amplitude_field, load_robot
 from srs_ros.ros.interfaces import TRAJECTORY_TOPIC, latched_qos, nanoseconds_to_duration
 from srs_ros.ros.parameters import ParameterSpec, check_parameters, declare_parameters, startup_value
 from srs_ros.ros.process import run_node
@@ -52,17 +53,11 @@ ROBOT_FILE = ParameterSpec("robot_description_file", "",
                            "robot description YAML; '' = the package's config/robot.yaml", read_only=True)
 
 
-def base_parameters(max_pressure_bar: float, gait_names: list[str]) -> tuple[ParameterSpec, ...]:
-    """The request parameters; ``amplitude_bar`` is capped by the robot's pressure limit."""
-    low_hz, high_hz = CYCLE_FREQUENCY_RANGE_HZ
+def base_parameters(robot: RobotDescription, gait_names: list[str]) -> tuple[ParameterSpec, ...]:
+    """The request parameters (:mod:`srs_ros.core.gait.request`); ``amplitude_bar`` is capped by the robot's limit."""
     return (
-        ParameterSpec("gait", "inward_rolling" if "inward_rolling" in gait_names else gait_names[0],
-                      f"gait to fit, one of {gait_names}", additional_constraints=f"one of {gait_names}"),
-        ParameterSpec("amplitude_bar", float(max_pressure_bar),
-                      f"largest pressure of the cycle in bar, 0 < A <= {max_pressure_bar:g}",
-                      0.0, float(max_pressure_bar)),
-        ParameterSpec("frequency_hz", 1.0, f"cycle frequency in Hz, {low_hz:g} <= f <= {high_hz:g}", low_hz, high_hz),
-        ParameterSpec("samples", 64, "shapes fitted per cycle (>= 8)", 8, 1024),
+        *(ParameterSpec.from_field(f) for f in (gait_field(gait_names), amplitude_field(robot), FREQUENCY_FIELD,
+                                                SAMPLES_FIELD)),
         ParameterSpec("generate_on_start", True, "fit and publish once at start-up"),
         ParameterSpec("reject_poor_fit", False,
                       "refuse a cycle with poor samples (false: publish it and report them as a warning)"),
@@ -71,13 +66,8 @@ def base_parameters(max_pressure_bar: float, gait_names: list[str]) -> tuple[Par
 
 def gait_parameters(gaits: dict) -> tuple[ParameterSpec, ...]:
     """One ``<gait>.<parameter>`` spec per parameter of every gait, with its range and unit."""
-    specs = []
-    for name, spec in gaits.items():
-        for p in spec.parameters:
-            unit = f" [{p.unit}]" if p.unit else ""
-            specs.append(ParameterSpec(f"{name}.{p.name}", p.type(p.default),
-                                       f"{p.description}{unit}; {p.allowed_text()}", p.minimum, p.maximum))
-    return tuple(specs)
+    return tuple(ParameterSpec.from_field(p.field, name=f"{name}.{p.name}")
+                 for name, spec in gaits.items() for p in spec.parameters)
 
 
 def _listing(indices, shown: int = 12) -> str:
@@ -115,7 +105,7 @@ class TrajectoryServer(Node):
         self._gaits = list_gaits()
         # amplitude_bar's range is the robot's limit: read the robot file first, then declare all in one call
         self._robot = load_robot(startup_value(self, ROBOT_FILE) or None)
-        specs = (ROBOT_FILE, *base_parameters(self._robot.max_pressure_bar, sorted(self._gaits)),
+        specs = (ROBOT_FILE, *base_parameters(self._robot, sorted(self._gaits)),
                  *gait_parameters(self._gaits))
         self._specs = declare_parameters(self, specs)
         self.add_on_set_parameters_callback(self._check_parameters)
@@ -139,22 +129,7 @@ class TrajectoryServer(Node):
 
     # ------------------------------------------------------------- parameters
     def _check_parameters(self, params) -> SetParametersResult:
-        return check_parameters(self._specs, params, self._extra_check)
-
-    def _extra_check(self, name: str, value: Any) -> str:
-        if name == "gait" and value not in self._gaits:
-            return f"gait: unknown gait {value!r}; expected one of {sorted(self._gaits)}."
-        if name == "amplitude_bar" and value <= 0.0:
-            return f"{name}: must be > 0, got {value}; {self._specs[name].description}."
-        gait_name, _, param_name = name.partition(".")
-        if param_name and gait_name in self._gaits:
-            spec = {p.name: p for p in self._gaits[gait_name].parameters}.get(param_name)
-            if spec is not None:
-                try:
-                    spec.check(gait_name, value)
-                except SrsError as exc:
-                    return str(exc)
-        return ""
+        return check_parameters(self._specs, params)
 
     def _request(self) -> dict[str, Any]:
         """The fit request from the current parameters (read once, so a fit sees one consistent set)."""

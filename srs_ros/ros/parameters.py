@@ -12,11 +12,16 @@ from rclpy.node import Node
 from rclpy.parameter import Parameter
 
 from srs_ros.core.errors import ConfigurationError
+from srs_ros.core.schema import Field
 
 
 @dataclass(frozen=True)
 class ParameterSpec:
-    """One declared parameter: default value, allowed range (inclusive) and description with unit."""
+    """One declared parameter: default value, allowed range (inclusive) and description with unit.
+
+    Its type and range are a field of the one schema (:attr:`field`, :mod:`srs_ros.core.schema`): the
+    check of every set and start-up value, and its refusal text, come from there.
+    """
 
     name: str
     default: Any
@@ -25,11 +30,33 @@ class ParameterSpec:
     maximum: float | int | None = None
     read_only: bool = False
     additional_constraints: str = ""
+    #: The values a string parameter may take (empty: any string).
+    choices: tuple[str, ...] = ()
+    #: True where the minimum itself is refused (``> 0``); the descriptor's range still includes it.
+    above_minimum: bool = False
+    #: Unit of the value ('' where the description names it).
+    unit: str = ""
+
+    @classmethod
+    def from_field(cls, field: Field, read_only: bool = False, name: str | None = None) -> ParameterSpec:
+        """The parameter of a schema field (``name`` replaces the field's, e.g. ``serpentine.radius_m``)."""
+        return cls(name or field.name, field.default, field.description, field.minimum, field.maximum, read_only,
+                   additional_constraints=field.expected, choices=tuple(field.choices),
+                   above_minimum=field.above_minimum, unit=field.unit)
 
     @property
     def is_double(self) -> bool:
         """True for a double parameter (a float default); it also accepts integers (:func:`declare_parameters`)."""
         return isinstance(self.default, float)
+
+    @property
+    def field(self) -> Field:
+        """The parameter as a field of the schema: its type from the default, its range, unit and choices."""
+        kind = type(self.default) if isinstance(self.default, (bool, int, float, str)) else list
+        item = _item_type(self.default) if kind is list else None
+        return Field(self.name, kind, self.default, self.minimum, self.maximum, self.unit, self.description,
+                     choices=self.choices, above_minimum=self.above_minimum, item=item,
+                     example=repr(self.default) if self.is_double else "")
 
     def descriptor(self) -> ParameterDescriptor:
         """A ParameterDescriptor that rclpy enforces on every set (range, read-only)."""
@@ -44,17 +71,18 @@ class ParameterSpec:
         return desc
 
     def check(self, value: Any) -> str:
-        """Empty string if ``value`` is acceptable, else the reason (what was wrong, what is allowed)."""
-        expected = type(self.default)
-        if expected is float and isinstance(value, int) and not isinstance(value, bool):
-            value = float(value)
-        if not isinstance(value, expected) or (expected is not bool and isinstance(value, bool)):
-            kind = "number (a double, e.g. 500.0)" if expected is float else expected.__name__
-            return f"{self.name}: expected a {kind}, got {value!r}."
-        if self.minimum is not None and self.maximum is not None and not isinstance(value, (bool, str)):
-            if not (self.minimum <= value <= self.maximum):
-                return f"{self.name}: {value} is outside [{self.minimum}, {self.maximum}] ({self.description})."
-        return ""
+        """'' if ``value`` is acceptable, else why not: ``<name> is <value>; expected <what>; <description>.``."""
+        reason = self.field.reason(value)
+        return f"{reason}; {self.description}." if reason else ""
+
+
+def _item_type(default: Any) -> type | None:
+    """The item type of a list parameter, from its default (None: any)."""
+    items = list(default or ())
+    for kind in (bool, int, float, str):
+        if items and all(type(v) is kind or (kind is float and type(v) is int) for v in items):
+            return kind
+    return None
 
 
 def declare_parameters(node: Node, specs: Iterable[ParameterSpec]) -> dict[str, ParameterSpec]:

@@ -1,16 +1,15 @@
 """The simulated world's configuration: :class:`SimConfig`, loaded and validated from ``config/sim.yaml``.
 
-Every key is checked against a table of its type and range; a bad value raises
-:class:`~srs_ros.core.errors.ConfigurationError` naming the file, the key, the value and what is
-expected, as :mod:`srs_ros.core.robot` and :mod:`srs_ros.core.rig` do. The robot itself (geometry, mass,
-muscle limits) comes from the robot description; the muscles' lag and delay from
+Every key is a field of the one schema (:data:`SIM_TABLES`, :mod:`srs_ros.core.schema`: type, range, unit);
+a bad value or an unknown key raises :class:`~srs_ros.core.errors.ConfigurationError` naming the file, the
+key, the value and what is expected, as every config of the package does. The robot itself (geometry,
+mass, muscle limits) comes from the robot description; the muscles' lag and delay from
 :func:`srs_ros.core.actuation.muscle_model.muscle_parameters_from_options`.
 """
 
 from __future__ import annotations
 
 import dataclasses
-import math
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -19,6 +18,7 @@ from typing import Any
 from srs_ros.core.actuation.muscle_model import MuscleParameters, muscle_parameters_from_options
 from srs_ros.core.errors import ConfigurationError
 from srs_ros.core.robot import RobotDescription, config_dir, default_robot, read_yaml
+from srs_ros.core.schema import Field, Table, check_known, refusal, section
 
 #: Name of the default file in ``config/``.
 DEFAULT_SIM_FILE = "sim.yaml"
@@ -132,142 +132,102 @@ class SimConfig:
     def replace(self, section: str, **changes: Any) -> SimConfig:
         """A copy with ``changes`` in one section, validated again, e.g. ``replace("start", yaw_rad=1.0)``."""
         data = to_dict(self)
-        if section not in data or section == "muscles":
-            raise ConfigurationError(f"SimConfig.replace: unknown section {section!r}; expected one of "
-                                     f"{[s for s in _SPEC if s != 'muscles']}.")
+        if section not in SIM_TABLES:
+            raise refusal("SimConfig.replace", "section", section, f"one of {list(SIM_TABLES)}")
         data[section].update(changes)
         source = self.source if self.source.endswith(" (modified)") else self.source + " (modified)"
         return _build(data, source, robot=None, muscles=self.muscles)
 
 
-# (kind, low, high, expected text); low/high inclusive, None = unbounded.
-_Spec = tuple[type, float | None, float | None, str]
-_SPEC: dict[str, dict[str, _Spec]] = {
-    "body": {
-        "segments_per_module": (int, 1, 20, "an integer in [1, 20]"),
-        "skin_radius_m": (float, 0.002, 0.2, "a radius in [0.002, 0.2] m"),
-        "marker_offset_m": (float, 0.0, 0.2, "a distance in [0, 0.2] m from each end"),
-    },
-    "servo": {
-        "bend_stiffness_nm_per_rad": (float, 1e-4, 1e4, "a stiffness in [1e-4, 1e4] N m/rad"),
-        "bend_damping_nms_per_rad": (float, 0.0, 1e3, "a damping in [0, 1e3] N m s/rad"),
-        "axial_stiffness_n_per_m": (float, 1e-2, 1e6, "a stiffness in [0.01, 1e6] N/m"),
-        "axial_damping_ns_per_m": (float, 0.0, 1e4, "a damping in [0, 1e4] N s/m"),
-        "skin_bend_stiffness_nm_per_rad": (float, 0.0, 1e4, "a stiffness in [0, 1e4] N m/rad"),
-        "skin_axial_stiffness_n_per_m": (float, 0.0, 1e6, "a stiffness in [0, 1e6] N/m"),
-        "hinge_armature_kg_m2": (float, 0.0, 1.0, "an inertia in [0, 1] kg m^2"),
-        "slide_armature_kg": (float, 0.0, 100.0, "a mass in [0, 100] kg"),
-    },
-    "contact": {
-        "friction": (str, None, None, f"one of {list(FRICTION_MODES)}"),
-        "friction_coefficient": (float, 0.0, 10.0, "a Coulomb coefficient in [0, 10]"),
-        "friction_along_body": (float, 0.0, 10.0, "a Coulomb coefficient in [0, 10]"),
-        "friction_across_body": (float, 0.0, 10.0, "a Coulomb coefficient in [0, 10]"),
-        "torsional_friction_m": (float, 0.0, 0.1, "a length in [0, 0.1] m"),
-        "rolling_friction_m": (float, 0.0, 0.1, "a length in [0, 0.1] m"),
-        "self_contact": (bool, None, None, "true or false"),
-        "self_contact_min_separation_m": (float, 0.0, 10.0, "a distance in [0, 10] m along the body"),
-        "contact_time_constant_s": (float, 1e-4, 1.0, "a time constant in [1e-4, 1] s"),
-    },
-    "physics": {
-        "time_step_s": (float, 1e-5, 0.02, "a time step in [1e-5, 0.02] s"),
-        "control_period_s": (float, 1e-5, 0.1, "a period in [1e-5, 0.1] s, a whole number of time steps"),
-        "gravity_m_s2": (float, 0.0, 100.0, "an acceleration in [0, 100] m/s^2"),
-        "solver_iterations": (int, 1, 1000, "an integer in [1, 1000]"),
-        "divergence_speed_m_s": (float, 0.01, 1e4, "a speed in [0.01, 1e4] m/s"),
-    },
-    "start": {
-        "x_m": (float, -1e3, 1e3, "a floor coordinate in [-1000, 1000] m"),
-        "y_m": (float, -1e3, 1e3, "a floor coordinate in [-1000, 1000] m"),
-        "yaw_rad": (float, -10.0, 10.0, "a heading in [-10, 10] rad"),
-    },
-    "camera": {
-        "calibration_file": (str, None, None, "a path to a calibration YAML, or empty for the package's"),
-        "focal_length_px": (float, 0.0, 1e5, "0 (derive it) or a focal length in pixels up to 1e5"),
-        "band_length_m": (float, 0.002, 0.2, "a length in [0.002, 0.2] m"),
-        "tail_band_bgr": (tuple, 0, 255, "three integers 0-255 (B, G, R)"),
-        "head_band_bgr": (tuple, 0, 255, "three integers 0-255 (B, G, R)"),
-        "body_bgr": (tuple, 0, 255, "three integers 0-255 (B, G, R)"),
-        "floor_seed": (int, 0, 2**31 - 1, "an integer seed >= 0"),
-        "noise_sigma": (float, 0.0, 50.0, "a noise level in [0, 50] grey levels"),
-    },
-    "muscles": {},
-}
+def _bgr(name: str, description: str) -> Field:
+    return Field(name, list, item=int, length=3, minimum=0, maximum=255, unit="B, G, R", description=description)
+
+
+#: Every section of ``sim:`` but ``muscles`` (:data:`~srs_ros.core.actuation.muscle_model.MUSCLE_OPTIONS`).
+SIM_TABLES: dict[str, Table] = {table.path.split(".")[1]: table for table in (
+    Table("sim.body", (
+        Field("segments_per_module", int, minimum=1, maximum=20, unit="segments",
+              description="rigid segments per soft module"),
+        Field("skin_radius_m", float, minimum=0.002, maximum=0.2, unit="m", description="outer radius of the body"),
+        Field("marker_offset_m", float, minimum=0.0, maximum=0.2, unit="m",
+              description="distance of each marker from its end"),
+    )),
+    Table("sim.servo", (
+        Field("bend_stiffness_nm_per_rad", float, minimum=1e-4, maximum=1e4, unit="N m/rad"),
+        Field("bend_damping_nms_per_rad", float, minimum=0.0, maximum=1e3, unit="N m s/rad"),
+        Field("axial_stiffness_n_per_m", float, minimum=1e-2, maximum=1e6, unit="N/m"),
+        Field("axial_damping_ns_per_m", float, minimum=0.0, maximum=1e4, unit="N s/m"),
+        Field("skin_bend_stiffness_nm_per_rad", float, minimum=0.0, maximum=1e4, unit="N m/rad"),
+        Field("skin_axial_stiffness_n_per_m", float, minimum=0.0, maximum=1e6, unit="N/m"),
+        Field("hinge_armature_kg_m2", float, minimum=0.0, maximum=1.0, unit="kg m^2"),
+        Field("slide_armature_kg", float, minimum=0.0, maximum=100.0, unit="kg"),
+    )),
+    Table("sim.contact", (
+        Field("friction", str, choices=FRICTION_MODES, description="the friction model of the floor"),
+        Field("friction_coefficient", float, minimum=0.0, maximum=10.0, description="isotropic Coulomb coefficient"),
+        Field("friction_along_body", float, minimum=0.0, maximum=10.0, description="Coulomb coefficient along"),
+        Field("friction_across_body", float, minimum=0.0, maximum=10.0, description="Coulomb coefficient across"),
+        Field("torsional_friction_m", float, minimum=0.0, maximum=0.1, unit="m"),
+        Field("rolling_friction_m", float, minimum=0.0, maximum=0.1, unit="m"),
+        Field("self_contact", bool, description="segments far apart along the body touch"),
+        Field("self_contact_min_separation_m", float, minimum=0.0, maximum=10.0, unit="m",
+              description="segments closer than this along the body never touch"),
+        Field("contact_time_constant_s", float, minimum=1e-4, maximum=1.0, unit="s"),
+    )),
+    Table("sim.physics", (
+        Field("time_step_s", float, minimum=1e-5, maximum=0.02, unit="s"),
+        Field("control_period_s", float, minimum=1e-5, maximum=0.1, unit="s",
+              description="a whole number of time steps"),
+        Field("gravity_m_s2", float, minimum=0.0, maximum=100.0, unit="m/s^2"),
+        Field("solver_iterations", int, minimum=1, maximum=1000, unit="iterations"),
+        Field("divergence_speed_m_s", float, minimum=0.01, maximum=1e4, unit="m/s"),
+    )),
+    Table("sim.start", (
+        Field("x_m", float, minimum=-1e3, maximum=1e3, unit="m"),
+        Field("y_m", float, minimum=-1e3, maximum=1e3, unit="m"),
+        Field("yaw_rad", float, minimum=-10.0, maximum=10.0, unit="rad"),
+    )),
+    Table("sim.camera", (
+        Field("calibration_file", str, description="a calibration YAML, or empty for the package's"),
+        Field("focal_length_px", float, minimum=0.0, maximum=1e5, unit="px", description="0 = derive it"),
+        Field("band_length_m", float, minimum=0.002, maximum=0.2, unit="m"),
+        _bgr("tail_band_bgr", "colour of the tail band"),
+        _bgr("head_band_bgr", "colour of the head band"),
+        _bgr("body_bgr", "colour of the body"),
+        Field("floor_seed", int, minimum=0, maximum=2**31 - 1),
+        Field("noise_sigma", float, minimum=0.0, maximum=50.0, unit="grey levels"),
+    )),
+)}
+#: The sections of ``sim:``, in the file's order.
+SECTIONS = (*SIM_TABLES, "muscles")
 _SECTION_TYPES = {"body": BodyConfig, "servo": ServoConfig, "contact": ContactConfig, "physics": PhysicsConfig,
                   "start": StartConfig, "camera": CameraConfig}
 
 
-def _value(section: Mapping[str, Any], key: str, spec: _Spec, where: str) -> Any:
-    kind, low, high, expected = spec
-    if key not in section:
-        raise ConfigurationError(f"{where}: missing key '{key}' (expected {expected}).")
-    value = section[key]
-    bad = ConfigurationError(f"{where}: '{key}' is {value!r}; expected {expected}.")
-    if kind is bool:
-        if not isinstance(value, bool):
-            raise bad
-        return value
-    if kind is str:
-        if not isinstance(value, str):
-            raise bad
-        return value
-    if kind is tuple:
-        if not (isinstance(value, (list, tuple)) and len(value) == 3
-                and all(isinstance(v, int) and not isinstance(v, bool) and low <= v <= high for v in value)):
-            raise bad
-        return tuple(int(v) for v in value)
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise bad
-    if kind is int and not isinstance(value, int):
-        raise bad
-    if not math.isfinite(value) or (low is not None and value < low) or (high is not None and value > high):
-        raise bad
-    return kind(value)
-
-
 def _build(data: Mapping[str, Any], source: str, robot: RobotDescription | None,
            muscles: MuscleParameters | None = None) -> SimConfig:
-    sections = {}
-    for name, spec in _SPEC.items():
-        section = data.get(name)
-        if not isinstance(section, Mapping):
-            raise ConfigurationError(f"{source}: missing section 'sim.{name}:' (a mapping of keys to values).")
-        if name == "muscles":
-            continue
-        where = f"{source} [sim.{name}]"
-        unknown = sorted(set(section) - set(spec))
-        if unknown:
-            raise ConfigurationError(f"{where}: unknown key {unknown[0]!r}; expected some of {sorted(spec)}.")
-        sections[name] = _SECTION_TYPES[name](**{key: _value(section, key, s, where) for key, s in spec.items()})
-    unknown = sorted(set(data) - set(_SPEC))
-    if unknown:
-        raise ConfigurationError(f"{source} [sim]: unknown section {unknown[0]!r}; expected {sorted(_SPEC)}.")
-    _cross_checks(sections, source)
+    check_known(data, SECTIONS, source, "sim")
+    what = "a mapping of key: value"
+    sections = {name: _SECTION_TYPES[name](**table.read(section(data, name, source, "sim", what), source))
+                for name, table in SIM_TABLES.items()}
+    muscle_options = section(data, "muscles", source, "sim", what)
+    _check_control_period(sections["physics"], source)
     if muscles is None:
-        muscles = muscle_parameters_from_options(data["muscles"], robot or default_robot(), f"{source} [sim.muscles]")
+        muscles = muscle_parameters_from_options(muscle_options, robot or default_robot(), source, path="sim.muscles")
     return SimConfig(muscles=muscles, source=source, **sections)
 
 
-def _cross_checks(sections: Mapping[str, Any], source: str) -> None:
-    contact, physics = sections["contact"], sections["physics"]
-    if contact.friction not in FRICTION_MODES:
-        raise ConfigurationError(f"{source} [sim.contact]: 'friction' is {contact.friction!r}; "
-                                 f"expected one of {list(FRICTION_MODES)}.")
+def _check_control_period(physics: PhysicsConfig, source: str) -> None:
     steps = physics.control_period_s / physics.time_step_s
     if steps < 1.0 - 1e-9 or abs(steps - round(steps)) > 1e-6:
-        raise ConfigurationError(
-            f"{source} [sim.physics]: 'control_period_s' is {physics.control_period_s!r}; expected a whole "
-            f"number (>= 1) of time_step_s = {physics.time_step_s} s.")
+        raise refusal(source, "sim.physics.control_period_s", physics.control_period_s,
+                      f"a whole number (>= 1) of time_step_s = {physics.time_step_s:g} s")
 
 
 def sim_config_from_dict(data: Mapping[str, Any], robot: RobotDescription | None = None,
                          source: str = "<dict>") -> SimConfig:
     """Validate the parsed YAML (with its top-level ``sim:`` key) into a :class:`SimConfig`."""
-    section = data.get("sim") if isinstance(data, Mapping) else None
-    if not isinstance(section, Mapping):
-        raise ConfigurationError(f"{source}: missing section 'sim:' (body, servo, contact, physics, start, "
-                                 "muscles, camera).")
-    return _build(section, source, robot)
+    return _build(section(data, "sim", source, what=f"a mapping of the sections {list(SECTIONS)}"), source, robot)
 
 
 def default_sim_config_path() -> Path:

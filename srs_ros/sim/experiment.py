@@ -20,6 +20,7 @@ import numpy as np
 
 from srs_ros.core.actuation.pressure import lengths_to_pressures_bar
 from srs_ros.core.errors import InvalidInputError
+from srs_ros.core.gait.request import SAMPLES_FIELD
 from srs_ros.core.gait.trajectory import GaitCycle, generate_cycle
 from srs_ros.core.rig import load_rig
 from srs_ros.core.robot import RobotDescription, default_robot
@@ -79,7 +80,8 @@ def command_pressures_bar(cycle: GaitCycle, times_s: np.ndarray) -> np.ndarray:
 def run_experiment(gait: str, amplitude_bar: float, frequency_hz: float, duration_s: float,
                    config: SimConfig | None = None, robot: RobotDescription | None = None,
                    command_rate_hz: float | None = None, record_rate_hz: float = DEFAULT_RECORD_RATE_HZ,
-                   samples: int = 64, gait_params: Mapping[str, Any] | None = None, end_window_s: float = 0.0,
+                   samples: int = SAMPLES_FIELD.default, gait_params: Mapping[str, Any] | None = None,
+                   end_window_s: float = 0.0,
                    on_frame: Callable[[SimState], None] | None = None,
                    progress: Callable[[float, float], None] | None = None,
                    cycle: GaitCycle | None = None) -> ExperimentResult:

@@ -68,19 +68,46 @@ def _start_frame(config: SimConfig, robot: RobotDescription) -> tuple[np.ndarray
     return tail, quat
 
 
+@dataclass(frozen=True)
+class _Chain:
+    """Sizes of the body chain: segments per module and in all, rest chord, capsule length, masses, radius."""
+
+    per_module: int
+    count: int
+    rest_chord_m: float
+    geom_chord_m: float
+    segment_mass_kg: float
+    radius_m: float
+
+    @classmethod
+    def of(cls, config: SimConfig, robot: RobotDescription) -> _Chain:
+        n = config.body.segments_per_module
+        count = robot.module_count * n
+        rest_chord = robot.unactuated_length_m / n
+        # Capsules span the chord at half the largest extension: the caps cover the joint gaps at either end.
+        geom_chord = rest_chord * (1.0 + 0.5 * config.muscles.max_extension_m / robot.unactuated_length_m)
+        # The head cap (an end plate) carries half a segment's share of the mass.
+        return cls(n, count, rest_chord, geom_chord, robot.mass_kg / (count + 0.5), config.body.skin_radius_m)
+
+
 def build_spec(config: SimConfig, robot: RobotDescription) -> mujoco.MjSpec:
     """The model as an :class:`mujoco.MjSpec` (not compiled): floor, body chain, servos, contact pairs."""
-    body_cfg, servo, contact, physics = config.body, config.servo, config.contact, config.physics
-    n = body_cfg.segments_per_module
-    count = robot.module_count * n
-    rest_chord = robot.unactuated_length_m / n
-    # Capsules span the chord at half the largest extension: the caps cover the joint gaps at either end.
-    geom_chord = rest_chord * (1.0 + 0.5 * config.muscles.max_extension_m / robot.unactuated_length_m)
-    segment_mass = robot.mass_kg / (count + 0.5)   # the head cap (an end plate) carries half a share
-    radius = body_cfg.skin_radius_m
-
+    chain = _Chain.of(config, robot)
     spec = mujoco.MjSpec()
     spec.modelname = f"{robot.name}_sim"
+    _set_options(spec, config)
+    solref = [config.contact.contact_time_constant_s, 1.0]
+    floor = spec.worldbody.add_geom(name="floor", type=mujoco.mjtGeom.mjGEOM_PLANE, size=[10.0, 10.0, 0.1],
+                                    contype=0, conaffinity=0, rgba=[0.6, 0.6, 0.6, 1.0])
+    floor.solref = solref
+    _add_body(spec, config, robot, chain, solref)
+    _add_contacts(spec, config, chain, solref)
+    return spec
+
+
+def _set_options(spec: mujoco.MjSpec, config: SimConfig) -> None:
+    """Time step, gravity, integrator, friction cone and solver."""
+    physics = config.physics
     opt = spec.option
     opt.timestep = physics.time_step_s
     opt.gravity = [0.0, 0.0, -physics.gravity_m_s2]
@@ -92,50 +119,53 @@ def build_spec(config: SimConfig, robot: RobotDescription) -> mujoco.MjSpec:
     # Divergence is reported as an error by the world, never hidden by MuJoCo's automatic reset.
     opt.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_AUTORESET)
 
-    solref = [contact.contact_time_constant_s, 1.0]
-    floor = spec.worldbody.add_geom(name="floor", type=mujoco.mjtGeom.mjGEOM_PLANE, size=[10.0, 10.0, 0.1],
-                                    contype=0, conaffinity=0, rgba=[0.6, 0.6, 0.6, 1.0])
-    floor.solref = solref
 
+def _add_body(spec: mujoco.MjSpec, config: SimConfig, robot: RobotDescription, chain: _Chain,
+              solref: list[float]) -> None:
+    """The chain of capsule segments from the floating tail, with node joints and servos, and the head cap."""
+    servo, contact, smoothing_s = config.servo, config.contact, config.physics.control_period_s
     tail_pos, tail_quat = _start_frame(config, robot)
     parent = spec.worldbody
-    for k in range(count):
+    for k in range(chain.count):
         if k == 0:
             body = parent.add_body(name="segment_0", pos=tail_pos, quat=tail_quat)
             body.add_freejoint(name="base")
         else:
             # The servo targets come from the kinematic model's node positions, so the twist sigma and the
             # offset delta between modules are in them (chord directions and slide lengths): no joint twists.
-            body = parent.add_body(name=f"segment_{k}", pos=[0.0, 0.0, rest_chord])
-            _add_node_joints(body, k, with_hinges=True, servo=servo, n=n, spec=spec,
-                             smoothing_s=physics.control_period_s)
+            body = parent.add_body(name=f"segment_{k}", pos=[0.0, 0.0, chain.rest_chord_m])
+            _add_node_joints(body, k, with_hinges=True, servo=servo, n=chain.per_module, spec=spec,
+                             smoothing_s=smoothing_s)
         geom = body.add_geom(name=f"skin_{k}", type=mujoco.mjtGeom.mjGEOM_CAPSULE,
-                             fromto=[0.0, 0.0, 0.0, 0.0, 0.0, geom_chord], size=[radius, 0.0, 0.0],
-                             mass=segment_mass, rgba=[0.3, 0.3, 0.32, 1.0])
+                             fromto=[0.0, 0.0, 0.0, 0.0, 0.0, chain.geom_chord_m], size=[chain.radius_m, 0.0, 0.0],
+                             mass=chain.segment_mass_kg, rgba=[0.3, 0.3, 0.32, 1.0])
         geom.friction = [contact.friction_coefficient, contact.torsional_friction_m, contact.rolling_friction_m]
         geom.solref = solref
         geom.contype = geom.conaffinity = 1 if contact.self_contact else 0
         geom.condim = 3
         parent = body
-    head = parent.add_body(name="head", pos=[0.0, 0.0, rest_chord])
-    head.mass = 0.5 * segment_mass
-    head.inertia = [0.4 * head.mass * radius**2] * 3
+    head = parent.add_body(name="head", pos=[0.0, 0.0, chain.rest_chord_m])
+    head.mass = 0.5 * chain.segment_mass_kg
+    head.inertia = [0.4 * head.mass * chain.radius_m**2] * 3
     head.explicitinertial = True
-    _add_node_joints(head, count, with_hinges=False, servo=servo, n=n, spec=spec,
-                     smoothing_s=physics.control_period_s)
+    _add_node_joints(head, chain.count, with_hinges=False, servo=servo, n=chain.per_module, spec=spec,
+                     smoothing_s=smoothing_s)
 
+
+def _add_contacts(spec: mujoco.MjSpec, config: SimConfig, chain: _Chain, solref: list[float]) -> None:
+    """One floor contact pair per segment (friction along / across it), and self-contact beyond the separation."""
+    contact = config.contact
     along, across = contact.along_across
     condim = 6 if contact.rolling_friction_m > 0 else (4 if contact.torsional_friction_m > 0 else 3)
-    for k in range(count):
+    for k in range(chain.count):
         spec.add_pair(name=f"floor_{k}", geomname1="floor", geomname2=f"skin_{k}", condim=condim,
                       friction=[along, across, contact.torsional_friction_m, contact.rolling_friction_m,
                                 contact.rolling_friction_m], solref=solref)
     if contact.self_contact:
-        for i in range(count):
-            for j in range(i + 1, count):
-                if (j - i) * rest_chord < contact.self_contact_min_separation_m or j == i + 1:
+        for i in range(chain.count):
+            for j in range(i + 1, chain.count):
+                if (j - i) * chain.rest_chord_m < contact.self_contact_min_separation_m or j == i + 1:
                     spec.add_exclude(bodyname1=f"segment_{i}", bodyname2=f"segment_{j}")
-    return spec
 
 
 def _add_node_joints(body, k: int, with_hinges: bool, servo, n: int, spec: mujoco.MjSpec, smoothing_s: float) -> None:

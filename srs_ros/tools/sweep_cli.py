@@ -35,7 +35,6 @@ from pathlib import Path
 from tqdm import tqdm
 
 from srs_ros.core.errors import ConfigurationError, SrsError
-from srs_ros.core.gait.library import list_gaits
 from srs_ros.experiments.calibration import (
     DEFAULT_MAX_EVALUATIONS,
     FIT_PARAMETERS,
@@ -47,27 +46,19 @@ from srs_ros.experiments.calibration import (
     write_sim_yaml,
 )
 from srs_ros.experiments.plots import plot_paths, plot_table
-from srs_ros.experiments.sweep import (
-    PAPER_AMPLITUDES_BAR,
-    PAPER_DURATION_S,
-    PAPER_FREQUENCIES_HZ,
-    SweepGrid,
-    default_workers,
-    run_offline_sweep,
-)
+from srs_ros.experiments.sweep import SweepGrid, default_workers, run_offline_sweep
 from srs_ros.experiments.table import (
     MeasuredTable,
     RunRecord,
     format_table,
     load_measured_table,
+    paper_table,
     write_atomically,
     write_table_csv,
 )
 from srs_ros.sim.config import SimConfig, load_sim_config, with_friction
 
 PROG = "srs_sweep"
-#: The paper's gaits, the default of ``--gait``.
-PAPER_GAITS = ("serpentine", "inward_rolling", "outward_rolling")
 #: Run time of the calibration's search runs by default (s): long enough for several cycles at 0.25 Hz.
 DEFAULT_FIT_DURATION_S = 8.0
 EXIT_OK, EXIT_FAILED_RUNS, EXIT_BAD_INPUT, EXIT_INTERRUPTED = 0, 1, 2, 130
@@ -87,14 +78,16 @@ def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog=PROG, description=__doc__.splitlines()[0],
                                      formatter_class=argparse.RawDescriptionHelpFormatter,
                                      epilog="\n".join(__doc__.splitlines()[2:]))
-    grid = parser.add_argument_group("the grid")
+    paper = SweepGrid.of_table(paper_table())  # the defaults: the grid of the paper's Table I
+    grid = parser.add_argument_group("the grid (default: the paper's, config/paper_table1.yaml)")
     grid.add_argument("--gait", action="append", dest="gaits", metavar="GAIT",
-                      help=f"a gait to run (repeat for several; default the paper's {', '.join(PAPER_GAITS)})")
-    grid.add_argument("--amplitudes", nargs="*", type=_number, default=list(PAPER_AMPLITUDES_BAR), metavar="BAR",
-                      help="pressure amplitudes, bar (default 1 2 3 4)")
-    grid.add_argument("--frequencies", nargs="*", type=_number, default=list(PAPER_FREQUENCIES_HZ), metavar="HZ",
-                      help="cycle frequencies, Hz (default 0.25 0.5 0.75 1)")
-    grid.add_argument("--duration-s", type=_number, default=PAPER_DURATION_S, help="run time, s (default 15)")
+                      help=f"a gait to run (repeat for several; default the paper's {', '.join(paper.gaits)})")
+    grid.add_argument("--amplitudes", nargs="*", type=_number, default=list(paper.amplitudes_bar), metavar="BAR",
+                      help=f"pressure amplitudes, bar (default {' '.join(f'{a:g}' for a in paper.amplitudes_bar)})")
+    grid.add_argument("--frequencies", nargs="*", type=_number, default=list(paper.frequencies_hz), metavar="HZ",
+                      help=f"cycle frequencies, Hz (default {' '.join(f'{f:g}' for f in paper.frequencies_hz)})")
+    grid.add_argument("--duration-s", type=_number, default=paper.duration_s,
+                      help=f"run time, s (default {paper.duration_s:g})")
     parser.add_argument("--out", required=True, help="output folder (created if missing)")
     parser.add_argument("--reference", help="measured table shown beside the runs (default the paper's Table I, "
                                             "config/paper_table1.yaml)")
@@ -344,7 +337,7 @@ def main(argv: list[str] | None = None) -> int:
             load_measured_table(args.calibrate)  # a malformed table: exit 2 before the output folder is made
             _sim_config(args)
             return _calibrate(args, prepare_output(args.out))
-        gaits = args.gaits or [g for g in PAPER_GAITS if g in list_gaits()]
+        gaits = args.gaits or paper_table().gaits
         grid = SweepGrid.create(gaits, args.amplitudes, args.frequencies, args.duration_s)
         reference = load_measured_table(args.reference)
         if not args.ros:

@@ -18,7 +18,8 @@ import warnings
 from pathlib import Path
 
 from srs_ros.core.errors import SrsError
-from srs_ros.core.gait.trajectory import MIN_SAMPLES, PoorFitWarning, generate_cycle, list_gaits
+from srs_ros.core.gait.request import MIN_SAMPLES, SAMPLES_FIELD
+from srs_ros.core.gait.trajectory import PoorFitWarning, generate_cycle, list_gaits
 from srs_ros.core.robot import default_robot, load_robot
 
 
@@ -32,7 +33,8 @@ def _parser() -> argparse.ArgumentParser:
     parser.add_argument("--amplitude-bar", type=float, default=None,
                         help="largest pressure of the cycle, bar (0 < A <= max_pressure_bar, 4 bar)")
     parser.add_argument("--frequency-hz", type=float, default=None, help="cycle frequency, Hz (> 0)")
-    parser.add_argument("--samples", type=int, default=64, help=f"samples per cycle (>= {MIN_SAMPLES}, default 64)")
+    parser.add_argument("--samples", type=int, default=SAMPLES_FIELD.default,
+                        help=f"samples per cycle (>= {MIN_SAMPLES}, default {SAMPLES_FIELD.default})")
     parser.add_argument("--param", action="append", default=[], metavar="NAME=VALUE",
                         help="gait parameter override, repeatable (see --list)")
     parser.add_argument("--out", type=Path, help="CSV file to write (a <out>.yaml sidecar holds the metadata)")

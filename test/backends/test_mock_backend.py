@@ -49,7 +49,7 @@ def test_the_mock_rig_file_configures_the_backend():
     ({"fail_on_open": "yes"}, "fail_on_open"),
 ])
 def test_bad_options_name_the_key(options, key):
-    with pytest.raises(ConfigurationError, match=f"'{key}'"):
+    with pytest.raises(ConfigurationError, match=f"^mock backend_options: {key} is "):
         MockBackend(options=options)
 
 
@@ -88,5 +88,5 @@ def test_record_file_holds_every_command_the_backend_is_given(tmp_path):
 
 @pytest.mark.parametrize("value", ["", 3, "/no/such/folder/writes.txt", "/dev/null"])
 def test_a_bad_record_file_names_the_key(value):
-    with pytest.raises(ConfigurationError, match="'record_file'"):
+    with pytest.raises(ConfigurationError, match=f"^mock backend_options: record_file is {value!r}"):
         MockBackend(options={"record_file": value})

@@ -41,16 +41,17 @@ def test_load_from_explicit_path(tmp_path):
 @pytest.mark.parametrize(
     ("section", "key", "value", "message"),
     [
-        ("robot", "unactuated_length_m", None, "missing key 'unactuated_length_m'"),
-        ("robot", "unactuated_length_m", -0.15, "'unactuated_length_m' is -0.15"),
-        ("robot", "max_extension_m", "long", "expected a length > 0 in metres"),
-        ("robot", "module_count", 2.5, "'module_count' is 2.5"),
+        ("robot", "unactuated_length_m", None, "robot.unactuated_length_m is missing; expected a number > 0 (m)"),
+        ("robot", "unactuated_length_m", -0.15, "robot.unactuated_length_m is -0.15; expected a number > 0 (m)"),
+        ("robot", "max_extension_m", "long", "robot.max_extension_m is 'long'; expected a number > 0 (m)"),
+        ("robot", "module_count", 2.5, "robot.module_count is 2.5; expected an integer >= 1"),
         ("robot", "joint_names", ["a", "a", "b", "c", "d", "e", "f", "g", "h"], "9 unique names"),
-        ("actuation", "max_pressure_bar", 6.0, "expected a pressure in (0, 4.0] bar"),
-        ("actuation", "max_pressure_bar", float("nan"), "'max_pressure_bar' is nan"),
+        ("robot", "colour", "red", "robot.colour is not a known key; expected one of [actuator_radius_m"),
+        ("actuation", "max_pressure_bar", 6.0, "actuation.max_pressure_bar is 6.0; expected a number in (0, 4] (bar)"),
+        ("actuation", "max_pressure_bar", float("nan"), "actuation.max_pressure_bar is nan"),
         ("actuation", "regulator_model", "ITV9999", "expected one of ['ITV3010', 'ITV3030', 'ITV3050']"),
-        ("actuation", "supply_pressure_bar", 4.5, "at least max_pressure_bar + supply_margin_bar = 5.0 bar"),
-        ("actuation", "deadzone_offset_bar", True, "'deadzone_offset_bar' is True"),
+        ("actuation", "supply_pressure_bar", 4.5, "at least max_pressure_bar + supply_margin_bar = 5 bar"),
+        ("actuation", "deadzone_offset_bar", True, "actuation.deadzone_offset_bar is True"),
     ],
 )
 def test_invalid_files_name_the_key(section, key, value, message):
@@ -67,7 +68,7 @@ def test_invalid_files_name_the_key(section, key, value, message):
 def test_missing_section_and_missing_file(tmp_path):
     data = _data()
     del data["actuation"]
-    with pytest.raises(ConfigurationError, match="missing section 'actuation:'"):
+    with pytest.raises(ConfigurationError, match="actuation is missing; expected a mapping"):
         robot_from_dict(data)
     with pytest.raises(ConfigurationError, match="no such file"):
         load_robot(tmp_path / "nope.yaml")

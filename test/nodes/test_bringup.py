@@ -35,7 +35,7 @@ def test_bringup_rejects_bad_arguments(launch_node):
 
 def test_bringup_refuses_out_of_range_requests_with_the_reason(launch_node):
     for args, reason in ((["--amplitude-bar", "5"], "amplitude_bar out of range"),
-                         (["--gait", "crawl"], "unknown gait 'crawl'; expected one of")):
+                         (["--gait", "crawl"], "gait is 'crawl'; expected one of")):
         proc = launch_node("srs_bringup", args)
         assert proc.process.wait(30) == 2
         output = proc.output()

@@ -56,7 +56,8 @@ def test_regenerate_latches_one_period_and_failures_keep_the_last_good_one(launc
 
     # Bad values never get in: each is refused with what is allowed.
     for values, words in (({"gait": "crawl"}, "serpentine"), ({"amplitude_bar": 5.0}, "amplitude_bar"),
-                          ({"amplitude_bar": 0.0}, "> 0"), ({"samples": 4}, "samples"),
+                          ({"amplitude_bar": 0.0}, "amplitude_bar is 0.0; expected a number in (0, 4] (bar)"),
+                          ({"samples": 4}, "samples"),
                           ({"serpentine.body_wavelengths": 9.0}, "body_wavelengths")):
         result = ros_client.set_parameters("trajectory_server", values)[0]
         assert not result.successful and words in result.reason, (values, result.reason)

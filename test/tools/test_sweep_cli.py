@@ -1,14 +1,16 @@
 """``srs_sweep`` offline: a small grid end to end, calibration on a tiny table, and bad input refused with exit 2."""
 
 import csv
+import dataclasses
 
 import pytest
 import yaml
 
 from srs_ros.experiments.calibration import table_error
-from srs_ros.experiments.sweep import run_cell
-from srs_ros.experiments.table import TABLE_COLUMNS, load_measured_table, read_table_csv
+from srs_ros.experiments.sweep import SweepGrid, run_cell
+from srs_ros.experiments.table import TABLE_COLUMNS, load_measured_table, paper_table, read_table_csv
 from srs_ros.sim.config import load_sim_config
+from srs_ros.tools import sweep_cli
 from srs_ros.tools.sweep_cli import main
 
 PNG = b"\x89PNG\r\n\x1a\n"
@@ -77,11 +79,24 @@ def test_calibration_on_a_tiny_table_writes_a_loadable_sim_yaml_and_the_error_do
     assert (out / "calibration.txt").read_text().startswith("Calibration of ")
 
 
+def test_without_grid_options_the_sweep_runs_the_grid_of_the_papers_table(tmp_path, monkeypatch):
+    """The paper's grid is its Table I (config/paper_table1.yaml), in one place: a changed table changes the sweep."""
+    paper = SweepGrid.of_table(paper_table())
+    assert (paper.gaits, paper.amplitudes_bar, paper.frequencies_hz, paper.duration_s, len(paper)) == (
+        ("serpentine", "inward_rolling", "outward_rolling"), (1.0, 2.0, 3.0, 4.0), (0.25, 0.5, 0.75, 1.0), 15.0, 48)
+    smaller = dataclasses.replace(paper_table(), cells={("outward_rolling", 2.0, 0.5): (1.0, 2.0)}, duration_s=3.0)
+    monkeypatch.setattr(sweep_cli, "paper_table", lambda: smaller)
+    swept = []
+    monkeypatch.setattr(sweep_cli, "_offline", lambda args, grid, reference, out: swept.append(grid) or 0)
+    assert main(["--out", str(tmp_path / "out")]) == 0
+    assert swept == [SweepGrid.create(["outward_rolling"], [2.0], [0.5], 3.0)]
+
+
 @pytest.mark.parametrize("args, expected", [
-    (["--gait", "slithering"], "gait 'slithering' is unknown"),
-    (["--gait", "serpentine", "--amplitudes", "4.5"], "amplitudes: 4.5 is out of range"),
-    (["--gait", "serpentine", "--amplitudes"], "amplitudes: the list is empty"),
-    (["--gait", "serpentine", "--frequencies"], "frequencies: the list is empty"),
+    (["--gait", "slithering"], "gaits[0] is 'slithering'; expected one of ["),
+    (["--gait", "serpentine", "--amplitudes", "4.5"], "amplitudes[0] is 4.5; expected a number in (0, 4] (bar)"),
+    (["--gait", "serpentine", "--amplitudes"], "amplitudes is []; expected at least one value"),
+    (["--gait", "serpentine", "--frequencies"], "frequencies is []; expected at least one value"),
     (["--gait", "serpentine", "--friction", "sticky"], "friction is 'sticky'"),
 ])
 def test_bad_input_exits_2_with_the_reason_and_writes_nothing(tmp_path, capsys, args, expected):

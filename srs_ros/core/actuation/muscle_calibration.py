@@ -26,7 +26,6 @@ A :class:`PressureMap` turns actuator lengths (m) into pressures (bar) and alway
 from __future__ import annotations
 
 import abc
-import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -35,7 +34,7 @@ from typing import Any
 import numpy as np
 import yaml
 
-from srs_ros.core.actuation.muscle_model import MUSCLE_OPTION_RANGES
+from srs_ros.core.actuation.muscle_model import MUSCLE_OPTIONS
 from srs_ros.core.actuation.pressure import (
     clamp_pressures_bar,
     lengths_to_pressures_bar,
@@ -44,20 +43,27 @@ from srs_ros.core.actuation.pressure import (
 )
 from srs_ros.core.errors import ConfigurationError
 from srs_ros.core.robot import RobotDescription, default_robot, read_yaml
+from srs_ros.core.schema import REQUIRED, Field, Table, check_known, mapping, missing, refusal, section
 from srs_ros.core.validation import finite_array
 
 #: Top-level key of a calibration file.
 CALIBRATION_SECTION = "muscle_calibration"
+#: One muscle's entry of a calibration file: its static characteristic, then (when identified) its dynamics.
+MUSCLE_ENTRY = Table(f"{CALIBRATION_SECTION}.muscles.<joint>", (
+    MUSCLE_OPTIONS["deadzone_bar"],
+    Field("extension_per_bar_m", float, REQUIRED, 1e-5, 1.0, "m/bar", "extension per bar above the deadzone"),
+    # Above the highest pressure tested when no knee was seen; beyond 4 bar it is never commanded.
+    Field("saturation_bar", float, REQUIRED, 0.0, 100.0, "bar", "pressure of the largest extension"),
+    MUSCLE_OPTIONS["transport_delay_s"],
+    MUSCLE_OPTIONS["pressure_time_constant_s"],
+), description="a mapping of deadzone_bar, extension_per_bar_m, saturation_bar and the dynamics")
 #: The static characteristic of a muscle: key -> (lowest, highest) accepted value.
 STATIC_KEYS: dict[str, tuple[float, float]] = {
-    "deadzone_bar": MUSCLE_OPTION_RANGES["deadzone_bar"],
-    "extension_per_bar_m": (1e-5, 1.0),
-    # Above the highest pressure tested when no knee was seen; beyond 4 bar it is never commanded.
-    "saturation_bar": (0.0, 100.0),
-}
+    f.name: (f.minimum, f.maximum)
+    for f in MUSCLE_ENTRY.only(("deadzone_bar", "extension_per_bar_m", "saturation_bar"))}
 #: The supply line's dynamics of a muscle (the muscle model's ranges).
 DYNAMIC_KEYS: dict[str, tuple[float, float]] = {
-    key: MUSCLE_OPTION_RANGES[key] for key in ("transport_delay_s", "pressure_time_constant_s")}
+    f.name: (f.minimum, f.maximum) for f in MUSCLE_ENTRY.only(("transport_delay_s", "pressure_time_constant_s"))}
 _INFO_KEYS = ("rig", "created", "method", "fit")
 
 #: Values of the ``pressure_map`` choice: the paper's P = 100 l, or the rig's calibration.
@@ -110,56 +116,38 @@ def calibration_from_values(values: Mapping[str, Mapping[str, float]], robot: Ro
     Raises :class:`ConfigurationError` starting with ``source`` and naming the muscle, the key, the
     value and what is expected.
     """
-    where = f"{source} [{CALIBRATION_SECTION}.muscles]"
-    if not isinstance(values, Mapping):
-        raise ConfigurationError(f"{where}: expected a mapping of joint name: {{{', '.join(STATIC_KEYS)}, ...}}, "
-                                 f"got {values!r}.")
+    path = f"{CALIBRATION_SECTION}.muscles"
+    values = mapping(values, source, path, f"a mapping of joint name: {{{', '.join(STATIC_KEYS)}, ...}}")
     names = list(robot.joint_names)
-    unknown = sorted(set(values) - set(names), key=str)
-    if unknown:
-        raise ConfigurationError(f"{where}: unknown muscle {unknown[0]!r}; expected the robot's joints {names}.")
-    missing = [name for name in names if name not in values]
-    if missing:
-        raise ConfigurationError(f"{where}: missing muscles {missing}; a calibration gives every joint of the "
-                                 f"robot {names} (identify them all, or merge into an existing file).")
-    rows = [_muscle_row(values[name], robot, f"{where[:-1]}.{name}]") for name in names]
+    check_known(values, names, source, path)
+    absent = [name for name in names if name not in values]
+    if absent:
+        raise missing(source, f"{path}.{absent[0]}", f"an entry for every joint of the robot {names} (identify "
+                                                     "them all, or merge into an existing file)")
+    rows = [_muscle_row(values[name], robot, source, name) for name in names]
     with_dynamics = [name for name, row in zip(names, rows) if "transport_delay_s" in row]
     if with_dynamics and len(with_dynamics) != len(names):
-        without = [name for name in names if name not in with_dynamics]
-        raise ConfigurationError(f"{where}: {without} have no {list(DYNAMIC_KEYS)} while {with_dynamics} do; "
-                                 "expected the dynamics of every muscle or of none.")
+        without = next(name for name in names if name not in with_dynamics)
+        raise missing(source, f"{path}.{without}.transport_delay_s", f"the dynamics of every muscle or of none "
+                                                                     f"({with_dynamics} have them)")
     column = {key: np.array([row[key] for row in rows]) for key in rows[0]}
     return MuscleCalibration(joint_names=tuple(names), info=dict(info or {}), source=source, **column)
 
 
-def _muscle_row(entry: Any, robot: RobotDescription, where: str) -> dict[str, float]:
-    if not isinstance(entry, Mapping):
-        raise ConfigurationError(f"{where}: expected a mapping of {list(STATIC_KEYS) + list(DYNAMIC_KEYS)}, "
-                                 f"got {entry!r}.")
-    known = {**STATIC_KEYS, **DYNAMIC_KEYS}
-    unknown = sorted(set(entry) - set(known), key=str)
-    if unknown:
-        raise ConfigurationError(f"{where}: unknown key {unknown[0]!r}; expected some of {list(known)}.")
+def _muscle_row(entry: Any, robot: RobotDescription, source: str, name: str) -> dict[str, float]:
+    table = MUSCLE_ENTRY.at(f"{CALIBRATION_SECTION}.muscles.{name}")
+    entry = mapping(entry, source, table.path, MUSCLE_ENTRY.description)
     dynamic = [key for key in DYNAMIC_KEYS if key in entry]
     if dynamic and len(dynamic) != len(DYNAMIC_KEYS):
-        raise ConfigurationError(f"{where}: {dynamic} without the rest of {list(DYNAMIC_KEYS)}; expected both "
-                                 "(the identified dynamics) or neither.")
-    row = {}
-    for key in [*STATIC_KEYS, *dynamic]:
-        low, high = known[key]
-        if key not in entry:
-            raise ConfigurationError(f"{where}: missing key '{key}' (expected a number in [{low}, {high}]).")
-        value = entry[key]
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) \
-                or not (low <= value <= high):
-            raise ConfigurationError(f"{where}: '{key}' is {value!r}; expected a number in [{low}, {high}].")
-        row[key] = float(value)
+        raise refusal(source, table.key(dynamic[0]), entry[dynamic[0]],
+                      f"it with the rest of {list(DYNAMIC_KEYS)} (the identified dynamics), or neither")
+    row = table.only([*STATIC_KEYS, *dynamic]).read(entry, source, extra=DYNAMIC_KEYS)
     if row["deadzone_bar"] >= robot.max_pressure_bar:
-        raise ConfigurationError(f"{where}: 'deadzone_bar' is {row['deadzone_bar']}; expected less than the robot's "
-                                 f"max_pressure_bar ({robot.max_pressure_bar} bar), or the muscle never extends.")
+        raise refusal(source, table.key("deadzone_bar"), row["deadzone_bar"], f"less than the robot's "
+                      f"max_pressure_bar = {robot.max_pressure_bar:g} bar, or the muscle never extends")
     if row["saturation_bar"] <= row["deadzone_bar"]:
-        raise ConfigurationError(f"{where}: 'saturation_bar' is {row['saturation_bar']}; expected more than its "
-                                 f"deadzone_bar ({row['deadzone_bar']} bar).")
+        raise refusal(source, table.key("saturation_bar"), row["saturation_bar"],
+                      f"more than its deadzone_bar = {row['deadzone_bar']:g} bar")
     return row
 
 
@@ -167,17 +155,11 @@ def calibration_from_dict(data: Any, robot: RobotDescription | None = None,
                           source: str = "<dict>") -> MuscleCalibration:
     """Validate a parsed calibration file (with its top-level ``muscle_calibration:`` key)."""
     robot = robot or default_robot()
-    section = data.get(CALIBRATION_SECTION) if isinstance(data, Mapping) else None
-    if not isinstance(section, Mapping):
-        raise ConfigurationError(f"{source}: missing section '{CALIBRATION_SECTION}:' (muscles: one entry per joint "
-                                 "with deadzone_bar, extension_per_bar_m, saturation_bar, ...); srs_identify "
-                                 "writes it.")
-    unknown = sorted(set(section) - {"muscles", *_INFO_KEYS}, key=str)
-    if unknown:
-        raise ConfigurationError(f"{source} [{CALIBRATION_SECTION}]: unknown key {unknown[0]!r}; expected "
-                                 f"'muscles' and optionally {list(_INFO_KEYS)}.")
-    info = {key: section[key] for key in _INFO_KEYS if key in section}
-    return calibration_from_values(section.get("muscles"), robot, info, source)
+    section_ = section(data, CALIBRATION_SECTION, source, what="a mapping with muscles: one entry per joint with "
+                       "deadzone_bar, extension_per_bar_m, saturation_bar, ... (srs_identify writes it)")
+    check_known(section_, ("muscles", *_INFO_KEYS), source, CALIBRATION_SECTION)
+    info = {key: section_[key] for key in _INFO_KEYS if key in section_}
+    return calibration_from_values(section_.get("muscles"), robot, info, source)
 
 
 def load_calibration(path: str | Path, robot: RobotDescription | None = None) -> MuscleCalibration:

@@ -21,20 +21,25 @@ from typing import Any
 
 import numpy as np
 
-from srs_ros.core.errors import ConfigurationError
 from srs_ros.core.robot import ABSOLUTE_MAX_PRESSURE_BAR, RobotDescription
+from srs_ros.core.schema import REQUIRED, Field, Table, refusal
 from srs_ros.core.validation import finite_array
 
-#: Muscle option -> (lowest, highest) accepted value.
-MUSCLE_OPTION_RANGES: dict[str, tuple[float, float]] = {
-    "pressure_time_constant_s": (0.0, 10.0),
-    "transport_delay_s": (0.0, 2.0),
-    "deadzone_bar": (0.0, ABSOLUTE_MAX_PRESSURE_BAR),
-    "max_extension_m": (1e-4, 1.0),
-}
+#: The options of simulated muscles (a rig's ``backend_options``, ``muscles:`` of ``config/sim.yaml``).
+#: Deadzone and largest extension default to the robot's (:func:`muscle_parameters_from_options`).
+MUSCLE_OPTIONS = Table("", (
+    Field("pressure_time_constant_s", float, 0.08, 0.0, 10.0, "s", "first-order lag of regulator + muscle"),
+    Field("transport_delay_s", float, 0.03, 0.0, 2.0, "s", "supply-line transport delay"),
+    Field("deadzone_bar", float, REQUIRED, 0.0, ABSOLUTE_MAX_PRESSURE_BAR, "bar",
+          "no extension below this pressure (default: the robot's)"),
+    Field("max_extension_m", float, REQUIRED, 1e-4, 1.0, "m",
+          "extension at the robot's max_pressure_bar, never exceeded (default: the robot's)"),
+), description="a mapping of option: value")
+#: Muscle option -> (lowest, highest) accepted value (from :data:`MUSCLE_OPTIONS`).
+MUSCLE_OPTION_RANGES: dict[str, tuple[float, float]] = {f.name: (f.minimum, f.maximum) for f in MUSCLE_OPTIONS}
 #: Defaults of the options the robot description does not give: first-order lag of regulator + muscle
 #: and supply-line transport delay (deadzone and largest extension default to the robot's).
-MUSCLE_OPTION_DEFAULTS: dict[str, float] = {"pressure_time_constant_s": 0.08, "transport_delay_s": 0.03}
+MUSCLE_OPTION_DEFAULTS: dict[str, float] = {k: v for k, v in MUSCLE_OPTIONS.defaults.items()}
 
 
 @dataclass(frozen=True)
@@ -53,30 +58,20 @@ class MuscleParameters:
 
 
 def muscle_parameters_from_options(options: Mapping[str, Any], robot: RobotDescription, where: str,
-                                   extra_keys: tuple[str, ...] = ()) -> MuscleParameters:
-    """Validated :class:`MuscleParameters` from ``options`` (keys of :data:`MUSCLE_OPTION_RANGES`).
+                                   extra_keys: tuple[str, ...] = (), path: str = "") -> MuscleParameters:
+    """Validated :class:`MuscleParameters` from ``options`` (keys of :data:`MUSCLE_OPTIONS`).
 
     Missing keys take :data:`MUSCLE_OPTION_DEFAULTS` or the robot's ``deadzone_bar`` / ``max_extension_m``;
     full extension is reached at the robot's ``max_pressure_bar``. ``extra_keys`` are other options the
     caller handles itself (not refused as unknown). Raises :class:`ConfigurationError` starting with
-    ``where`` and naming the key, the value and what is expected.
+    ``where`` (the file or component) and naming the key (at dotted ``path``), the value and what is expected.
     """
-    if not isinstance(options, Mapping):
-        raise ConfigurationError(f"{where}: expected a mapping of option: value, got {options!r}.")
-    unknown = sorted(set(options) - set(MUSCLE_OPTION_RANGES) - set(extra_keys))
-    if unknown:
-        raise ConfigurationError(f"{where}: unknown key {unknown[0]!r}; expected some of "
-                                 f"{sorted(MUSCLE_OPTION_RANGES) + list(extra_keys)}.")
-    defaults = dict(MUSCLE_OPTION_DEFAULTS, deadzone_bar=robot.deadzone_bar, max_extension_m=robot.max_extension_m)
-    values = {}
-    for key, (low, high) in MUSCLE_OPTION_RANGES.items():
-        value = options.get(key, defaults[key])
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or not (low <= value <= high):
-            raise ConfigurationError(f"{where}: '{key}' is {value!r}; expected a number in [{low}, {high}].")
-        values[key] = float(value)
+    table = MUSCLE_OPTIONS.at(path).with_defaults(deadzone_bar=robot.deadzone_bar,
+                                                   max_extension_m=robot.max_extension_m)
+    values = table.read(options, where, extra=extra_keys)
     if values["deadzone_bar"] >= robot.max_pressure_bar:
-        raise ConfigurationError(f"{where}: 'deadzone_bar' is {values['deadzone_bar']}; expected "
-                                 f"less than the robot's max_pressure_bar ({robot.max_pressure_bar} bar).")
+        raise refusal(where, table.key("deadzone_bar"), values["deadzone_bar"],
+                      f"less than the robot's max_pressure_bar = {robot.max_pressure_bar:g} bar")
     return MuscleParameters(full_extension_pressure_bar=robot.max_pressure_bar, **values)
 
 

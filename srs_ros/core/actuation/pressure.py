@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from srs_ros.core.errors import InvalidInputError
-from srs_ros.core.robot import ABSOLUTE_MAX_PRESSURE_BAR, RobotDescription, default_robot
+from srs_ros.core.robot import ABSOLUTE_MAX_PRESSURE_BAR, RobotDescription, amplitude_field, default_robot
 from srs_ros.core.validation import finite_array
 
 
@@ -88,10 +88,7 @@ def pressure_amplitude_scale(lengths_m, amplitude_bar: float, robot: RobotDescri
     """
     robot = robot or default_robot()
     lengths = finite_array("lengths_m", lengths_m, (robot.joint_count,), "m")
-    if not (robot.deadzone_offset_bar < amplitude_bar <= robot.max_pressure_bar):
-        raise InvalidInputError(
-            f"amplitude_bar: expected a pressure in ({robot.deadzone_offset_bar}, {robot.max_pressure_bar}] bar, "
-            f"got {amplitude_bar}.")
+    amplitude_bar = amplitude_field(robot).check(amplitude_bar, "pressure_amplitude_scale", error=InvalidInputError)
     peak_m = float(lengths.max())
     if peak_m <= 0.0:
         raise InvalidInputError("lengths_m: the cycle never extends an actuator; it cannot be scaled to an amplitude.")

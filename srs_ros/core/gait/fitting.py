@@ -20,14 +20,14 @@ still poor is retried from many random starts (the global fallback), and reporte
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
-from srs_ros.core.errors import ConfigurationError
 from srs_ros.core.kinematics import backbone_points, backbone_points_and_jacobian, bend_to_lengths, body_transforms
 from srs_ros.core.robot import RobotDescription
+from srs_ros.core.schema import Field, Table
 
 # Convergence of one start: relative cost decrease, step (m) and damping limits.
 _RELATIVE_DECREASE = 1e-6
@@ -50,25 +50,25 @@ class FitSettings:
     seed: int = 7
 
     @classmethod
-    def from_config(cls, section: Mapping[str, Any] | None) -> FitSettings:
-        """Build from the ``fitting:`` mapping; unknown keys or bad values raise :class:`ConfigurationError`."""
-        section = dict(section or {})
-        known = {f.name: f.type for f in fields(cls)}
-        unknown = sorted(set(section) - set(known))
-        if unknown:
-            raise ConfigurationError(f"gaits.yaml [fitting]: unknown key(s) {unknown}; expected {sorted(known)}.")
-        values = {}
-        for f in fields(cls):
-            value = section.get(f.name, f.default)
-            kind = float if f.type in ("float", float) else int
-            if isinstance(value, bool) or not isinstance(value, (int, float)) or value < 0 or (
-                    kind is int and int(value) != value):
-                raise ConfigurationError(
-                    f"gaits.yaml [fitting]: '{f.name}' is {value!r}; expected a non-negative {kind.__name__}.")
-            values[f.name] = kind(value)
-        if values["curve_points"] < 3 or values["max_iterations"] < 1:
-            raise ConfigurationError("gaits.yaml [fitting]: expected curve_points >= 3 and max_iterations >= 1.")
-        return cls(**values)
+    def from_config(cls, section: Mapping[str, Any] | None, source: str = "gaits.yaml") -> FitSettings:
+        """Build from the ``fitting:`` mapping of ``source``; unknown keys or bad values raise ConfigurationError."""
+        return cls(**FIT_SETTINGS.read(section or {}, source))
+
+
+#: The ``fitting:`` section of ``config/gaits.yaml`` (defaults: :class:`FitSettings`).
+FIT_SETTINGS = Table("fitting", (
+    Field("length_weight", float, FitSettings.length_weight, minimum=0.0, unit="1",
+          description="w of paper eq. 3: cost = sum d^2 + w sum l^2"),
+    Field("curve_points", int, FitSettings.curve_points, minimum=3, unit="points",
+          description="samples of each target curve"),
+    Field("max_iterations", int, FitSettings.max_iterations, minimum=1, unit="iterations",
+          description="Levenberg-Marquardt iterations per start"),
+    Field("neighbour_sweeps", int, FitSettings.neighbour_sweeps, minimum=0, unit="passes",
+          description="passes that restart suspect samples from their neighbours"),
+    Field("multistart_count", int, FitSettings.multistart_count, minimum=0, unit="starts",
+          description="random starts per poor sample in the global fallback"),
+    Field("seed", int, FitSettings.seed, minimum=0, description="seed of the fallback's random starts"),
+), description="a mapping of fitter settings")
 
 
 @dataclass(frozen=True)

@@ -15,7 +15,9 @@ body's +Z, as the kinematics require.
 
 from __future__ import annotations
 
+import dataclasses
 import math
+import numbers
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from functools import lru_cache
@@ -26,10 +28,29 @@ import numpy as np
 
 from srs_ros.core.errors import ConfigurationError, InvalidInputError
 from srs_ros.core.robot import RobotDescription, config_dir, read_yaml
+from srs_ros.core.schema import Field, Table, check_known, refusal, section
 
 ShapeFunction = Callable[[np.ndarray, np.ndarray, dict, RobotDescription], tuple[np.ndarray, dict]]
 
 _TYPES: dict[str, type] = {"float": float, "int": int, "bool": bool}
+#: Where a refused gait parameter value says it is (the key is ``<gait>.<parameter>``).
+GAIT_PARAMETERS_WHERE = "gait parameters"
+#: The block of one gait in ``config/gaits.yaml``.
+GAIT_BLOCK = Table("gaits.<gait>", (
+    Field("description", str, "", description="what the gait does"),
+    Field("parameters", dict, None, description="parameter name: a block of GAIT_PARAMETER_BLOCK"),
+), description="a mapping with description and parameters")
+#: The block of one gait parameter in ``config/gaits.yaml`` (``type``, ``default`` and a range).
+GAIT_PARAMETER_BLOCK = Table("gaits.<gait>.parameters.<parameter>", (
+    Field("type", str, choices=tuple(_TYPES), description="the parameter's type"),
+    Field("default", object, expected_text="a value of the parameter's type in its range"),
+    Field("minimum", float, None, description="lowest value (inclusive); leave out for none"),
+    Field("maximum", float, None, description="highest value (inclusive); leave out for none"),
+    Field("unit", str, "", description="unit of the value"),
+    Field("description", str, "", description="what the parameter does"),
+    Field("amplitude", str, "", choices=("", "proportional", "inverse"),
+          description="how the parameter follows the pressure amplitude (float parameters only)"),
+), description="a mapping with type, default, minimum, maximum, unit, description")
 
 
 @dataclass(frozen=True)
@@ -47,30 +68,24 @@ class GaitParameter:
     #: bending, e.g. a serpenoid's angle) or "inverse" (a length that shrinks as the body bends more, e.g. a radius).
     amplitude: str = ""
 
+    @property
+    def field(self) -> Field:
+        """The parameter as a field of the schema (type, range, unit, description, default)."""
+        return Field(self.name, self.type, self.default, self.minimum, self.maximum, self.unit, self.description)
+
     def check(self, gait_name: str, value: Any) -> Any:
-        """Return ``value`` converted to :attr:`type`, or raise :class:`InvalidInputError` saying why not."""
-        error = InvalidInputError(
-            f"gait '{gait_name}': parameter '{self.name}' is {value!r}; expected {self.allowed_text()}.")
-        if self.type is bool:
-            if not isinstance(value, (bool, np.bool_)):
-                raise error
-            return bool(value)
-        if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.integer, np.floating)):
-            raise error
-        if not math.isfinite(float(value)) or (self.type is int and float(value) != int(value)):
-            raise error
-        number = self.type(value)
-        if (self.minimum is not None and number < self.minimum) or (self.maximum is not None and number > self.maximum):
-            raise error
-        return number
+        """Return ``value`` converted to :attr:`type`, or raise :class:`InvalidInputError` saying why not.
+
+        The error names the parameter as ``<gait>.<parameter>`` (the trajectory server's parameter name).
+        """
+        if self.type is int and isinstance(value, numbers.Real) and not isinstance(value, bool) \
+                and float(value).is_integer():
+            value = int(value)  # 3.0 is the integer 3 (YAML, a --param on the command line)
+        return self.field.check(value, GAIT_PARAMETERS_WHERE, f"{gait_name}.{self.name}", InvalidInputError)
 
     def allowed_text(self) -> str:
-        """Human text of the allowed values, e.g. ``a float in [0.08, 2.0] m``."""
-        if self.type is bool:
-            return "true or false"
-        low = "-inf" if self.minimum is None else f"{self.minimum:g}"
-        high = "inf" if self.maximum is None else f"{self.maximum:g}"
-        return f"{'an' if self.type is int else 'a'} {self.type.__name__} in [{low}, {high}] {self.unit}".rstrip()
+        """Human text of the allowed values, e.g. ``a number in [0.08, 2] (m)``."""
+        return self.field.expected
 
 
 @dataclass(frozen=True)
@@ -105,10 +120,7 @@ class GaitSpec:
         """Defaults overlaid with ``params``, every value checked; unknown names raise :class:`InvalidInputError`."""
         params = dict(params or {})
         by_name = {p.name: p for p in self.parameters}
-        unknown = sorted(set(params) - set(by_name))
-        if unknown:
-            listing = ", ".join(f"{p.name} ({p.allowed_text()})" for p in self.parameters)
-            raise InvalidInputError(f"gait '{self.name}': unknown parameter(s) {unknown}; allowed: {listing}.")
+        check_known(params, by_name, GAIT_PARAMETERS_WHERE, self.name, InvalidInputError)
         return {name: p.check(self.name, params.get(name, p.default)) for name, p in by_name.items()}
 
 
@@ -131,8 +143,8 @@ def gaits_config_path() -> Path:
 @lru_cache(maxsize=4)
 def _load_config(path: str) -> dict:
     data = read_yaml(path)
-    if not isinstance(data, Mapping) or not isinstance(data.get("gaits"), Mapping):
-        raise ConfigurationError(f"{path}: expected a mapping with a 'gaits:' section (one block per gait).")
+    section(data, "gaits", path, what="a mapping of gait name: its block (one block per gait)")
+    check_known(data, ("gaits", "fitting"), path)
     return dict(data)
 
 
@@ -142,22 +154,18 @@ def gaits_config(path: str | Path | None = None) -> dict:
 
 
 def _parameter_from_yaml(gait_name: str, name: str, block: Any, where: str) -> GaitParameter:
-    if not isinstance(block, Mapping) or "default" not in block or block.get("type") not in _TYPES:
-        raise ConfigurationError(
-            f"{where}: parameter '{name}' of gait '{gait_name}' needs 'type' (one of {sorted(_TYPES)}) and 'default'.")
-    kind = _TYPES[block["type"]]
-    amplitude = str(block.get("amplitude", ""))
-    if amplitude not in ("", "proportional", "inverse") or (amplitude and kind is not float):
-        raise ConfigurationError(f"{where}: parameter '{name}' of gait '{gait_name}' has amplitude {amplitude!r}; "
-                                 "expected 'proportional' or 'inverse' on a float parameter.")
-    parameter = GaitParameter(name=name, type=kind, default=block["default"], minimum=block.get("minimum"),
-                              maximum=block.get("maximum"), unit=str(block.get("unit", "")),
-                              description=str(block.get("description", "")), amplitude=amplitude)
+    table = GAIT_PARAMETER_BLOCK.at(f"gaits.{gait_name}.parameters.{name}")
+    values = table.read(block, where)
+    kind = _TYPES[values["type"]]
+    if values["amplitude"] and kind is not float:
+        raise refusal(where, table.key("amplitude"), values["amplitude"], "'' (only a float parameter follows "
+                      "the amplitude)")
+    parameter = GaitParameter(name=name, type=kind, **{k: v for k, v in values.items() if k != "type"})
     try:
-        default = parameter.check(gait_name, block["default"])
-    except InvalidInputError as exc:
-        raise ConfigurationError(f"{where}: default out of range: {exc}") from None
-    return GaitParameter(**{**parameter.__dict__, "default": default})
+        default = parameter.check(gait_name, values["default"])
+    except InvalidInputError:
+        raise refusal(where, table.key("default"), values["default"], parameter.allowed_text()) from None
+    return dataclasses.replace(parameter, default=default)
 
 
 def list_gaits(path: str | Path | None = None) -> dict[str, GaitSpec]:
@@ -174,10 +182,11 @@ def list_gaits(path: str | Path | None = None) -> dict[str, GaitSpec]:
             "each gait needs both (a @gait function in srs_ros/core/gait/library.py and a block under 'gaits:').")
     specs = {}
     for name, block in blocks.items():
-        params = (block or {}).get("parameters") or {}
+        values = GAIT_BLOCK.at(f"gaits.{name}").read(block or {}, where)
         specs[name] = GaitSpec(
-            name=name, description=" ".join(str((block or {}).get("description", "")).split()),
-            parameters=tuple(_parameter_from_yaml(name, key, value, where) for key, value in params.items()))
+            name=name, description=" ".join(values["description"].split()),
+            parameters=tuple(_parameter_from_yaml(name, key, value, where)
+                             for key, value in (values["parameters"] or {}).items()))
     return specs
 
 

@@ -40,17 +40,17 @@ from srs_ros.core.gait.library import (
     GaitSpec,
     gait_spec,
     gaits_config,
+    gaits_config_path,
     list_gaits,
     rolling_arc_lengths,
     rolling_radius_for_peak,
     shape_curves,
 )
-from srs_ros.core.robot import CYCLE_FREQUENCY_RANGE_HZ, RobotDescription, default_robot
+from srs_ros.core.gait.request import FREQUENCY_FIELD, MIN_SAMPLES, SAMPLES_FIELD, amplitude_field, any_samples
+from srs_ros.core.robot import RobotDescription, default_robot
 
 __all__ = ["GaitCycle", "GaitSpec", "generate_cycle", "list_gaits", "fit_settings", "MIN_SAMPLES"]
 
-#: Fewest samples per cycle accepted (the periodic spline and the fit's warm starts need a few).
-MIN_SAMPLES = 8
 
 
 class PoorFitWarning(UserWarning):
@@ -59,7 +59,7 @@ class PoorFitWarning(UserWarning):
 
 def fit_settings() -> FitSettings:
     """The fitter settings of ``config/gaits.yaml`` (section ``fitting:``)."""
-    return FitSettings.from_config(gaits_config().get("fitting"))
+    return FitSettings.from_config(gaits_config().get("fitting"), str(gaits_config_path()))
 
 
 @dataclass(frozen=True, eq=False)
@@ -227,23 +227,13 @@ def _plain(value: Any) -> Any:
 def _check_request(gait: str, amplitude_bar: float, frequency_hz: float, samples: int,
                    robot: RobotDescription) -> GaitSpec:
     spec = gait_spec(gait)
-    low_hz, high_hz = CYCLE_FREQUENCY_RANGE_HZ
-    if isinstance(amplitude_bar, bool) or not isinstance(amplitude_bar, (int, float, np.number)) or not (
-            math.isfinite(amplitude_bar) and robot.deadzone_offset_bar < amplitude_bar <= robot.max_pressure_bar):
-        raise InvalidInputError(
-            f"amplitude_bar: expected a pressure in ({robot.deadzone_offset_bar:g}, {robot.max_pressure_bar:g}] bar "
-            f"(the largest pressure of the cycle), got {amplitude_bar!r}.")
-    if isinstance(frequency_hz, bool) or not isinstance(frequency_hz, (int, float, np.number)) or not (
-            math.isfinite(frequency_hz) and low_hz <= frequency_hz <= high_hz):
-        raise InvalidInputError(f"frequency_hz: expected a cycle frequency in [{low_hz:g}, {high_hz:g}] Hz (the paper "
-                                f"uses 0.25-1.0), got {frequency_hz!r}.")
-    if isinstance(samples, bool) or not isinstance(samples, (int, np.integer)) or samples < MIN_SAMPLES:
-        raise InvalidInputError(f"samples: expected an integer >= {MIN_SAMPLES} samples per cycle (default 64), "
-                                f"got {samples!r}.")
+    for field_, value in ((amplitude_field(robot), amplitude_bar), (FREQUENCY_FIELD, frequency_hz),
+                          (any_samples(), samples)):
+        field_.check(value, "generate_cycle", error=InvalidInputError)
     return spec
 
 
-def generate_cycle(gait: str, amplitude_bar: float, frequency_hz: float, samples: int = 64,
+def generate_cycle(gait: str, amplitude_bar: float, frequency_hz: float, samples: int = SAMPLES_FIELD.default,
                    robot: RobotDescription | None = None, params: Mapping[str, Any] | None = None) -> GaitCycle:
     """The cycle of ``gait`` at ``amplitude_bar`` (shape solved for it), ``samples`` shapes, timed by ``frequency_hz``.
 

@@ -56,23 +56,25 @@ def test_a_static_only_calibration_has_no_dynamics():
 
 
 @pytest.mark.parametrize(("change", "message"), [
-    (lambda d: d["muscle_calibration"]["muscles"].pop("m3_pma3"), r"missing muscles \['m3_pma3'\]"),
-    (lambda d: d["muscle_calibration"]["muscles"].update(m4_pma1=SIM_MUSCLE), "unknown muscle 'm4_pma1'"),
-    (lambda d: d["muscle_calibration"].update(gain=1), "unknown key 'gain'"),
+    (lambda d: d["muscle_calibration"]["muscles"].pop("m3_pma3"), r"muscles.m3_pma3 is missing; expected an entry"),
+    (lambda d: d["muscle_calibration"]["muscles"].update(m4_pma1=SIM_MUSCLE),
+     r"muscles.m4_pma1 is not a known key; expected one of \[m1_pma1"),
+    (lambda d: d["muscle_calibration"].update(gain=1), "muscle_calibration.gain is not a known key"),
     (lambda d: d["muscle_calibration"]["muscles"]["m1_pma2"].update(deadzone_bar=-0.5),
-     r"m1_pma2\]: 'deadzone_bar' is -0.5; expected a number in \[0.0, 4.0\]"),
+     r"m1_pma2.deadzone_bar is -0.5; expected a number in \[0, 4\] \(bar\)"),
     (lambda d: d["muscle_calibration"]["muscles"]["m1_pma2"].update(deadzone_bar=4.0),
-     "expected less than the robot's max_pressure_bar"),
+     "m1_pma2.deadzone_bar is 4.0; expected less than the robot's max_pressure_bar"),
     (lambda d: d["muscle_calibration"]["muscles"]["m1_pma2"].update(saturation_bar=0.8),
-     "'saturation_bar' is 0.8; expected more than its deadzone_bar"),
+     "m1_pma2.saturation_bar is 0.8; expected more than its deadzone_bar"),
     (lambda d: d["muscle_calibration"]["muscles"]["m1_pma2"].update(extension_per_bar_m=True),
-     "'extension_per_bar_m' is True"),
+     "m1_pma2.extension_per_bar_m is True"),
     (lambda d: d["muscle_calibration"]["muscles"]["m1_pma2"].pop("transport_delay_s"),
-     "without the rest of"),
+     "m1_pma2.pressure_time_constant_s is 0.08; expected it with the rest of"),
     (lambda d: [d["muscle_calibration"]["muscles"][n].pop(k) for n in NAMES[:4]
                 for k in ("transport_delay_s", "pressure_time_constant_s")], "the dynamics of every muscle or of none"),
-    (lambda d: d["muscle_calibration"]["muscles"]["m1_pma2"].pop("saturation_bar"), "missing key 'saturation_bar'"),
-    (lambda d: d.pop("muscle_calibration"), "missing section 'muscle_calibration:'"),
+    (lambda d: d["muscle_calibration"]["muscles"]["m1_pma2"].pop("saturation_bar"),
+     "m1_pma2.saturation_bar is missing"),
+    (lambda d: d.pop("muscle_calibration"), "cal.yaml: muscle_calibration is missing"),
 ])
 def test_a_bad_file_is_refused_naming_muscle_key_value_and_what_is_expected(change, message):
     data = {"muscle_calibration": {"rig": "sim", "muscles": values()}}

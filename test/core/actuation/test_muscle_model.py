@@ -78,5 +78,5 @@ def test_parameters_from_options_fill_defaults_from_the_robot_and_the_shared_def
     ({"lag_s": 0.1}, "lag_s"),
 ])
 def test_bad_muscle_options_name_where_the_key_and_the_value(options, key):
-    with pytest.raises(ConfigurationError, match=f"^sim.yaml \\[muscles\\]: .*'{key}'"):
-        muscle_parameters_from_options(options, default_robot(), "sim.yaml [muscles]")
+    with pytest.raises(ConfigurationError, match=f"^sim.yaml: sim.muscles.{key} is "):
+        muscle_parameters_from_options(options, default_robot(), "sim.yaml", path="sim.muscles")

@@ -67,7 +67,7 @@ def test_amplitude_scale():
     cycle = np.tile(np.linspace(0, 0.02, 9), (4, 1))
     scale = pressure_amplitude_scale(cycle, 3.0)
     assert lengths_to_pressures_bar(cycle * scale).max() == pytest.approx(3.0)
-    with pytest.raises(InvalidInputError, match=r"amplitude_bar: expected a pressure in \(0.0, 4.0\] bar"):
+    with pytest.raises(InvalidInputError, match=r"amplitude_bar is 4.5; expected a number in \(0, 4\] \(bar\)"):
         pressure_amplitude_scale(cycle, 4.5)
 
 

@@ -85,8 +85,8 @@ def test_poor_fits_are_flagged_not_hidden():
 
 
 def test_fit_settings_are_validated():
-    with pytest.raises(ConfigurationError, match="unknown key"):
+    with pytest.raises(ConfigurationError, match="fitting.lenght_weight is not a known key"):
         FitSettings.from_config({"lenght_weight": 1.0})
-    with pytest.raises(ConfigurationError, match="max_iterations"):
+    with pytest.raises(ConfigurationError, match="fitting.max_iterations is -1; expected an integer >= 1"):
         FitSettings.from_config({"max_iterations": -1})
     assert FitSettings.from_config({}) == FitSettings()

@@ -108,9 +108,9 @@ def test_sidewinding_leaves_the_ground_plane_and_is_periodic():
 def test_unknown_gait_and_bad_parameters_are_refused_with_the_allowed_values():
     with pytest.raises(InvalidInputError, match="expected one of .*inward_rolling"):
         gait_spec("slither")
-    with pytest.raises(InvalidInputError, match="unknown parameter.*radius_m"):
+    with pytest.raises(InvalidInputError, match=r"inward_rolling.radius is not a known key; expected .*radius_m"):
         gait_curves("inward_rolling", PHASES, ROBOT, {"radius": 0.2})
-    with pytest.raises(InvalidInputError, match=r"radius_m.*\[0.08, 2\] m"):
+    with pytest.raises(InvalidInputError, match=r"inward_rolling.radius_m is 0.01; expected .*\[0.08, 2\] \(m\)"):
         gait_curves("inward_rolling", PHASES, ROBOT, {"radius_m": 0.01})
     with pytest.raises(InvalidInputError, match="radius_m"):
         gait_curves("inward_rolling", PHASES, ROBOT, {"radius_m": "big"})

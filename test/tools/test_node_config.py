@@ -1,0 +1,42 @@
+"""config/<node>.yaml are generated from the nodes' parameter specs and stay equal to them (one source of defaults)."""
+
+import shutil
+
+import pytest
+import yaml
+
+from srs_ros.core.robot import config_dir
+from srs_ros.tools.node_config import NODES, config_text, main, node_specs
+
+
+@pytest.mark.parametrize("node", NODES)
+def test_the_shipped_params_file_is_the_one_generated_from_the_specs(node):
+    path = config_dir() / f"{node}.yaml"
+    assert path.read_text(encoding="utf-8") == config_text(node), (
+        f"{path} differs from {node}'s parameter specs: run python -m srs_ros.tools.node_config")
+
+
+@pytest.mark.parametrize("node", NODES)
+def test_the_file_holds_every_declared_parameter_at_its_default_with_its_type(node):
+    values = yaml.safe_load((config_dir() / f"{node}.yaml").read_text())[node]["ros__parameters"]
+    specs = node_specs(node)
+    assert values == {spec.name: spec.default for spec in specs}
+    assert all(type(values[spec.name]) is type(spec.default) for spec in specs)  # 4.0 stays a double for ROS
+
+
+def test_the_trajectory_server_file_leaves_the_gaits_own_parameters_to_gaits_yaml():
+    names = {spec.name for spec in node_specs("trajectory_server")}
+    assert {"gait", "amplitude_bar", "frequency_hz", "samples", "robot_description_file"} <= names
+    assert not any("." in name for name in names)
+
+
+def test_check_names_a_drifted_file_and_the_generator_mends_it(tmp_path, capsys):
+    for node in NODES:
+        shutil.copy(config_dir() / f"{node}.yaml", tmp_path)
+    assert main(["--check", "--config-dir", str(tmp_path)]) == 0
+    drifted = tmp_path / "gait_player.yaml"
+    drifted.write_text(drifted.read_text().replace("rate_hz: 200.0", "rate_hz: 100.0"))
+    assert main(["--check", "--config-dir", str(tmp_path)]) == 1
+    assert str(drifted) in capsys.readouterr().err
+    assert main(["--config-dir", str(tmp_path)]) == 0
+    assert drifted.read_text() == config_text("gait_player")
