@@ -12,8 +12,8 @@ it returns. If the namespaces cannot be made (no root), this fails; it does not 
 import time
 
 import numpy as np
-from srs_stream import camera_video, lab_placement, run_stream, summary_lines
 from srs_testing import BackendRecord, NetnsLab
+from srs_testing.stream import camera_video, lab_placement, run_stream, summary_lines
 
 TIMEOUT_S = 0.2  # the mock rig's setpoint_timeout_s
 

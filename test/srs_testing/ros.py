@@ -1,8 +1,12 @@
-"""Test harness: isolated DDS domains, node processes started by their console scripts, and an
-rclpy client that talks to them as ``ros2 topic echo`` / ``ros2 service call`` / ``ros2 param set`` would.
+"""Nodes over real DDS: isolated domains, node processes started by their console scripts, and an rclpy
+client that talks to them as ``ros2 topic echo`` / ``ros2 service call`` / ``ros2 param set`` would.
 
 Rules it enforces (measured traps of this rclpy build): clients spin with timed ``spin_once`` loops
 only, every wait has a generous timeout, and every process is stopped in teardown, pass or fail.
+A process that dies by a signal (SIGKILL, a crash) leaves its Fast DDS shared-memory files behind:
+:meth:`NodeProcess.kill` and :meth:`NodeProcess.stop` note it (:func:`note_killed` for other
+processes) and :func:`fastdds_shm_clean_if_killed` cleans only then (``fastdds shm clean`` costs a
+subprocess, ~0.3 s).
 """
 
 from __future__ import annotations
@@ -62,12 +66,31 @@ def release_domain(domain: int) -> None:
         (DOMAIN_LOCK_DIR / f"{domain}.lock").unlink()
 
 
+_killed = False  # a process died by a signal since the last clean: its shared-memory files may be left
+
+
+def note_killed() -> None:
+    """Say that a DDS process died without closing (SIGKILL, a crash): the next clean is needed."""
+    global _killed
+    _killed = True
+
+
 def fastdds_shm_clean() -> None:
     """Remove Fast DDS shared-memory files left by killed processes (``fastdds shm clean``)."""
+    global _killed
     tool = shutil.which("fastdds") or str(Path(sys.executable).with_name("fastdds"))
     if Path(tool).exists():
         subprocess.run([tool, "shm", "clean"], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
                        timeout=30, check=False)
+    _killed = False
+
+
+def fastdds_shm_clean_if_killed() -> bool:
+    """:func:`fastdds_shm_clean` if a process died by a signal since the last clean; True if it ran."""
+    if not _killed:
+        return False
+    fastdds_shm_clean()
+    return True
 
 
 def script_path(name: str) -> str:
@@ -136,10 +159,14 @@ class NodeProcess:
             with contextlib.suppress(subprocess.TimeoutExpired):
                 self.process.wait(wait_s)
         self._log.close()
-        return self.process.poll()
+        code = self.process.poll()
+        if code is None or code < 0:  # died by a signal (or outlived SIGKILL): shared memory left behind
+            note_killed()
+        return code
 
     def kill(self) -> None:
         """SIGKILL, as a crash would (use a fresh domain afterwards)."""
+        note_killed()
         with contextlib.suppress(ProcessLookupError):
             os.killpg(self.process.pid, signal.SIGKILL)
         self.process.wait(5.0)
@@ -286,171 +313,3 @@ class RosClient:
         from lifecycle_msgs.srv import GetState
 
         return self.call(GetState, f"{node}/get_state", timeout_s=timeout_s).current_state.label
-
-
-# ------------------------------------------------------------------------------------------
-# What the backend really writes (the mock backend's record_file), read from another process
-# ------------------------------------------------------------------------------------------
-def recorded_rig(folder: Path, name: str = "recorded", **options: Any) -> tuple[Path, Path]:
-    """The shipped mock rig with every command its backend is given appended to a file: (rig file, record file).
-
-    ``options`` are more backend_options (e.g. ``fail_after_writes=400``).
-    """
-    import yaml
-
-    from srs_ros.core.rig import default_rig_path
-
-    record = Path(folder) / f"{name}_writes.txt"
-    data = yaml.safe_load(default_rig_path().read_text())
-    data["rig"]["backend_options"].update(record_file=str(record), **options)
-    rig = Path(folder) / f"{name}.yaml"
-    rig.write_text(yaml.safe_dump(data))
-    return rig, record
-
-
-class BackendRecord:
-    """The commands a mock backend in another process wrote, read on as the file grows (:meth:`update`)."""
-
-    def __init__(self, path: Path):
-        import numpy as np
-
-        self.path = Path(path)
-        self.times_s = np.zeros(0)
-        self.pressures_bar = np.zeros((0, 9))
-        self._offset = 0
-
-    def update(self) -> BackendRecord:
-        import numpy as np
-
-        from srs_ros.backends.mock import read_record
-
-        if self.path.exists():
-            times, pressures, self._offset = read_record(self.path, self._offset)
-            if times.size:
-                self.times_s = np.concatenate([self.times_s, times])
-                self.pressures_bar = np.concatenate([self.pressures_bar, pressures])
-        return self
-
-    def __len__(self) -> int:
-        return self.update().times_s.size
-
-    def last(self):
-        """The newest command (bar), or None before the first."""
-        return self.pressures_bar[-1] if len(self) else None
-
-    def commanding(self, expected_bar, atol: float = 1e-9) -> bool:
-        import numpy as np
-
-        last = self.last()
-        return last is not None and bool(np.allclose(last, expected_bar, atol=atol))
-
-    def vented(self) -> bool:
-        last = self.last()
-        return last is not None and not last.any()
-
-
-# ------------------------------------------------------------------------------------------
-# Gait cycles as a sender publishes them (independent of the package's fitter)
-# ------------------------------------------------------------------------------------------
-JOINT_NAMES = [f"m{module}_pma{muscle}" for module in (1, 2, 3) for muscle in (1, 2, 3)]
-
-
-def rolling_cycle(count: int = 64, shift: float = 0.0, amplitude_m: float = 0.065):
-    """A rolling-like cycle: lengths (count, 9) in m, each muscle a raised cosine, phases spread around."""
-    import numpy as np
-
-    phase = np.arange(count)[:, None] / count + shift
-    offsets = np.arange(9)[None, :] * 2 * np.pi / 3 + np.repeat([0.0, 1.0, 2.0], 3)[None, :] * np.pi / 3
-    return 0.5 * amplitude_m * (1 + np.cos(2 * np.pi * phase - offsets))
-
-
-def trajectory(samples, frequency_hz: float, names=JOINT_NAMES):
-    """One closed period as trajectory_server publishes it: ``samples`` (N, 9) columns in ``names`` order."""
-    from builtin_interfaces.msg import Duration
-    from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
-
-    msg = JointTrajectory(joint_names=list(names))
-    count = len(samples)
-    for i in range(count + 1):
-        t_ns = round(1e9 / frequency_hz) * i // count
-        msg.points.append(JointTrajectoryPoint(positions=samples[i % count].tolist(),
-                                               time_from_start=Duration(sec=t_ns // 10**9, nanosec=t_ns % 10**9)))
-    return msg
-
-
-# ------------------------------------------------------------------------------------------
-# Several hosts on one machine: network namespaces joined by a switch (root only)
-# ------------------------------------------------------------------------------------------
-class NetnsLab:
-    """Lab hosts as network namespaces on one private subnet, joined by a bridge in a namespace of its own.
-
-    Each host gets one veth link to the switch (``eth0``, address ``10.213.0.<n>/24``) and its loopback;
-    nothing connects to this machine's own network, so no traffic leaves the namespaces. Processes run
-    on a host through :meth:`prefix` (``ip netns exec``). :meth:`env` gives a node Fast DDS settings for
-    hosts apart: UDP only (processes in different namespaces share /dev/shm, and shared-memory transport
-    would bypass the link) and discovery through static peers, no multicast. :meth:`cut` / :meth:`restore`
-    take a host's link down and up. Needs root (CAP_NET_ADMIN); raises RuntimeError with the reason
-    when namespaces cannot be made. Used as a context manager: the namespaces go, pass or fail.
-    """
-
-    SUBNET = "10.213.0"
-
-    def __init__(self, hosts: Iterable[str]):
-        tag = f"srs{os.getpid() % 100000}x{time.monotonic_ns() % 1000}"
-        self.hosts = list(hosts)
-        self.namespaces = {host: f"{tag}_{host}" for host in self.hosts}
-        self.switch = f"{tag}_switch"
-        self.addresses = {host: f"{self.SUBNET}.{i + 1}" for i, host in enumerate(self.hosts)}
-        self.ports = {host: f"port{i + 1}" for i, host in enumerate(self.hosts)}
-
-    def _ip(self, *args: str) -> None:
-        result = subprocess.run(["ip", *args], capture_output=True, text=True, timeout=30, check=False)
-        if result.returncode != 0:
-            raise RuntimeError(f"`ip {' '.join(args)}` failed ({result.stderr.strip()}): network namespaces need "
-                               "root (CAP_NET_ADMIN) and iproute2; see docs/multi_host.md.")
-
-    def __enter__(self) -> NetnsLab:
-        try:
-            for namespace in (self.switch, *self.namespaces.values()):
-                self._ip("netns", "add", namespace)
-                self._ip("-n", namespace, "link", "set", "lo", "up")
-            self._ip("-n", self.switch, "link", "add", "br0", "type", "bridge")
-            self._ip("-n", self.switch, "link", "set", "br0", "up")
-            for host, namespace in self.namespaces.items():
-                port = self.ports[host]
-                self._ip("link", "add", "eth0", "netns", namespace, "type", "veth", "peer", "name", port,
-                         "netns", self.switch)
-                self._ip("-n", self.switch, "link", "set", port, "master", "br0")
-                self._ip("-n", self.switch, "link", "set", port, "up")
-                self._ip("-n", namespace, "addr", "add", f"{self.addresses[host]}/24", "dev", "eth0")
-                self._ip("-n", namespace, "link", "set", "eth0", "up")
-        except BaseException:
-            self.__exit__()
-            raise
-        return self
-
-    def __exit__(self, *exc) -> None:
-        for namespace in (*self.namespaces.values(), self.switch):
-            subprocess.run(["ip", "netns", "del", namespace], capture_output=True, timeout=30, check=False)
-
-    def prefix(self, host: str) -> list[str]:
-        """Command prefix that runs a program on ``host``."""
-        return ["ip", "netns", "exec", self.namespaces[host]]
-
-    def env(self, host: str, base: dict[str, str]) -> dict[str, str]:
-        """``base`` with Fast DDS over UDP only and discovery limited to the lab's hosts.
-
-        ``ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST`` turns multicast off and finds the processes of the
-        same host; ``ROS_STATIC_PEERS`` adds the other hosts (``OFF`` would ignore the static peers).
-        """
-        peers = [address for other, address in self.addresses.items() if other != host]
-        return dict(base, FASTDDS_BUILTIN_TRANSPORTS="UDPv4", ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST",
-                    ROS_STATIC_PEERS=";".join(peers))
-
-    def cut(self, host: str) -> None:
-        """Unplug ``host``'s cable (its switch port goes down)."""
-        self._ip("-n", self.switch, "link", "set", self.ports[host], "down")
-
-    def restore(self, host: str) -> None:
-        """Plug ``host``'s cable back in."""
-        self._ip("-n", self.switch, "link", "set", self.ports[host], "up")
