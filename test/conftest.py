@@ -15,6 +15,7 @@ import pytest
 from srs_testing import (
     NodeProcess,
     RosClient,
+    RosSession,
     allocate_domain,
     fastdds_shm_clean,
     fastdds_shm_clean_if_killed,
@@ -30,7 +31,7 @@ os.environ["PYTHONUNBUFFERED"] = "1"
 os.environ["MPLBACKEND"] = "Agg"
 
 #: A test that uses one of these talks over real DDS (and most start node processes): marker ``ros``.
-ROS_FIXTURES = frozenset({"ros_domain", "ros_env", "ros_client", "launch_node"})
+ROS_FIXTURES = frozenset({"ros_domain", "ros_env", "ros_client", "launch_node", "ros_sessions"})
 
 
 def pytest_collection_modifyitems(items) -> None:
@@ -92,3 +93,22 @@ def launch_node(ros_env, tmp_path):
     yield _launch
     for proc in started:
         proc.stop()
+
+
+@pytest.fixture(scope="module")
+def ros_sessions(tmp_path_factory):
+    """Sessions (a private domain, a client, node processes) that live for a whole test module.
+
+    For node processes that several tests share: ``session = ros_sessions()``; each test brings the shared
+    node back to a known state first (e.g. ``shared_node`` in test_hardware_node.py). Closed at the end of
+    the module, pass or fail.
+    """
+    sessions: list[RosSession] = []
+
+    def _open(client_name: str = "srs_test_client") -> RosSession:
+        sessions.append(RosSession(tmp_path_factory.mktemp("ros_session"), client_name))
+        return sessions[-1]
+
+    yield _open
+    for session in sessions:
+        session.close()

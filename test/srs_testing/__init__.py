@@ -5,8 +5,9 @@ Modules:
 - :mod:`srs_testing.ros`: nodes over real DDS. Private ``ROS_DOMAIN_ID`` per test (:func:`allocate_domain`,
   :func:`release_domain`), node processes started by their console scripts (:class:`NodeProcess`,
   :func:`ros_args`, :func:`script_path`), the rclpy client that does what ``ros2 topic echo`` / ``ros2
-  service call`` / ``ros2 param set`` / ``ros2 lifecycle set`` do (:class:`RosClient`), and Fast DDS's
-  shared memory cleaned after a process was killed (:func:`fastdds_shm_clean_if_killed`).
+  service call`` / ``ros2 param set`` / ``ros2 lifecycle set`` do (:class:`RosClient`), all of it for longer
+  than one test (:class:`RosSession`: a node process several tests share), and Fast DDS's shared memory
+  cleaned after a process was killed (:func:`fastdds_shm_clean_if_killed`).
 - :mod:`srs_testing.backend`: what the mock backend of a node in another process wrote (:func:`recorded_rig`,
   :class:`BackendRecord`).
 - :mod:`srs_testing.gaits`: gait cycles as a sender publishes them (:data:`JOINT_NAMES`, :func:`rolling_cycle`,
@@ -27,6 +28,7 @@ from srs_testing.netns import NetnsLab
 from srs_testing.ros import (
     NodeProcess,
     RosClient,
+    RosSession,
     allocate_domain,
     fastdds_shm_clean,
     fastdds_shm_clean_if_killed,
@@ -37,7 +39,7 @@ from srs_testing.ros import (
 )
 
 __all__ = [
-    "JOINT_NAMES", "BackendRecord", "NetnsLab", "NodeProcess", "RosClient", "allocate_domain", "fastdds_shm_clean",
-    "fastdds_shm_clean_if_killed", "note_killed", "recorded_rig", "release_domain", "rolling_cycle", "ros_args",
-    "script_path", "trajectory",
+    "JOINT_NAMES", "BackendRecord", "NetnsLab", "NodeProcess", "RosClient", "RosSession", "allocate_domain",
+    "fastdds_shm_clean", "fastdds_shm_clean_if_killed", "note_killed", "recorded_rig", "release_domain",
+    "rolling_cycle", "ros_args", "script_path", "trajectory",
 ]

@@ -313,3 +313,43 @@ class RosClient:
         from lifecycle_msgs.srv import GetState
 
         return self.call(GetState, f"{node}/get_state", timeout_s=timeout_s).current_state.label
+
+
+# ------------------------------------------------------------------------------------------
+# A session: one private domain, its client and the processes started on it (tests that share nodes)
+# ------------------------------------------------------------------------------------------
+class RosSession:
+    """A private DDS domain, its environment, an rclpy client on it and the node processes started on it.
+
+    What the function-scoped fixtures (``ros_domain``, ``ros_env``, ``ros_client``, ``launch_node``) give
+    one test, for a longer life: a module-scoped fixture keeps a node process that several tests share.
+    :meth:`close` stops every process, closes the client and gives the domain back.
+    """
+
+    def __init__(self, log_dir: Path, client_name: str = "srs_test_client"):
+        self.log_dir = Path(log_dir)
+        self.domain = allocate_domain()
+        self.env = dict(os.environ, ROS_DOMAIN_ID=str(self.domain))
+        self.started: list[NodeProcess] = []
+        try:
+            self.client = RosClient(self.domain, client_name)
+        except BaseException:
+            release_domain(self.domain)
+            raise
+
+    def launch(self, script: str, args: Iterable[str] = (), env_overrides: dict[str, str] | None = None,
+               prefix: Iterable[str] = ()) -> NodeProcess:
+        """Start a console-script node on this session's domain (stopped by :meth:`close`)."""
+        proc = NodeProcess(script, args, env=dict(self.env, **(env_overrides or {})), log_dir=self.log_dir,
+                           prefix=prefix)
+        self.started.append(proc)
+        return proc
+
+    def close(self) -> None:
+        try:
+            for proc in self.started:
+                proc.stop()
+            self.client.close()
+        finally:
+            release_domain(self.domain)
+            fastdds_shm_clean_if_killed()
