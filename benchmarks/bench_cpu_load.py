@@ -7,7 +7,7 @@ hog in a session of its own so the kernel's autogroups do not shield the nodes f
 which needs root, CAP_SYS_NICE or an rtprio limit), and prints per run: setpoints published /
 delivered / taken / written, vents while playing seen at the backend, the oldest setpoint at arrival
 at the hardware node, stale-on-arrival rejections, gaps in the player's stamps, the stamp -> write
-latency, and the hardware node's own command stalls. The observer (test/stream_probe.py) runs at the
+latency, and the hardware node's own command stalls. The observer (test/srs_testing/stream_probe.py) runs at the
 nodes' priority.
 
 Run: python benchmarks/bench_cpu_load.py [--hogs 0 40] [--realtime-priority 0 50] [--duration-s 60]
@@ -20,8 +20,7 @@ import os
 import subprocess
 import sys
 
-sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "test"))
-from srs_stream import Placement, bench_env, run_stream, summary_lines  # noqa: E402
+from srs_testing.stream import Placement, bench_env, run_stream, summary_lines
 
 HOG = "while True: pass"
 

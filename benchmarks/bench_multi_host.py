@@ -6,7 +6,7 @@ camera_tracker reading a video (camera's host) and the observer beside the hardw
 - loopback: every process on this host with Fast DDS's defaults (shared memory between processes);
 - loopback UDP: every process on this host, UDP only (FASTDDS_BUILTIN_TRANSPORTS=UDPv4);
 - 3 hosts: each host a network namespace on a private subnet joined by a bridge, UDP only, discovery
-  through ROS_STATIC_PEERS (test/srs_testing.py NetnsLab; root needed).
+  through ROS_STATIC_PEERS (srs_testing.netns.NetnsLab; root needed).
 
 Prints for each: setpoints published / delivered over DDS / taken by the hardware node / written,
 stamp -> backend write latency (p50, worst per-second p99, max), vents, CPU and RSS.
@@ -16,14 +16,11 @@ Run: sudo python benchmarks/bench_multi_host.py [--duration-s 60] [--rate-hz 500
 from __future__ import annotations
 
 import argparse
-import os
-import sys
 import tempfile
 from pathlib import Path
 
-sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "test"))
-from srs_stream import Placement, bench_env, camera_video, lab_placement, run_stream, summary_lines  # noqa: E402
-from srs_testing import NetnsLab, fastdds_shm_clean  # noqa: E402
+from srs_testing import NetnsLab, fastdds_shm_clean
+from srs_testing.stream import Placement, bench_env, camera_video, lab_placement, run_stream, summary_lines
 
 
 def main() -> None:

@@ -23,14 +23,11 @@ import argparse
 import os
 import re
 import signal
-import sys
 import time
 from pathlib import Path
 
 import numpy as np
-
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "test"))
-from srs_testing import NodeProcess, RosClient, allocate_domain, fastdds_shm_clean, release_domain, ros_args  # noqa: E402
+from srs_testing import NodeProcess, RosClient, allocate_domain, fastdds_shm_clean, release_domain, ros_args
 
 
 def _cpu_seconds(pid: int) -> float:

@@ -15,18 +15,15 @@ import os
 import subprocess
 import sys
 import time
-from pathlib import Path
 
 import numpy as np
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import PoseStamped
+from srs_testing import NodeProcess, RosClient, allocate_domain, release_domain, ros_args
 from std_msgs.msg import Float64MultiArray
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "test"))
-from srs_testing import NodeProcess, RosClient, allocate_domain, release_domain, ros_args  # noqa: E402
-
-from srs_ros.core.robot import config_dir  # noqa: E402
-from srs_ros.ros.interfaces import diagnostic_values  # noqa: E402
+from srs_ros.core.robot import config_dir
+from srs_ros.ros.interfaces import diagnostic_values
 
 COUNTERS = ("holds", "stale_vents", "recoveries")
 

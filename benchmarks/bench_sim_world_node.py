@@ -10,17 +10,14 @@ Run: python benchmarks/bench_sim_world_node.py [--duration-s 20] [--camera-rate-
 
 import argparse
 import os
-import sys
 import time
 from pathlib import Path
 
 from geometry_msgs.msg import PoseStamped
 from sensor_msgs.msg import Image
+from srs_testing import NodeProcess, RosClient, allocate_domain, release_domain, ros_args
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "test"))
-from srs_testing import NodeProcess, RosClient, allocate_domain, release_domain, ros_args  # noqa: E402
-
-from srs_ros.core.robot import config_dir  # noqa: E402
+from srs_ros.core.robot import config_dir
 
 CLOCK_TICKS = os.sysconf("SC_CLK_TCK")
 

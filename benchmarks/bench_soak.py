@@ -1,7 +1,7 @@
 """Soak benchmark: N minutes of the 500 Hz setpoint stream through the three nodes as processes.
 
 trajectory_server -> gait_player (500 Hz) -> hardware_node (mock rig, 200 Hz commands, every command
-the backend is given recorded to a file), watched by test/stream_probe.py. Prints RSS and CPU of
+the backend is given recorded to a file), watched by test/srs_testing/stream_probe.py. Prints RSS and CPU of
 each process (start, end, largest), setpoints published vs delivered vs accepted vs written to the
 backend, vents while playing seen at the backend, the oldest setpoint at arrival and the stamp -> write
 latency (p50, worst per-second p99, max).
@@ -12,13 +12,9 @@ Run: python benchmarks/bench_soak.py [--minutes 10] [--rate-hz 500]
 from __future__ import annotations
 
 import argparse
-import os
-import sys
 
 import numpy as np
-
-sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "test"))
-from srs_stream import Placement, bench_env, run_stream, summary_lines  # noqa: E402
+from srs_testing.stream import Placement, bench_env, run_stream, summary_lines
 
 
 def main() -> None:

@@ -1,4 +1,10 @@
-"""Test-wide isolation: a private ROS_DOMAIN_ID, localhost-only discovery and a private log folder."""
+"""Test-wide isolation (a private ROS_DOMAIN_ID, localhost-only discovery, a private log folder), the DDS
+fixtures, and the markers: every test that uses a DDS fixture is marked ``ros`` here.
+
+``scripts/test.sh -m "not ros"`` runs what needs no DDS (core, sim, backends without a node, tools offline,
+lint) in about a minute; ``-m "not ros and not slow"`` the fast core alone in seconds. ``slow`` sits on the
+tests measured at more than a few seconds (``@pytest.mark.slow`` beside each).
+"""
 
 from __future__ import annotations
 
@@ -6,7 +12,15 @@ import os
 import tempfile
 
 import pytest
-from srs_testing import NodeProcess, RosClient, allocate_domain, fastdds_shm_clean, release_domain
+from srs_testing import (
+    NodeProcess,
+    RosClient,
+    RosSession,
+    allocate_domain,
+    fastdds_shm_clean,
+    fastdds_shm_clean_if_killed,
+    release_domain,
+)
 
 _LOG_DIR = tempfile.mkdtemp(prefix="srs_ros_test_logs_")
 os.environ["ROS_LOG_DIR"] = _LOG_DIR
@@ -16,16 +30,31 @@ os.environ.setdefault("RCUTILS_COLORIZED_OUTPUT", "0")
 os.environ["PYTHONUNBUFFERED"] = "1"
 os.environ["MPLBACKEND"] = "Agg"
 
+#: A test that uses one of these talks over real DDS (and most start node processes): marker ``ros``.
+ROS_FIXTURES = frozenset({"ros_domain", "ros_env", "ros_client", "launch_node", "ros_sessions"})
+
+
+def pytest_collection_modifyitems(items) -> None:
+    """Mark ``ros`` every test whose fixtures (directly or through other fixtures) include a DDS fixture."""
+    for item in items:
+        if ROS_FIXTURES & set(getattr(item, "fixturenames", ())):
+            item.add_marker(pytest.mark.ros)
+
+
+def pytest_sessionfinish() -> None:
+    """Whatever a test killed, no Fast DDS shared-memory file outlives the run."""
+    fastdds_shm_clean()
+
 
 @pytest.fixture
 def ros_domain():
-    """A fresh DDS domain for one test; released (and Fast DDS shm cleaned) afterwards."""
+    """A fresh DDS domain for one test; released afterwards (Fast DDS shm cleaned if a process was killed)."""
     domain = allocate_domain()
     try:
         yield domain
     finally:
         release_domain(domain)
-        fastdds_shm_clean()
+        fastdds_shm_clean_if_killed()
 
 
 @pytest.fixture
@@ -64,3 +93,22 @@ def launch_node(ros_env, tmp_path):
     yield _launch
     for proc in started:
         proc.stop()
+
+
+@pytest.fixture(scope="module")
+def ros_sessions(tmp_path_factory):
+    """Sessions (a private domain, a client, node processes) that live for a whole test module.
+
+    For node processes that several tests share: ``session = ros_sessions()``; each test brings the shared
+    node back to a known state first (e.g. ``shared_node`` in test_hardware_node.py). Closed at the end of
+    the module, pass or fail.
+    """
+    sessions: list[RosSession] = []
+
+    def _open(client_name: str = "srs_test_client") -> RosSession:
+        sessions.append(RosSession(tmp_path_factory.mktemp("ros_session"), client_name))
+        return sessions[-1]
+
+    yield _open
+    for session in sessions:
+        session.close()

@@ -173,6 +173,9 @@ def test_colcon_build_installs_scripts_config_and_launch(tmp_path):
     assert (share / "config" / "rigs" / "mock.yaml").is_file()
     assert sorted(p.name for p in (share / "launch").glob("*.launch.py")) == ["srs.launch.py"]
     assert (prefix / "share" / "ament_index" / "resource_index" / "packages" / "srs_ros").is_file()
+    # the test harness is for the development install only (test/pyproject.toml), never in a ROS install
+    assert sorted(p.name for p in (tmp_path / "install").iterdir() if p.is_dir()) == ["srs_ros"]
+    assert not [str(p) for p in (tmp_path / "install").rglob("srs_testing*")]
 
 
 # ------------------------------------------------------------------------------------------

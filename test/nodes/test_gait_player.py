@@ -82,7 +82,10 @@ def test_start_follows_the_trajectory_at_the_rate_and_stop_ramps_to_zero(player,
                           "zero setpoints after the ramp-out")
     tail = setpoints[count - 1:]
     assert largest_excess_step_m(tail, 0.3) < 0.001
-    ros_client.spin_for(1.0)  # after zero_hold_s the stream ends
+    # after zero_hold_s (0.3 s) the stream ends: the newest setpoint grows older than 0.3 s, then none for 0.5 s more
+    clock = ros_client.node.get_clock()
+    ros_client.spin_until(lambda: clock.now().nanoseconds * 1e-9 - stamps_s(setpoints[-1:])[0] > 0.3, 5.0,
+                          "the stream to end after zero_hold_s")
     final = len(setpoints)
     ros_client.spin_for(0.5)
     assert len(setpoints) == final and not np.any(setpoints[-1].position)

@@ -34,7 +34,7 @@ def test_two_namespaced_robots_move_independently_and_nothing_of_them_is_on_the_
                           "both simulated robots rolling")
 
     assert ros_client.trigger("/snake2/gait_player/stop").success  # one robot stops, the other rolls on
-    ros_client.spin_for(2.5)  # the 1 s ramp-out, the setpoint timeout and the muscles venting
+    ros_client.spin_for(2.5)  # the 1 s ramp-out, the setpoint timeout and the muscles venting (a physical settle)
     marks = {name: len(poses) for name, poses in truth.items()}
     ros_client.spin_for(3.0)
     still_m, rolling_m = moved_m(truth["snake2"], marks["snake2"]), moved_m(truth["snake1"], marks["snake1"])

@@ -3,7 +3,7 @@
 gait_player and trajectory_server run on the operator's host, hardware_node and the observer on the
 robot's, camera_tracker (reading a video) on the camera's, joined by a switch on a private subnet; Fast DDS finds
 its peers by static addresses only, and shared memory is off, so every message really crosses the veth
-links. The gait streams at 500 Hz for 10 s (loss and latency are printed; the minute-long figures beside
+links. The gait streams at 500 Hz for 5 s (loss and latency are printed; the minute-long figures beside
 loopback are benchmarks/bench_multi_host.py), then the robot's cable is pulled for a second: the valves
 vent within the setpoint timeout, stay vented while the link is down, and the gait ramps back in when
 it returns. If the namespaces cannot be made (no root), this fails; it does not skip.
@@ -12,8 +12,8 @@ it returns. If the namespaces cannot be made (no root), this fails; it does not 
 import time
 
 import numpy as np
-from srs_stream import camera_video, lab_placement, run_stream, summary_lines
 from srs_testing import BackendRecord, NetnsLab
+from srs_testing.stream import camera_video, lab_placement, run_stream, summary_lines
 
 TIMEOUT_S = 0.2  # the mock rig's setpoint_timeout_s
 
@@ -40,8 +40,8 @@ def test_three_hosts_stream_the_gait_and_a_pulled_cable_vents_the_valves(ros_env
                 cuts.append((cut_s, time.monotonic()))
             return cuts
 
-        result = run_stream(lab_placement(lab, ros_env), 500.0, 10.0, log_dir=tmp_path, camera_source=video,
-                            camera_args={"calibration_file": calibration}, then_play_s=10.0,
+        result = run_stream(lab_placement(lab, ros_env), 500.0, 5.0, log_dir=tmp_path, camera_source=video,
+                            camera_args={"calibration_file": calibration}, then_play_s=8.0,
                             after_measure=pull_the_robots_cable)
     for line in summary_lines("3 hosts (UDP)", result):
         print(line)

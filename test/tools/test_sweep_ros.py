@@ -35,6 +35,10 @@ def _sweep(ros_env, args, stdin="", timeout_s=180.0):
                           capture_output=True, text=True, timeout=timeout_s)
 
 
+def stamp_s(msg) -> float:
+    return msg.header.stamp.sec + 1e-9 * msg.header.stamp.nanosec
+
+
 def _rows(path):
     with path.open() as stream:
         return list(csv.reader(stream))
@@ -130,11 +134,17 @@ def test_on_a_rig_with_real_regulators_nothing_is_armed_without_the_operators_go
         return [kv.value for m in diagnostics for s in m.status if s.name.startswith("hardware_node")
                 for kv in s.values if kv.key == "armed"]
 
+    def catch_up(what: str) -> None:
+        """Take what was published while the sweep ran: until a diagnostics message from after it (1 Hz)."""
+        ended_s = ros_client.node.get_clock().now().nanoseconds * 1e-9
+        ros_client.spin_until(lambda: any(stamp_s(m) > ended_s for m in diagnostics[-5:] for s in m.status
+                                          if s.name.startswith("hardware_node")), 10.0, what)
+
     out = tmp_path / "real"
     # The operator says no to the first run and quits at the second: nothing is ever armed or pressurised.
     done = _sweep(ros_env, ["--gait", "inward_rolling", "--amplitudes", "2", "3", "--frequencies", "1",
                             "--duration-s", "1", "--out", str(out)], stdin="n\nq\n")
-    ros_client.spin_for(1.5)
+    catch_up("the diagnostics after the first sweep")
     assert done.returncode == 1, done.stdout + done.stderr
     assert "real regulators: each run needs the operator's go" in done.stderr
     assert done.stdout.count("on the real rig?") + done.stderr.count("on the real rig?") == 2
@@ -146,7 +156,7 @@ def test_on_a_rig_with_real_regulators_nothing_is_armed_without_the_operators_go
     # sweep disarms again.
     done = _sweep(ros_env, ["--gait", "inward_rolling", "--amplitudes", "2", "--frequencies", "1", "--duration-s",
                             "1", "--yes", "--out", str(tmp_path / "go")])
-    ros_client.spin_for(2.5)
+    catch_up("the diagnostics after the second sweep")
     assert done.returncode == 1, done.stdout + done.stderr
     [record] = read_table_csv(tmp_path / "go" / "table.csv")
     assert record.status.startswith("failed: no pose on /robot_pose"), record.status

@@ -15,8 +15,8 @@ discovery settings of the environment):
    the stream to end and two more diagnostics messages, and prints ``RESULT <json>``.
 
 Monotonic times are comparable with the mock backend's ``record_file`` (one kernel clock, also across
-network namespaces). Usage: ``python test/stream_probe.py --duration-s 60 --rate-hz 500``
-(test/srs_stream.py runs it).
+network namespaces). Usage: ``python test/srs_testing/stream_probe.py --duration-s 60 --rate-hz 500``
+(:mod:`srs_testing.stream` runs it).
 """
 
 from __future__ import annotations

@@ -2,7 +2,7 @@
 
 :func:`run_stream` starts trajectory_server, gait_player and hardware_node as processes (each on a
 host of its own when a :class:`Placement` says so: a network namespace and its environment), with the
-mock backend recording every command it is given (``record_file``), lets :mod:`stream_probe` start
+mock backend recording every command it is given (``record_file``), lets :mod:`.stream_probe` start
 the gait, play it for ``duration_s`` and stop it, and returns the figures:
 
 - setpoints published (the player's count at exit), delivered to the probe (a deep best-effort
@@ -30,15 +30,6 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-from srs_testing import (
-    NetnsLab,
-    NodeProcess,
-    allocate_domain,
-    fastdds_shm_clean,
-    recorded_rig,
-    release_domain,
-    ros_args,
-)
 
 from srs_ros.backends.mock import read_record
 from srs_ros.core.vision.camera_calibration import save_calibration
@@ -49,6 +40,9 @@ from srs_ros.sim.scene import (
     constant_velocity_poses,
     write_video,
 )
+from srs_testing.backend import recorded_rig
+from srs_testing.netns import NetnsLab
+from srs_testing.ros import NodeProcess, allocate_domain, fastdds_shm_clean, release_domain, ros_args
 
 PROBE = Path(__file__).resolve().with_name("stream_probe.py")
 
