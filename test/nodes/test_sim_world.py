@@ -3,6 +3,7 @@
 import time
 
 import numpy as np
+import pytest
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from geometry_msgs.msg import PoseStamped
 from sensor_msgs.msg import Image, JointState
@@ -19,6 +20,7 @@ def stamps_s(msgs):
     return np.array([m.header.stamp.sec + 1e-9 * m.header.stamp.nanosec for m in msgs])
 
 
+@pytest.mark.slow
 def test_the_gait_moves_the_simulated_robot_and_killing_sim_world_vents_the_hardware(launch_node, ros_client):
     world = launch_node("sim_world", ros_args({"camera_rate_hz": 15.0}))
     launch_node("camera_tracker", ros_args({"color_preset": "sim_bands"}))

@@ -24,6 +24,7 @@ import signal
 import time
 
 import numpy as np
+import pytest
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from geometry_msgs.msg import PoseStamped
 from sensor_msgs.msg import JointState
@@ -108,6 +109,7 @@ def start_gait(launch_node, client, folder):
     return rig, record_path, backend, (server, hardware, player), setpoints
 
 
+@pytest.mark.slow
 def test_killing_and_restarting_each_node_of_the_gait(launch_node, ros_client, tmp_path):
     client = ros_client
     rig, record_path, backend, (server, hardware, player), _ = start_gait(launch_node, client, tmp_path)
@@ -146,6 +148,7 @@ def test_killing_and_restarting_each_node_of_the_gait(launch_node, ros_client, t
         assert proc.alive() and "Traceback" not in proc.output(), proc.output()[-3000:]
 
 
+@pytest.mark.slow
 def test_freezing_each_node_of_the_gait(launch_node, ros_client, tmp_path):
     client = ros_client
     _, _, backend, (server, hardware, player), setpoints = start_gait(launch_node, client, tmp_path)
@@ -180,6 +183,7 @@ def test_freezing_each_node_of_the_gait(launch_node, ros_client, tmp_path):
         assert proc.alive() and "Traceback" not in proc.output(), proc.output()[-3000:]
 
 
+@pytest.mark.slow
 def test_camera_tracker_killed_frozen_and_restarted_tracks_again(launch_node, ros_client, tmp_path):
     scene = SyntheticScene(camera=SyntheticCamera(width_px=320, height_px=240, height_m=0.6),
                            robot=RobotAppearance(marker_spacing_m=0.25))
@@ -202,6 +206,7 @@ def test_camera_tracker_killed_frozen_and_restarted_tracks_again(launch_node, ro
     assert tracker.alive() and "Traceback" not in tracker.output()
 
 
+@pytest.mark.slow
 def test_a_backend_that_fails_mid_gait_vents_reports_and_recovers(launch_node, ros_client, tmp_path):
     failing, failing_record = recorded_rig(tmp_path, "failing", fail_after_writes=400)  # 2 s at 200 Hz
     good, good_record = recorded_rig(tmp_path, "good")

@@ -12,6 +12,7 @@ it returns. If the namespaces cannot be made (no root), this fails; it does not 
 import time
 
 import numpy as np
+import pytest
 from srs_testing import BackendRecord, NetnsLab
 from srs_testing.stream import camera_video, lab_placement, run_stream, summary_lines
 
@@ -21,6 +22,7 @@ TIMEOUT_S = 0.2  # the mock rig's setpoint_timeout_s
 CUTS = 3
 
 
+@pytest.mark.slow
 def test_three_hosts_stream_the_gait_and_a_pulled_cable_vents_the_valves(ros_env, tmp_path):
     video, calibration = camera_video(tmp_path)
     with NetnsLab(["operator", "robot", "camera"]) as lab:
