@@ -3,8 +3,8 @@ fixtures, and the markers: every test that uses a DDS fixture is marked ``ros`` 
 
 ``scripts/test.sh -m "not ros"`` runs what needs no DDS (core, sim, backends without a node, tools offline,
 lint, the OpenCV 4.6 run); ``-m "not ros and not slow"`` the fast core alone. ``slow`` sits on the tests
-measured at more than about 5 s on the 2-core machine (``@pytest.mark.slow`` beside each). The README's
-"Tests" section has the figures.
+measured at more than about 5 s on the 2-core machine (2 s for those without DDS; ``@pytest.mark.slow``
+beside each). The README's "Tests" section has the figures.
 """
 
 from __future__ import annotations
@@ -105,7 +105,7 @@ def ros_sessions(tmp_path_factory):
     """Sessions (a private domain, a client, node processes) that live for a whole test module.
 
     For node processes that several tests share: ``session = ros_sessions()``; each test brings the shared
-    node back to a known state first (e.g. ``shared_node`` in test_hardware_node.py). Closed at the end of
+    node back to a known state first (``SharedNode.prepare`` in test_hardware_node.py). Closed at the end of
     the module, pass or fail.
     """
     sessions: list[RosSession] = []
