@@ -20,6 +20,7 @@ VISION = ["opencv-contrib-python-headless>=4.8"]
 TEST = [
     "pytest>=8",
     "pytest-timeout>=2.3",
+    "pytest-xdist>=3.5",
     "hypothesis>=6.100",
     "ruff>=0.6",
     "colcon-common-extensions>=0.3",

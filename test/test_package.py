@@ -78,8 +78,9 @@ IMPORT_KEYS = {
     "launch": "launch", "launch_ros": "launch_ros", "rcl_interfaces": "rcl_interfaces",
     "builtin_interfaces": "builtin_interfaces",
 }
-#: Tools the tests run rather than import: pytest-timeout (setup.cfg ``timeout``), ruff, colcon.
-TOOL_KEYS = {"python3-pytest-timeout", "python3-ruff-pip", "python3-colcon-common-extensions"}
+#: Tools the tests run rather than import: pytest-timeout (setup.cfg ``timeout``), pytest-xdist (scripts/test.sh
+#: ``-n 2``), ruff, colcon.
+TOOL_KEYS = {"python3-pytest-timeout", "python3-pytest-xdist", "python3-ruff-pip", "python3-colcon-common-extensions"}
 #: The package's own modules and test helpers (not dependencies).
 OWN_MODULES = {"srs_ros", "srs_testing", "conftest"}
 
@@ -155,6 +156,7 @@ def test_every_console_script_has_a_main(script):
     assert callable(getattr(importlib.import_module(module_name), func))
 
 
+@pytest.mark.slow
 def test_colcon_build_installs_scripts_config_and_launch(tmp_path):
     colcon = _venv_tool("colcon")
     assert colcon, "colcon is not installed (pip install -e '.[test]')"

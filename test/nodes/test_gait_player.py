@@ -52,6 +52,7 @@ def start_when_loaded(client):
     return responses[-1]
 
 
+@pytest.mark.slow
 def test_start_follows_the_trajectory_at_the_rate_and_stop_ramps_to_zero(player, ros_client):
     proc, publisher, setpoints = player(rate_hz=200.0)
     refused = ros_client.trigger("gait_player/start")
@@ -169,6 +170,7 @@ def malformed_trajectories():
                                        too_long, huge)]
 
 
+@pytest.mark.slow
 def test_malformed_trajectories_are_refused_and_the_last_good_one_keeps_playing(player, ros_client):
     proc, publisher, setpoints = player(autostart=True)
     publisher.publish(trajectory(rolling_cycle(), 1.0))

@@ -399,7 +399,9 @@ def test_the_watchdog_runs_on_the_steady_clock_with_sim_time_and_no_clock(hardwa
 
 
 def test_output_ramps_up_from_zero_at_activation_and_after_an_estop_reset(hardware):
-    proc, rig = hardware({"ramp_time_s": 0.5})
+    # a 1 s setpoint timeout: a stall of this client or of the node on a busy machine (> 0.2 s) must not vent
+    # mid-ramp and restart it (that restart is test_a_stall_of_the_caller_restarts_output_with_a_ramp's point)
+    proc, rig = hardware({"ramp_time_s": 0.5, "setpoint_timeout_s": 1.0})
     rig.start()
     good = setpoint(LENGTHS_M)
     for when in ("activation", "e-stop reset"):

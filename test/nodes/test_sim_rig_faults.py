@@ -10,6 +10,7 @@ import signal
 import time
 
 import numpy as np
+import pytest
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from sensor_msgs.msg import JointState
 from srs_testing import ros_args
@@ -71,6 +72,7 @@ def pause(process, seconds: float, client) -> tuple[float, float]:
     return start_s, time.monotonic()
 
 
+@pytest.mark.slow
 def test_a_paused_simulator_holds_a_stopped_one_faults_and_recovers_and_a_restarted_one_is_picked_up(
         launch_node, ros_client):
     world = launch_node("sim_world", WORLD_ARGS)
@@ -110,6 +112,7 @@ def test_a_paused_simulator_holds_a_stopped_one_faults_and_recovers_and_a_restar
     assert "Traceback" not in output and "unexpected error" not in output, output[-3000:]
 
 
+@pytest.mark.slow
 def test_sim_world_vents_by_itself_when_the_hardware_node_dies(launch_node, ros_client):
     launch_node("sim_world", WORLD_ARGS)
     hardware = launch_node("hardware_node", HARDWARE_ARGS)

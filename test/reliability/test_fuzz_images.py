@@ -10,6 +10,7 @@ it publishes is non-finite.
 import math
 
 import numpy as np
+import pytest
 from geometry_msgs.msg import PoseStamped, TwistStamped
 from hypothesis import HealthCheck, Phase, example, given, settings
 from hypothesis import strategies as st
@@ -56,6 +57,7 @@ def hostile_images(draw, good_frame: np.ndarray):
     return msg
 
 
+@pytest.mark.slow
 def test_hostile_images_are_refused_and_tracking_goes_on(tmp_path, launch_node, ros_client):
     calibration = save_calibration(SCENE.camera.calibration(), tmp_path / "cal.yaml")
     node = launch_node("camera_tracker", ros_args({"calibration_file": str(calibration), "image_timeout_s": 30.0}))

@@ -44,6 +44,7 @@ def assert_recovers(calibration, index, deadzone_bar, gain_m_per_bar, delay_s, t
     assert calibration.pressure_time_constant_s[index] == pytest.approx(tau_s, rel=0.2)
 
 
+@pytest.mark.slow
 def test_the_mock_rig_is_identified_per_muscle_and_written(tmp_path, capsys):
     rig = rig_file(tmp_path, "mock", "{transport_delay_s: 0.04, pressure_time_constant_s: 0.06, per_muscle: "
                                      "{m3_pma1: {deadzone_bar: 1.4, max_extension_m: 0.05}}}")
@@ -58,6 +59,7 @@ def test_the_mock_rig_is_identified_per_muscle_and_written(tmp_path, capsys):
     assert "calibration_file:=" in out.read_text().splitlines()[1]
 
 
+@pytest.mark.slow
 def test_part_of_the_muscles_is_merged_into_an_existing_file(tmp_path, capsys):
     out = tmp_path / "cal.yaml"
     mock = str(RIGS / "mock.yaml")
@@ -145,6 +147,7 @@ def test_ctrl_c_vents_at_once(tmp_path):
     assert time.monotonic() - sent < 10.0 and not (tmp_path / "c.yaml").exists()
 
 
+@pytest.mark.slow
 def test_the_simulated_rig_is_identified_end_to_end_over_dds(launch_node, ros_env, tmp_path):
     world = launch_node("sim_world", ros_args({"camera_rate_hz": 0.0, "markers_rate_hz": 0.0}))
     # The simulated rig, with a read-back timeout that a machine busy with other tests cannot trip.

@@ -71,6 +71,7 @@ def test_bad_arguments_exit_2_with_a_message(args, tmp_path, capsys):
     assert not (tmp_path / "x.csv").exists()
 
 
+@pytest.mark.slow
 def test_the_console_script_shows_progress_on_long_runs(tmp_path):
     result = subprocess.run([script_path("srs_sim"), "--gait", "inward_rolling", "--amplitude-bar", "2",
                              "--frequency-hz", "1", "--duration-s", "6", "--out", str(tmp_path / "r.csv")],

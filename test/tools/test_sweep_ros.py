@@ -11,6 +11,7 @@ import csv
 import signal
 import subprocess
 
+import pytest
 from diagnostic_msgs.msg import DiagnosticArray
 from srs_testing import RosClient, ros_args, script_path
 from std_msgs.msg import Float64MultiArray
@@ -44,6 +45,7 @@ def _rows(path):
         return list(csv.reader(stream))
 
 
+@pytest.mark.slow
 def test_ros_sweep_on_the_simulated_rig_records_bags_and_the_offline_table_layout(launch_node, ros_env, tmp_path):
     _start_sim_rig(launch_node)
     out = tmp_path / "ros"
@@ -119,6 +121,7 @@ def _interrupted_sweep(ros_env, out, interrupt, expected_code, extra=()):
     return output, read_table_csv(out / "table.csv")
 
 
+@pytest.mark.slow
 def test_on_a_rig_with_real_regulators_nothing_is_armed_without_the_operators_go(launch_node, ros_env, ros_client,
                                                                                   tmp_path):
     rig = tmp_path / "can_virtual.yaml"  # a real CAN backend on python-can's in-process virtual bus

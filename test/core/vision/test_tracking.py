@@ -185,6 +185,7 @@ def test_constant_speed_run_velocity_within_2_percent(scene, calibration):
     assert smoothed[2] == pytest.approx(0.1, abs=0.02)
 
 
+@pytest.mark.slow
 def test_tilted_camera_video_keeps_the_pose_where_a_default_detector_loses_it(tmp_path):
     """4 cm markers seen by a camera tilted 25 deg, sensor noise, mild blur, MJPG: the issue's hard case."""
     camera = SyntheticCamera(tilt_rad=math.radians(25.0))
