@@ -42,7 +42,6 @@ import threading
 import time
 from typing import Any
 
-import cv2
 import rclpy
 import yaml
 from diagnostic_msgs.msg import DiagnosticArray
@@ -62,10 +61,8 @@ from srs_ros.core.rig import load_rig
 from srs_ros.core.robot import amplitude_field, default_robot
 from srs_ros.core.vision.view import ViewStatus
 from srs_ros.nodes import gait_player
-from srs_ros.nodes.camera_tracker import CameraTrackerNode
 from srs_ros.nodes.gait_player import GaitPlayer
 from srs_ros.nodes.hardware_node import HardwareNode, release_and_report
-from srs_ros.nodes.sim_world import SimWorldNode
 from srs_ros.nodes.trajectory_server import TrajectoryServer
 from srs_ros.ros.interfaces import (
     COMMANDED_PRESSURE_TOPIC,
@@ -200,6 +197,8 @@ class VideoRecorder(Node):
         self.create_subscription(Image, IMAGE_TOPIC, self._on_image, 10)
 
     def _on_image(self, msg: Image) -> None:
+        import cv2  # only with --video: OpenCV is not loaded at start otherwise
+
         frame = image_msg_to_array(msg)
         if self._writer is None:
             self._writer = cv2.VideoWriter(self.path, cv2.VideoWriter_fourcc(*"MJPG"), self.fps,
@@ -337,6 +336,7 @@ class System:
         self.hardware: HardwareNode | None = None
         self.status: StatusMonitor | None = None
         self.recorder: VideoRecorder | None = None
+        self.tracker: Node | None = None  # the camera tracker (sim rig)
         self.world_nodes: list[Node] = []
         self.nodes: list[Node] = []
 
@@ -352,7 +352,7 @@ class System:
         self.server = self._keep(TrajectoryServer())
         self.player = self._keep(GaitPlayer())
         self.hardware = self._keep(HardwareNode())
-        tracker = next((n for n in self.world_nodes if isinstance(n, CameraTrackerNode)), None)
+        tracker = self.tracker
         self.status = self._keep(StatusMonitor(self.player, self.server, self.hardware, args.status_period_s,
                                                simulated, None if tracker is None
                                                else (tracker.status_name, tracker.hardware_id)))
@@ -360,9 +360,16 @@ class System:
             guard_parameter_services(node)
 
     def _create_world(self, args: argparse.Namespace) -> None:
-        """The simulated robot, the camera tracker on its images and (``--video``) the recorder."""
+        """The simulated robot, the camera tracker on its images and (``--video``) the recorder.
+
+        Their modules (MuJoCo, OpenCV) are imported here: a rig without the simulated robot never loads them.
+        """
+        from srs_ros.nodes.camera_tracker import CameraTrackerNode
+        from srs_ros.nodes.sim_world import SimWorldNode
+
         world = self._keep(SimWorldNode())
-        self.world_nodes = [world, self._keep(CameraTrackerNode())]
+        self.tracker = self._keep(CameraTrackerNode())
+        self.world_nodes = [world, self.tracker]
         if args.video:
             self.recorder = self._keep(VideoRecorder(args.video, world.get_parameter("camera_rate_hz").value))
             self.world_nodes.append(self.recorder)

@@ -18,7 +18,6 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from typing import Any
 
-import cv2
 import numpy as np
 from builtin_interfaces.msg import Duration, Time
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
@@ -82,6 +81,9 @@ IMAGE_TOPIC = "image_raw"
 
 
 _CHANNELS = {"bgr8": 3, "rgb8": 3, "mono8": 1, "8UC1": 1, "8UC3": 3, "bgra8": 4, "rgba8": 4}
+#: The channels, in BGR order, of the encodings that are not BGR already (NumPy indexing: no OpenCV import,
+#: which cost every node 40-90 ms of start-up).
+_TO_BGR = {"rgb8": [2, 1, 0], "bgra8": [0, 1, 2], "rgba8": [2, 1, 0]}
 
 
 # ------------------------------------------------------------------------------------------
@@ -105,10 +107,9 @@ def image_msg_to_array(msg: Image) -> np.ndarray:
         )
     buffer = np.frombuffer(msg.data, dtype=np.uint8, count=msg.step * msg.height).reshape(msg.height, msg.step)
     pixels = buffer[:, :row_bytes].reshape(msg.height, msg.width, channels)
-    conversions = {"rgb8": cv2.COLOR_RGB2BGR, "bgra8": cv2.COLOR_BGRA2BGR, "rgba8": cv2.COLOR_RGBA2BGR}
-    if msg.encoding in conversions:
-        return cv2.cvtColor(pixels, conversions[msg.encoding])
-    return pixels[:, :, 0].copy() if channels == 1 else pixels.copy()
+    if channels == 1:
+        return pixels[:, :, 0].copy()
+    return np.ascontiguousarray(pixels[:, :, _TO_BGR.get(msg.encoding, slice(None))])
 
 
 def array_to_image_msg(image: np.ndarray, stamp: Time | None = None, frame_id: str = "camera") -> Image:

@@ -4,6 +4,7 @@ import rclpy
 
 from srs_ros.core.errors import ConfigurationError
 from srs_ros.nodes import bringup
+from srs_ros.nodes.sim_world import SimWorldNode
 from srs_ros.ros.process import CleanExit
 
 
@@ -22,6 +23,6 @@ def test_a_world_made_before_a_start_up_failure_is_stopped_and_destroyed_before_
         world = system.world_nodes[0] if system.world_nodes else None
         system.stop(outcome)
     assert outcome.exit_code == 2 and system.hardware is None
-    assert isinstance(world, bringup.SimWorldNode)
+    assert isinstance(world, SimWorldNode)
     assert not world._thread.is_alive()  # its physics thread stepped and published on while rclpy shut down
     assert not rclpy.ok()

@@ -1,14 +1,18 @@
-"""The message helpers every node shares: stamps and durations, diagnostics (images: test_camera_tracker)."""
+"""The message helpers every node shares: stamps and durations, diagnostics, images (round trip: camera tracker)."""
 
+import cv2
+import numpy as np
 import pytest
 from builtin_interfaces.msg import Duration, Time
 from diagnostic_msgs.msg import DiagnosticStatus
+from sensor_msgs.msg import Image
 
 from srs_ros.core.errors import InvalidInputError
 from srs_ros.ros.interfaces import (
     diagnostic_array,
     diagnostic_status,
     diagnostic_values,
+    image_msg_to_array,
     nanoseconds_to_duration,
     nanoseconds_to_stamp,
     seconds_to_stamp,
@@ -42,3 +46,18 @@ def test_a_diagnostic_status_takes_the_level_by_name_and_every_value_as_text():
     assert array.header.stamp.sec == 5 and array.status == [status]
     with pytest.raises(InvalidInputError, match="diagnostic level 'FINE'; expected one of"):
         diagnostic_status("x", "y", "FINE", "", {})
+
+
+@pytest.mark.parametrize(("encoding", "to_bgr"), [("rgb8", cv2.COLOR_RGB2BGR), ("bgra8", cv2.COLOR_BGRA2BGR),
+                                                  ("rgba8", cv2.COLOR_RGBA2BGR), ("bgr8", None), ("8UC3", None),
+                                                  ("mono8", None), ("8UC1", None)])
+def test_images_become_what_opencv_converts_them_to(encoding, to_bgr):
+    """Every encoding comes out as OpenCV's own conversion to BGR (mono stays mono), row padding removed."""
+    channels = {"rgb8": 3, "bgra8": 4, "rgba8": 4, "bgr8": 3, "8UC3": 3, "mono8": 1, "8UC1": 1}[encoding]
+    pixels = np.random.default_rng(channels).integers(0, 256, (4, 6, channels), dtype=np.uint8)
+    msg = Image(height=4, width=6, encoding=encoding, step=6 * channels + 5)
+    msg.data = np.pad(pixels.reshape(4, -1), ((0, 0), (0, 5))).tobytes()
+    expected = cv2.cvtColor(pixels, to_bgr) if to_bgr is not None else pixels.squeeze(-1) if channels == 1 else pixels
+    image = image_msg_to_array(msg)
+    np.testing.assert_array_equal(image, expected)
+    assert image.flags.c_contiguous and image.dtype == np.uint8

@@ -353,7 +353,14 @@ class RosSession:
         self.started.append(proc)
         return proc
 
+    def __enter__(self) -> RosSession:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
     def close(self) -> None:
+        """Stop every process started here (pass or fail), close the client and give the domain back."""
         try:
             for proc in self.started:
                 proc.stop()

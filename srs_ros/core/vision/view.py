@@ -7,9 +7,12 @@ import enum
 from collections.abc import Mapping
 from dataclasses import dataclass
 from functools import partial
+from typing import TYPE_CHECKING
 
 from srs_ros.core.errors import ConfigurationError
-from srs_ros.core.vision.tracking import TrackResult
+
+if TYPE_CHECKING:  # a type only: srs_bringup reads views without loading OpenCV
+    from srs_ros.core.vision.tracking import TrackResult
 
 
 class ViewState(enum.Enum):
