@@ -54,6 +54,7 @@ Interfaces (relative names, remappable):
 from __future__ import annotations
 
 import dataclasses
+import functools
 import time
 
 from diagnostic_msgs.msg import DiagnosticArray
@@ -68,17 +69,22 @@ from std_srvs.srv import Trigger
 
 from srs_ros.backends import BACKENDS, ActuatorBackend, create_backend
 from srs_ros.core.actuation import operator
-from srs_ros.core.actuation.compensation import SetpointShaper, setpoint_shaper
-from srs_ros.core.actuation.intake import IntakeDecision, Setpoint, Verdict, take_setpoint
-from srs_ros.core.actuation.muscle_calibration import CALIBRATED_MAP, PAPER_MAP
+from srs_ros.core.actuation.compensation import SetpointShaper
+from srs_ros.core.actuation.intake import IntakeDecision, NoteThrottle, Setpoint, take_setpoint
 from srs_ros.core.actuation.pressure import pressures_to_command_v
 from srs_ros.core.actuation.safety import VENT_FAILED, CommandGate, OutputReason
-from srs_ros.core.actuation.status import HardwareStatus, NodeSetup, output_message
-from srs_ros.core.actuation.timing import CommandTiming, command_timing
+from srs_ros.core.actuation.settings import HARDWARE_SETTINGS, READ_ONLY, hardware_setup
+from srs_ros.core.actuation.status import (
+    HardwareStatus,
+    NodeSetup,
+    configured_message,
+    exit_message,
+    output_message,
+    stall_message,
+)
+from srs_ros.core.actuation.timing import CommandTiming
 from srs_ros.core.errors import ConfigurationError
-from srs_ros.core.ramp import DEFAULT_RAMP_TIME_S
-from srs_ros.core.rig import RigConfig, load_rig
-from srs_ros.core.robot import ABSOLUTE_MAX_PRESSURE_BAR, load_robot
+from srs_ros.core.rig import RigConfig
 from srs_ros.ros.interfaces import (
     ACTUATOR_STATE_TOPIC,
     COMMAND_VOLTAGE_TOPIC,
@@ -87,6 +93,7 @@ from srs_ros.ros.interfaces import (
     SETPOINT_TOPIC,
     diagnostic_array,
     diagnostic_status,
+    joint_state,
     labelled_array,
     setpoint_qos,
     stamp_to_nanoseconds,
@@ -100,34 +107,20 @@ LOG_THROTTLE_S = 1.0
 #: How often a faulted rig that recovers by itself (sim) is configured again (s).
 RECOVERY_PERIOD_S = 1.0
 
-PARAMETERS = (
-    ParameterSpec("rig_file", "", "rig YAML (config/rigs/*.yaml); '' = the mock rig"),
-    ParameterSpec("backend", "", "backend overriding the rig's ('mock', 'can', 'daq'); '' = the rig's"),
-    ParameterSpec("robot_description_file", "", "robot YAML; '' = the package's config/robot.yaml"),
-    ParameterSpec("setpoint_timeout_s", 0.0, "setpoints older than this vent to 0 bar (s); 0 = the rig's value",
-                  0.0, 5.0),
-    ParameterSpec("command_rate_hz", 0.0, "commands sent to the backend per second; 0 = the rig's value",
-                  0.0, 1000.0),
-    ParameterSpec("state_publish_rate_hz", 50.0, "actuator_state messages per second (at most the command rate)",
-                  1.0, 1000.0),
-    ParameterSpec("ramp_time_s", DEFAULT_RAMP_TIME_S,
-                  "output ramps up from 0 bar over this time whenever it (re)starts (s)", 0.0, 60.0),
-    ParameterSpec("max_pressure_bar", ABSOLUTE_MAX_PRESSURE_BAR,
-                  "pressure limit (bar); only lowers the robot's; read-only: set it at start-up",
-                  0.1, ABSOLUTE_MAX_PRESSURE_BAR, read_only=True),
-    ParameterSpec("autostart", False, "configure and activate at start-up (a real rig still waits for ~/arm)"),
-    ParameterSpec("pressure_map", PAPER_MAP, f"how lengths become pressures: '{PAPER_MAP}' (P = 100 l) or "
-                  f"'{CALIBRATED_MAP}' (each muscle's characteristic from calibration_file)",
-                  additional_constraints=f"'{PAPER_MAP}' or '{CALIBRATED_MAP}'"),
-    ParameterSpec("calibration_file", "", "the rig's muscle calibration (srs_identify); '' = none"),
-    ParameterSpec("lag_compensation", False, "lead the supply line's delay and invert its lag (live; needs the "
-                  "calibration's dynamics or the two compensation_* parameters)"),
-    ParameterSpec("compensation_delay_s", 0.0, "supply-line delay led by the compensation (s); 0 = the "
-                  "calibration file's", 0.0, 2.0),
-    ParameterSpec("compensation_time_constant_s", 0.0, "pressure time constant the compensation inverts (s); 0 = "
-                  "the calibration file's", 0.0, 10.0),
-    REALTIME_PRIORITY,
-)
+#: The node's parameters: its settings (:mod:`srs_ros.core.actuation.settings`) and the real-time priority.
+PARAMETERS = (*(ParameterSpec.from_field(f, read_only=f.name in READ_ONLY) for f in HARDWARE_SETTINGS),
+              REALTIME_PRIORITY)
+
+
+@dataclasses.dataclass(frozen=True)
+class Runtime:
+    """What exists while the node is configured: made at configure, destroyed when it lets go of the hardware."""
+
+    pressure_publisher: Publisher  # commanded_pressure_bar
+    voltage_publisher: Publisher  # command_voltage_v
+    state_publisher: Publisher  # actuator_state
+    setpoint_subscription: Subscription  # joint_setpoints
+    command_timer: Timer  # the command rate, on the steady clock
 
 
 class HardwareNode(LifecycleNode):
@@ -152,19 +145,15 @@ class HardwareNode(LifecycleNode):
         self.timing: CommandTiming | None = None  # command rate, setpoint timeout, state rate, from configure
         self.gate = CommandGate(joint_count=0, setpoint_timeout_s=0.0)
         self.status = HardwareStatus()
-        # created at configure, destroyed when the node lets go of the hardware (cleanup, shutdown, error)
-        self._pressure_publisher: Publisher | None = None
-        self._voltage_publisher: Publisher | None = None
-        self._state_publisher: Publisher | None = None
-        self._setpoint_subscription: Subscription | None = None
-        self._command_timer: Timer | None = None
+        self.notes = NoteThrottle()  # what the intake says about setpoints, throttled
+        self.runtime: Runtime | None = None  # created at configure, destroyed at cleanup, shutdown or an error
         self._recovery_timer: Timer | None = None  # while a rig that recovers by itself is faulted
         forward_python_logs("srs_ros.backends", self.get_logger())  # e.g. a missing NI watchdog
         self.diagnostics_publisher = self.create_publisher(DiagnosticArray, DIAGNOSTICS_TOPIC, 10)
-        self.create_service(Trigger, "~/emergency_stop", self._on_emergency_stop)
-        self.create_service(Trigger, "~/reset", self._on_reset)
-        self.create_service(Trigger, "~/arm", self._on_arm)
-        self.create_service(Trigger, "~/disarm", self._on_disarm)
+        for name, decide in (("emergency_stop", self._emergency_stop), ("reset", lambda: operator.reset(self.gate)),
+                             ("arm", lambda: operator.arm(self.gate, self.backend.name if self.backend else "none")),
+                             ("disarm", lambda: operator.disarm(self.gate))):
+            self.create_service(Trigger, f"~/{name}", functools.partial(self._answer, decide))
         steady_timer(self, DIAGNOSTICS_PERIOD_S, self._publish_diagnostics)
         if not self.get_parameter("autostart").value:
             self.get_logger().info(f"unconfigured, nothing sent: waiting for `ros2 lifecycle set "
@@ -176,7 +165,7 @@ class HardwareNode(LifecycleNode):
     @property
     def configured(self) -> bool:
         """True while the runtime interfaces exist (configured: inactive or active)."""
-        return self._command_timer is not None
+        return self.runtime is not None
 
     # -- the state machine -------------------------------------------------------------------
     def on_configure(self, state: LifecycleState) -> TransitionCallbackReturn:
@@ -188,13 +177,7 @@ class HardwareNode(LifecycleNode):
             return TransitionCallbackReturn.FAILURE
         self.status.fault = ""
         self._create_runtime()
-        arm = ("real regulators: nothing above 0 bar until an operator calls ~/arm" if self.gate.requires_arm
-               else "simulated: no arm needed" if self.gate.has_go else "simulated, disarmed: 0 bar until ~/arm")
-        self.get_logger().info(f"configured: rig {self.rig.name!r}, backend {self.backend.name!r} ({arm}), "
-                               f"{self.timing.command_rate_hz:g} Hz, setpoint timeout "
-                               f"{self.timing.setpoint_timeout_s:g} s, limit {self.rig.robot.max_pressure_bar:g} bar, "
-                               f"{self.shaper.map.describe()}, lag compensation "
-                               f"{'on' if self.shaper.compensation else 'off'}")
+        self.get_logger().info(configured_message(self.rig, self.backend.name, self.gate, self.timing, self.shaper))
         return TransitionCallbackReturn.SUCCESS
 
     def on_activate(self, state: LifecycleState) -> TransitionCallbackReturn:
@@ -235,15 +218,9 @@ class HardwareNode(LifecycleNode):
         again by :meth:`_try_recovery` every :data:`RECOVERY_PERIOD_S`; a real rig waits for the operator.
         """
         self._release()
-        fault = self.status.fault or self.status.last_error
         if self.status.recovers_by_itself:
             self._recovery_timer = self._recovery_timer or steady_timer(self, RECOVERY_PERIOD_S, self._try_recovery)
-            self.get_logger().error(f"error processing done: backend closed, node unconfigured (fault: {fault}); "
-                                    f"the simulated rig recovers by itself: configure"
-                                    f"{' + activate' if self.status.reactivate else ''} in {RECOVERY_PERIOD_S:g} s")
-        else:
-            self.get_logger().error(f"error processing done: backend closed, node unconfigured; configure and "
-                                    f"activate to recover (fault: {fault})")
+        self.get_logger().error(self.status.error_processed(RECOVERY_PERIOD_S))
         return TransitionCallbackReturn.SUCCESS
 
     def _try_recovery(self) -> None:
@@ -254,59 +231,48 @@ class HardwareNode(LifecycleNode):
             self.trigger_activate()
         self.destroy_timer(self._recovery_timer)
         self._recovery_timer = None
-        self.status.recovers_by_itself = self.status.reactivate = False
-        self.status.recoveries += 1
-        self.get_logger().warning(f"recovered by itself after a fault: {self.lifecycle_label()}, holding 0 bar until "
-                                  "the simulated robot answers, then ramping up")
+        self.get_logger().warning(self.status.recovered(self.lifecycle_label()))
 
     # -- configure helpers --------------------------------------------------------------------
     def _open_backend(self) -> tuple[RigConfig, ActuatorBackend]:
-        """Load robot and rig, check the timing, open the backend and set the gate up for it."""
-        param = self.get_parameter
-        robot = load_robot(param("robot_description_file").value or None)
-        limit_bar = min(robot.max_pressure_bar, param("max_pressure_bar").value)
-        rig = load_rig(param("rig_file").value or None, dataclasses.replace(robot, max_pressure_bar=limit_bar))
-        timing = command_timing(rig, param("command_rate_hz").value, param("setpoint_timeout_s").value,
-                                param("state_publish_rate_hz").value)
-        self.shaper = setpoint_shaper(rig.robot, param("pressure_map").value, param("calibration_file").value,
-                                      param("compensation_delay_s").value, param("compensation_time_constant_s").value,
-                                      param("lag_compensation").value)
-        backend = create_backend(param("backend").value or rig.backend, rig.robot, rig.backend_options)
+        """Set up rig, timing and shaper from the parameters, open the backend and set the gate up for it."""
+        setup = hardware_setup({f.name: self.get_parameter(f.name).value for f in HARDWARE_SETTINGS})
+        self.shaper = setup.shaper
+        backend = create_backend(setup.backend, setup.rig.robot, setup.rig.backend_options)
         backend.open()
         try:
-            warning = timing.check_hardware(backend.name, backend.host_loss_timeout_s, backend.drives_real_hardware)
+            warning = setup.timing.check_hardware(backend.name, backend.host_loss_timeout_s,
+                                                  backend.drives_real_hardware)
         except ConfigurationError:
             backend.close()
             raise
         if warning:
             self.get_logger().warning(warning)
-        self.timing = timing
-        self.gate.configure(rig.robot.joint_count, timing.setpoint_timeout_s, param("ramp_time_s").value,
+        self.timing = setup.timing
+        self.gate.configure(setup.rig.robot.joint_count, setup.timing.setpoint_timeout_s, setup.ramp_time_s,
                             requires_arm=backend.drives_real_hardware,
-                            max_gap_s=timing.stall_gap_s(backend.host_loss_timeout_s))
-        return rig, backend
+                            max_gap_s=setup.timing.stall_gap_s(backend.host_loss_timeout_s))
+        return setup.rig, backend
 
     def _create_runtime(self) -> None:
         """The command publishers, the setpoint subscription and the command timer (steady clock)."""
         self.status.start_rate_window(time.monotonic())
-        self._pressure_publisher = self.create_publisher(Float64MultiArray, COMMANDED_PRESSURE_TOPIC, 10)
-        self._voltage_publisher = self.create_publisher(Float64MultiArray, COMMAND_VOLTAGE_TOPIC, 10)
-        self._state_publisher = self.create_publisher(JointState, ACTUATOR_STATE_TOPIC, 10)
-        self._setpoint_subscription = self.create_subscription(JointState, SETPOINT_TOPIC, self._on_setpoint,
-                                                               setpoint_qos())
-        self._command_timer = steady_timer(self, self.timing.period_s, self._on_command_tick)
+        self.runtime = Runtime(
+            self.create_publisher(Float64MultiArray, COMMANDED_PRESSURE_TOPIC, 10),
+            self.create_publisher(Float64MultiArray, COMMAND_VOLTAGE_TOPIC, 10),
+            self.create_publisher(JointState, ACTUATOR_STATE_TOPIC, 10),
+            self.create_subscription(JointState, SETPOINT_TOPIC, self._on_setpoint, setpoint_qos()),
+            steady_timer(self, self.timing.period_s, self._on_command_tick))
 
     def _destroy_runtime(self) -> None:
         """Destroy what :meth:`_create_runtime` made; safe to repeat."""
-        if self._command_timer is not None:
-            self.destroy_timer(self._command_timer)
-        if self._setpoint_subscription is not None:
-            self.destroy_subscription(self._setpoint_subscription)
-        for publisher in (self._pressure_publisher, self._voltage_publisher, self._state_publisher):
-            if publisher is not None:
-                self.destroy_publisher(publisher)
-        self._command_timer = self._setpoint_subscription = None
-        self._pressure_publisher = self._voltage_publisher = self._state_publisher = None
+        runtime, self.runtime = self.runtime, None
+        if runtime is None:
+            return
+        self.destroy_timer(runtime.command_timer)
+        self.destroy_subscription(runtime.setpoint_subscription)
+        for publisher in (runtime.pressure_publisher, runtime.voltage_publisher, runtime.state_publisher):
+            self.destroy_publisher(publisher)
 
     def _release(self) -> None:
         """Vent and close the backend (best effort) and destroy the runtime interfaces; safe to repeat."""
@@ -350,20 +316,12 @@ class HardwareNode(LifecycleNode):
         self._log_setpoint(decision)
 
     def _log_setpoint(self, decision: IntakeDecision) -> None:
-        """Say what the intake noted; one call site per kind of note, so that each is throttled on its own."""
-        log = self.get_logger()
-        if decision.verdict is Verdict.INVALID:
-            log.error(decision.rejection, throttle_duration_sec=LOG_THROTTLE_S)
-        elif decision.verdict is Verdict.STALE:
-            log.error(decision.rejection, throttle_duration_sec=LOG_THROTTLE_S)
-        if decision.velocity_note:
-            log.warning(decision.velocity_note, throttle_duration_sec=LOG_THROTTLE_S)
-        if decision.clock_note:
-            log.warning(decision.clock_note, throttle_duration_sec=LOG_THROTTLE_S)
-        if decision.limit_note:
-            log.warning(decision.limit_note, throttle_duration_sec=5.0)
-        if decision.compensation_note:
-            log.warning(decision.compensation_note, throttle_duration_sec=5.0)
+        """Say what the intake noted, each kind of note at most once per its throttle period."""
+        for note in self.notes.due(decision.notes(), time.monotonic()):
+            if note.severity == "error":  # rclpy fixes a call site's severity: one call site each
+                self.get_logger().error(note.text)
+            else:
+                self.get_logger().warning(note.text)
 
     def _on_command_tick(self) -> None:
         """At the command rate, on the steady clock: write the gate's decision (newest setpoint or 0 bar)."""
@@ -378,9 +336,7 @@ class HardwareNode(LifecycleNode):
         stalls = self.gate.stalls
         pressure_bar, reason = self.gate.decide(now_s, holding)
         if self.gate.stalls > stalls:
-            self.get_logger().warning(f"command ticks stalled longer than {self.gate.max_gap_s:g} s (this process was "
-                                      "frozen or starved of CPU; see realtime_priority): output restarts with a "
-                                      "ramp from 0 bar", throttle_duration_sec=LOG_THROTTLE_S)
+            self.get_logger().warning(stall_message(self.gate.max_gap_s), throttle_duration_sec=LOG_THROTTLE_S)
         try:
             sent_bar = self.backend.write_pressures(pressure_bar)
             state = self.backend.read_state() if self.status.ticks % self.timing.state_every_ticks == 0 else None
@@ -389,16 +345,16 @@ class HardwareNode(LifecycleNode):
             return
         self.status.note_write(reason, holding, self.get_clock().now().nanoseconds)
         self._note_reason(reason)
-        names = self.rig.robot.joint_names
-        self._pressure_publisher.publish(labelled_array(names, sent_bar))
-        self._voltage_publisher.publish(labelled_array(names, pressures_to_command_v(sent_bar, self.rig.robot)))
+        names, runtime = self.rig.robot.joint_names, self.runtime
+        runtime.pressure_publisher.publish(labelled_array(names, sent_bar))
+        runtime.voltage_publisher.publish(labelled_array(names, pressures_to_command_v(sent_bar, self.rig.robot)))
         if state is not None:
-            self._state_publisher.publish(self._actuator_state_msg(state))
+            runtime.state_publisher.publish(joint_state(names, self.get_clock().now().to_msg(),
+                                                        state.measured_length_m, state.measured_pressure_bar))
 
     def _on_backend_fault(self, exc: Exception) -> None:
         """Vent (best effort), then fail the next transition so the node goes through ErrorProcessing."""
-        self.status.fault = _describe(exc)
-        self.status.recovers_by_itself, self.status.reactivate = self.backend.recovers_by_itself, self.gate.active
+        self.status.note_fault(_describe(exc), self.backend.recovers_by_itself, self.gate.active)
         self._report_error(f"backend fault while commanding (venting, going to the error state): {self.status.fault}")
         self._vent()
         if self.gate.active:
@@ -426,15 +382,6 @@ class HardwareNode(LifecycleNode):
         else:
             self.get_logger().info(text)
 
-    def _actuator_state_msg(self, state) -> JointState:
-        msg = JointState(name=list(self.rig.robot.joint_names))
-        msg.header.stamp = self.get_clock().now().to_msg()
-        if state.measured_length_m is not None:
-            msg.position = [float(v) for v in state.measured_length_m]
-        if state.measured_pressure_bar is not None:
-            msg.effort = [float(v) for v in state.measured_pressure_bar]
-        return msg
-
     # -- parameters --------------------------------------------------------------------------
     def _check_value(self, name: str, value) -> str:
         """Why a new parameter value is refused ('' if it is not): the static checks, and a live compensation."""
@@ -442,7 +389,9 @@ class HardwareNode(LifecycleNode):
             refusal = self.shaper.compensation_refusal()
             if refusal:
                 return f"lag_compensation: {refusal} (then configure again)"
-        return _check_choice(name, value)
+        if name == "backend" and value and value not in BACKENDS:
+            return f"backend: unknown backend {value!r}; expected '' (the rig's) or one of {sorted(BACKENDS)}."
+        return ""
 
     def _apply_parameters(self, params) -> None:
         """Switch the lag compensation live; every other parameter waits for the next configure."""
@@ -453,7 +402,8 @@ class HardwareNode(LifecycleNode):
                                        f"({self.shaper.map.describe()})")
 
     # -- services ----------------------------------------------------------------------------
-    def _on_emergency_stop(self, request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
+    def _emergency_stop(self) -> operator.Answer:
+        """Latch the e-stop and vent at once, in any state; a vent that fails is a backend fault."""
         self.gate.latch_estop()
         self._note_reason(OutputReason.ESTOP)
         self.get_logger().warning("EMERGENCY STOP latched: venting every valve until ~/reset")
@@ -461,20 +411,12 @@ class HardwareNode(LifecycleNode):
         failure = self._vent()
         if failure is not None:
             self._on_backend_fault(failure)
-        answer = operator.Answer(failure is None, operator.estop_message(
+        return operator.Answer(failure is None, operator.estop_message(
             self.gate, had_backend, self.status.fault if failure is not None else ""))
-        return self._answer(answer, response)
 
-    def _on_reset(self, request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
-        return self._answer(operator.reset(self.gate), response)
-
-    def _on_arm(self, request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
-        return self._answer(operator.arm(self.gate, self.backend.name if self.backend else "none"), response)
-
-    def _on_disarm(self, request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
-        return self._answer(operator.disarm(self.gate), response)
-
-    def _answer(self, answer: operator.Answer, response: Trigger.Response) -> Trigger.Response:
+    def _answer(self, decide, request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
+        """A Trigger service: the operator's answer (:mod:`srs_ros.core.actuation.operator`) as the response."""
+        answer = decide()
         if answer.warning:
             self.get_logger().warning(answer.warning)
         response.success, response.message = answer.success, answer.message
@@ -483,13 +425,17 @@ class HardwareNode(LifecycleNode):
     # -- diagnostics -------------------------------------------------------------------------
     def _publish_diagnostics(self) -> None:
         """The status report on /diagnostics (1 Hz, in every state)."""
-        setup = NodeSetup(rig=self.rig.name if self.rig else "none",
-                          backend=self.backend.name if self.backend else "none",
-                          backend_open=bool(self.backend and self.backend.is_open),
-                          lifecycle_state=self.lifecycle_label(), configured=self.configured)
+        setup = self._setup()
         report = self.status.report(time.monotonic(), setup, self.gate, self.shaper)
         status = diagnostic_status(f"{NODE_NAME}: actuators", setup.rig, report.level, report.message, report.values)
         self.diagnostics_publisher.publish(diagnostic_array([status], self.get_clock().now().to_msg()))
+
+    def _setup(self) -> NodeSetup:
+        """What the node has open now, for the reports."""
+        return NodeSetup(rig=self.rig.name if self.rig else "none",
+                         backend=self.backend.name if self.backend else "none",
+                         backend_open=bool(self.backend and self.backend.is_open),
+                         lifecycle_state=self.lifecycle_label(), configured=self.configured)
 
     def lifecycle_label(self) -> str:
         """The lifecycle state label (unconfigured, inactive, active, ...)."""
@@ -501,14 +447,6 @@ class HardwareNode(LifecycleNode):
         self.get_logger().error(text)
 
 
-def _check_choice(name: str, value) -> str:
-    if name == "backend" and value and value not in BACKENDS:
-        return f"backend: unknown backend {value!r}; expected '' (the rig's) or one of {sorted(BACKENDS)}."
-    if name == "pressure_map" and value not in (PAPER_MAP, CALIBRATED_MAP):
-        return f"pressure_map: {value!r}; expected '{PAPER_MAP}' (P = 100 l) or '{CALIBRATED_MAP}' (calibration_file)."
-    return ""
-
-
 def _describe(exc: BaseException) -> str:
     return f"{type(exc).__name__}: {exc}"
 
@@ -517,9 +455,7 @@ def release_and_report(node: HardwareNode, program: str) -> bool:
     """Vent and close at process exit and print the outcome (the vent, nothing to vent, or VENT FAILED)."""
     was_open = node.backend is not None
     vented = node.release_hardware()
-    outcome = VENT_FAILED if not vented else ("every valve vented to 0 bar" if was_open
-                                              else "no backend was open, nothing to vent")
-    print(f"\n{program}: stopped; {outcome}", flush=True)
+    print(f"\n{exit_message(program, vented, was_open)}", flush=True)
     return vented
 
 

@@ -22,7 +22,7 @@ import numpy as np
 from builtin_interfaces.msg import Duration, Time
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
-from sensor_msgs.msg import Image
+from sensor_msgs.msg import Image, JointState
 from std_msgs.msg import Float64MultiArray, MultiArrayDimension
 
 from srs_ros.core.errors import InvalidInputError
@@ -74,6 +74,17 @@ def labelled_array(labels: Sequence[str], values) -> Float64MultiArray:
     msg = Float64MultiArray()
     msg.layout.dim = [MultiArrayDimension(label=",".join(labels), size=len(labels), stride=len(labels))]
     msg.data = [float(v) for v in values]
+    return msg
+
+
+def joint_state(names: Sequence[str], stamp: Time, position=None, effort=None) -> JointState:
+    """A JointState of ``names`` stamped ``stamp``; ``position`` and ``effort`` (one value a name) empty where None."""
+    msg = JointState(name=list(names))
+    msg.header.stamp = stamp
+    if position is not None:
+        msg.position = [float(v) for v in position]
+    if effort is not None:
+        msg.effort = [float(v) for v in effort]
     return msg
 
 

@@ -53,7 +53,9 @@ class Driven:
             time.sleep(0.005)  # the command rate's pace (the gate ramps on the monotonic clock)
         return written
 
-    def trigger(self, callback) -> Trigger.Response:
+    def trigger(self, service: str) -> Trigger.Response:
+        """Call the callback the node registered for its Trigger service ``~/<service>``."""
+        callback = next(s.callback for s in self.node.services if s.srv_name.endswith(f"/{service}"))
         return callback(Trigger.Request(), Trigger.Response())
 
     def diagnostic(self, key: str) -> str:
@@ -98,13 +100,13 @@ def test_disarm_holds_0_bar_on_a_rig_that_needs_no_arm_until_arm_ramps_it_back(h
     rig.start()
     assert not rig.node.gate.requires_arm  # the mock rig, like the sim rig
     assert any(np.allclose(p, COMMAND_BAR) for p in rig.step(60))
-    response = rig.trigger(rig.node._on_disarm)
+    response = rig.trigger("disarm")
     assert response.success and response.message == "disarmed: venting to 0 bar until ~/arm."
     assert not any(p.any() for p in rig.step(60))  # fresh setpoints for 0.3 s and more: 0 bar at every tick
     assert rig.node.status.reason is OutputReason.NOT_ARMED
     assert rig.diagnostic("output") == OutputReason.NOT_ARMED.value
-    assert rig.trigger(rig.node._on_disarm).message == "was not armed: output stays at 0 bar until ~/arm."
-    response = rig.trigger(rig.node._on_arm)
+    assert rig.trigger("disarm").message == "was not armed: output stays at 0 bar until ~/arm."
+    response = rig.trigger("arm")
     assert response.success and "ramping up from 0 bar over 0.1 s" in response.message
     peaks = [float(p.max()) for p in rig.step(60)]
     assert peaks[0] < 1.0 and peaks[-1] == pytest.approx(2.0)  # back with the usual ramp, not a step

@@ -13,6 +13,7 @@ from srs_ros.ros.interfaces import (
     diagnostic_status,
     diagnostic_values,
     image_msg_to_array,
+    joint_state,
     nanoseconds_to_duration,
     nanoseconds_to_stamp,
     seconds_to_stamp,
@@ -61,3 +62,11 @@ def test_images_become_what_opencv_converts_them_to(encoding, to_bgr):
     image = image_msg_to_array(msg)
     np.testing.assert_array_equal(image, expected)
     assert image.flags.c_contiguous and image.dtype == np.uint8
+
+
+def test_a_joint_state_leaves_what_was_not_measured_empty():
+    full = joint_state(["a", "b"], seconds_to_stamp(2.5), np.array([0.01, 0.02]), [1.0, 2.0])
+    assert full.name == ["a", "b"] and stamp_to_seconds(full.header.stamp) == 2.5
+    assert list(full.position) == [0.01, 0.02] and list(full.effort) == [1.0, 2.0]
+    lengths_only = joint_state(["a", "b"], seconds_to_stamp(0.0), [0.01, 0.02])
+    assert list(lengths_only.position) == [0.01, 0.02] and list(lengths_only.effort) == []

@@ -2,8 +2,10 @@
 
 ``pressure`` (length -> pressure -> regulator volts through the one [0, 4] bar clamp, paper Sec. IV-B),
 ``safety`` (what the hardware node may send: setpoint checks, staleness, arm, e-stop, ramps), the hardware
-node's other ROS-free pieces (``timing``: its clocks checked at configure; ``intake``: one setpoint into the
-gate; ``status``: its counters and /diagnostics report; ``operator``: what its services do and say), ``muscle_model``
+node's other ROS-free pieces (``settings``: its parameters as one schema table and what a configure makes of
+them; ``timing``: its clocks checked at configure; ``intake``: one setpoint into the gate and what to say about
+it; ``status``: its counters, faults, /diagnostics report and messages; ``operator``: what its services do and
+say), ``muscle_model
 (simulated muscles behind regulators), ``muscle_calibration`` (each muscle's measured characteristic and the
 maps built on it), ``compensation`` (leading the supply line's delay and lag), ``identification`` (measuring
 a rig's muscles). The pressure functions are this package's face: ``from srs_ros.core.actuation import
@@ -17,7 +19,8 @@ _PRESSURE = ("clamp_pressures_bar", "lengths_to_pressures_bar", "pressure_limit_
              "pressure_amplitude_scale")
 _EXPORTS = {**dict.fromkeys(_PRESSURE, "pressure"),
             "CommandGate": "safety", "OutputReason": "safety", "VENT_FAILED": "safety",
-            "CommandTiming": "timing", "Setpoint": "intake", "take_setpoint": "intake", "HardwareStatus": "status",
+            "CommandTiming": "timing", "HARDWARE_SETTINGS": "settings", "Setpoint": "intake", "take_setpoint": "intake",
+            "HardwareStatus": "status",
             "MuscleModel": "muscle_model", "MuscleParameters": "muscle_model",
             "PressureMap": "muscle_calibration", "MuscleCalibration": "muscle_calibration",
             "SetpointShaper": "compensation", "identify": "identification"}

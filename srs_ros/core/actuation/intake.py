@@ -1,21 +1,23 @@
 """One setpoint into the hardware node's gate, without ROS: checked, aged by its stamp, limited, shaped, stored.
 
 :func:`take_setpoint` is the whole intake step: it returns an :class:`IntakeDecision` that says what
-happened and what to tell the operator; the node only logs the notes and counts
-(:meth:`srs_ros.core.actuation.status.HardwareStatus.count_setpoint`).
+happened and what to tell the operator (:meth:`IntakeDecision.notes`, throttled by a :class:`NoteThrottle`);
+the node only logs the notes and counts (:meth:`srs_ros.core.actuation.status.HardwareStatus.count_setpoint`).
 
 Example::
 
     gate = CommandGate(joint_count=9, setpoint_timeout_s=0.2, active=True)
     decision = take_setpoint(Setpoint(names, [0.02] * 9), shaper, gate, now_ns=clock_ns, now_s=time.monotonic())
     decision.accepted  # True: gate.decide(now_s) commands 2 bar on every muscle (P = 100 l)
+    for note in throttle.due(decision.notes(), now_s): ...  # what to log (a NoteThrottle per node)
 """
 
 from __future__ import annotations
 
 import enum
+import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -72,6 +74,44 @@ class IntakeDecision:
     def accepted(self) -> bool:
         """True when the setpoint's command is now the gate's latest."""
         return self.verdict is Verdict.ACCEPTED
+
+    def notes(self) -> tuple[Note, ...]:
+        """What to tell the operator: a refusal is an error, the rest warnings; each kind throttled on its own."""
+        kinds = ((self.verdict.name.lower(), "error", self.rejection, NOTE_THROTTLE_S),
+                 ("velocity", "warning", self.velocity_note, NOTE_THROTTLE_S),
+                 ("clock", "warning", self.clock_note, NOTE_THROTTLE_S),
+                 ("limit", "warning", self.limit_note, LIMIT_NOTE_THROTTLE_S),
+                 ("compensation", "warning", self.compensation_note, LIMIT_NOTE_THROTTLE_S))
+        return tuple(Note(*kind) for kind in kinds if kind[2])
+
+
+#: Each kind of note is said at most once per this many seconds (a stream of bad setpoints says it once a second).
+NOTE_THROTTLE_S = 1.0
+#: ... and a limit by the clamp, which a too large gait amplitude hits on every cycle, once per this many seconds.
+LIMIT_NOTE_THROTTLE_S = 5.0
+
+
+@dataclass(frozen=True)
+class Note:
+    """One thing to say about a setpoint: its kind, ``"error"`` or ``"warning"``, the text, its throttle (s)."""
+
+    kind: str
+    severity: str
+    text: str
+    throttle_s: float
+
+
+@dataclass
+class NoteThrottle:
+    """Lets each kind of :class:`Note` through at most once per its ``throttle_s`` (the first one at once)."""
+
+    said_s: dict[str, float] = field(default_factory=dict)  # kind -> when it was last let through (s, steady)
+
+    def due(self, notes: Sequence[Note], now_s: float) -> list[Note]:
+        """The notes to say at ``now_s`` (s, steady clock); the others are dropped."""
+        due = [note for note in notes if now_s >= self.said_s.get(note.kind, -math.inf) + note.throttle_s]
+        self.said_s.update((note.kind, now_s) for note in due)
+        return due
 
 
 def take_setpoint(setpoint: Setpoint, shaper: SetpointShaper, gate: CommandGate, now_ns: int,

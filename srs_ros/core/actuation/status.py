@@ -1,9 +1,10 @@
-"""What the hardware node reports on /diagnostics, without ROS: its counters, the summary and the latency figures.
+"""What the hardware node reports, without ROS: its counters and faults, /diagnostics, latency figures, its log lines.
 
-:class:`HardwareStatus` counts what the node does (setpoints taken, output changes, backend writes) and
-turns the counters into a :class:`DiagnosticReport` (level, message, key/values) once a period; the node
-only wraps the report in a ``diagnostic_msgs/DiagnosticStatus``
-(:func:`srs_ros.ros.interfaces.diagnostic_status`).
+:class:`HardwareStatus` counts what the node does (setpoints taken, output changes, backend writes), keeps
+its backend fault and whether the rig recovers by itself, and turns the counters into a
+:class:`DiagnosticReport` (level, message, key/values) once a period; the node only wraps the report in a
+``diagnostic_msgs/DiagnosticStatus`` (:func:`srs_ros.ros.interfaces.diagnostic_status`). The functions at the
+end word what the node says at configure, on an output change, a stall and at exit.
 
 Example::
 
@@ -25,7 +26,9 @@ import numpy as np
 
 from srs_ros.core.actuation.compensation import SetpointShaper
 from srs_ros.core.actuation.intake import IntakeDecision, Verdict
-from srs_ros.core.actuation.safety import CommandGate, OutputReason, StampCheck, min_setpoint_rate_hz
+from srs_ros.core.actuation.safety import VENT_FAILED, CommandGate, OutputReason, StampCheck, min_setpoint_rate_hz
+from srs_ros.core.actuation.timing import CommandTiming
+from srs_ros.core.rig import RigConfig
 
 #: Setpoint -> backend write latencies kept for the figures (the last this many written setpoints).
 LATENCY_WINDOW = 2000
@@ -130,6 +133,31 @@ class HardwareStatus:
         self.reason = OutputReason.INACTIVE
         self.holding = ""
 
+    # -- faults -------------------------------------------------------------------------------
+    def note_fault(self, fault: str, recovers_by_itself: bool, was_active: bool) -> None:
+        """A backend failed while commanding (``fault`` says how); its node vents and goes through error processing.
+
+        A rig that ``recovers_by_itself`` (the simulated robot) is configured again by the node, and activated
+        again if it ``was_active``; a real rig waits for the operator.
+        """
+        self.fault, self.recovers_by_itself, self.reactivate = fault, recovers_by_itself, was_active
+
+    def error_processed(self, retry_period_s: float) -> str:
+        """What the node says once error processing closed the backend; the retry every ``retry_period_s`` (s)."""
+        fault = self.fault or self.last_error
+        if not self.recovers_by_itself:
+            return ("error processing done: backend closed, node unconfigured; configure and activate to recover "
+                    f"(fault: {fault})")
+        return (f"error processing done: backend closed, node unconfigured (fault: {fault}); the simulated rig "
+                f"recovers by itself: configure{' + activate' if self.reactivate else ''} in {retry_period_s:g} s")
+
+    def recovered(self, lifecycle_state: str) -> str:
+        """Count a recovery by the node itself (now ``lifecycle_state``) and say it."""
+        self.recovers_by_itself = self.reactivate = False
+        self.recoveries += 1
+        return (f"recovered by itself after a fault: {lifecycle_state}, holding 0 bar until the simulated robot "
+                "answers, then ramping up")
+
     # -- reporting ----------------------------------------------------------------------------
     def report(self, now_s: float, setup: NodeSetup, gate: CommandGate,
                shaper: SetpointShaper | None) -> DiagnosticReport:
@@ -222,6 +250,29 @@ def latency_figures(latency_ms: Iterable[float]) -> dict[str, str]:
     p50, p99, worst = np.percentile(samples, [50, 99, 100])
     return {"command_latency_p50_ms": f"{p50:.3f}", "command_latency_p99_ms": f"{p99:.3f}",
             "command_latency_max_ms": f"{worst:.3f}", "command_latency_count": str(samples.size)}
+
+
+def configured_message(rig: RigConfig, backend: str, gate: CommandGate, timing: CommandTiming,
+                       shaper: SetpointShaper) -> str:
+    """What the node says once configured: rig, ``backend``, what it takes to command, rates, limit, the map."""
+    arm = ("real regulators: nothing above 0 bar until an operator calls ~/arm" if gate.requires_arm
+           else "simulated: no arm needed" if gate.has_go else "simulated, disarmed: 0 bar until ~/arm")
+    return (f"configured: rig {rig.name!r}, backend {backend!r} ({arm}), {timing.command_rate_hz:g} Hz, "
+            f"setpoint timeout {timing.setpoint_timeout_s:g} s, limit {rig.robot.max_pressure_bar:g} bar, "
+            f"{shaper.map.describe()}, lag compensation {'on' if shaper.compensation else 'off'}")
+
+
+def stall_message(max_gap_s: float) -> str:
+    """What the node says when its command ticks stalled longer than ``max_gap_s`` (s) and output restarts."""
+    return (f"command ticks stalled longer than {max_gap_s:g} s (this process was frozen or starved of CPU; see "
+            "realtime_priority): output restarts with a ramp from 0 bar")
+
+
+def exit_message(program: str, vented: bool, was_open: bool) -> str:
+    """The last line of a node process: the vent (``vented``), nothing to vent (not ``was_open``) or VENT FAILED."""
+    outcome = VENT_FAILED if not vented else ("every valve vented to 0 bar" if was_open
+                                              else "no backend was open, nothing to vent")
+    return f"{program}: stopped; {outcome}"
 
 
 def output_message(reason: OutputReason, setpoint_timeout_s: float, holding: str = "") -> str:

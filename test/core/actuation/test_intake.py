@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from srs_ros.core.actuation.compensation import setpoint_shaper
-from srs_ros.core.actuation.intake import Setpoint, Verdict, take_setpoint
+from srs_ros.core.actuation.intake import NoteThrottle, Setpoint, Verdict, take_setpoint
 from srs_ros.core.actuation.safety import CommandGate, OutputReason, StampCheck
 from srs_ros.core.robot import default_robot
 
@@ -84,3 +84,23 @@ def test_a_lead_the_clamp_cuts_is_said(gate):
     assert gate.decide(NOW_S)[0] == pytest.approx(np.full(9, 4.0))
     calm = take_setpoint(Setpoint(NAMES, [0.02] * 9, [0.0] * 9), shaper, gate, NOW_NS, NOW_S + 0.01)
     assert calm.accepted and not calm.compensation_note
+
+
+def test_each_kind_of_note_has_its_severity_and_is_throttled_on_its_own(shaper, gate):
+    invalid = take_setpoint(Setpoint(NAMES[:8], [0.02] * 8), shaper, gate, NOW_NS, NOW_S)
+    stale = take_setpoint(Setpoint(NAMES, [0.02] * 9, stamp_ns=NOW_NS - 300_000_000), shaper, gate, NOW_NS, NOW_S)
+    limited = take_setpoint(Setpoint(NAMES, [0.05] * 9, [float("nan")] * 9, NOW_NS + 10**9), shaper, gate, NOW_NS,
+                            NOW_S)
+    assert [(n.kind, n.severity) for n in invalid.notes()] == [("invalid", "error")]
+    assert [(n.kind, n.severity) for n in stale.notes()] == [("stale", "error")]
+    assert [(n.kind, n.severity, n.throttle_s) for n in limited.notes()] == [
+        ("velocity", "warning", 1.0), ("clock", "warning", 1.0), ("limit", "warning", 5.0)]
+    assert limited.notes()[2].text == limited.limit_note
+    assert take_setpoint(Setpoint(NAMES, [0.02] * 9), shaper, gate, NOW_NS, NOW_S).notes() == ()
+    throttle = NoteThrottle()
+    assert throttle.due(invalid.notes() + limited.notes(), 10.0) == [*invalid.notes(), *limited.notes()]  # first: said
+    assert throttle.due(stale.notes() + invalid.notes(), 10.5) == list(stale.notes())  # a kind of its own
+    assert throttle.due(invalid.notes() + limited.notes(), 11.0) == [*invalid.notes(), *limited.notes()[:2]]
+    assert throttle.due(limited.notes(), 11.5) == []
+    assert throttle.due(limited.notes(), 14.9) == list(limited.notes()[:2])  # the limit note: 5 s since 10.0
+    assert throttle.due(limited.notes(), 15.0) == list(limited.notes()[2:])

@@ -5,8 +5,18 @@ import pytest
 
 from srs_ros.core.actuation.compensation import setpoint_shaper
 from srs_ros.core.actuation.intake import Setpoint, take_setpoint
-from srs_ros.core.actuation.safety import CommandGate, OutputReason
-from srs_ros.core.actuation.status import HardwareStatus, NodeSetup, latency_figures, output_message
+from srs_ros.core.actuation.safety import VENT_FAILED, CommandGate, OutputReason
+from srs_ros.core.actuation.status import (
+    HardwareStatus,
+    NodeSetup,
+    configured_message,
+    exit_message,
+    latency_figures,
+    output_message,
+    stall_message,
+)
+from srs_ros.core.actuation.timing import CommandTiming
+from srs_ros.core.rig import load_rig
 from srs_ros.core.robot import default_robot
 
 ROBOT = default_robot()
@@ -105,3 +115,36 @@ def test_the_summary_puts_a_fault_first_then_the_estop_a_slow_stream_clock_troub
     assert status.summary(CONFIGURED, gate, 0.0, 0)[1].startswith("holding at 0 bar: simulator paused")
     status.reason = OutputReason.COMMANDING
     assert status.summary(CONFIGURED, gate, 200.0, 0) == ("OK", "commanding")
+
+
+def test_a_fault_is_said_with_what_recovers_it_and_a_recovery_counted():
+    status = HardwareStatus()
+    status.note_fault("HardwareError: bus gone", recovers_by_itself=False, was_active=True)
+    assert status.error_processed(1.0) == ("error processing done: backend closed, node unconfigured; configure and "
+                                           "activate to recover (fault: HardwareError: bus gone)")
+    status.note_fault("SimulatorLost: silent", recovers_by_itself=True, was_active=True)
+    assert status.error_processed(1.0).endswith("the simulated rig recovers by itself: configure + activate in 1 s")
+    status.reactivate = False
+    assert status.error_processed(2.0).endswith("recovers by itself: configure in 2 s")
+    assert status.recovered("active").startswith("recovered by itself after a fault: active, holding 0 bar")
+    assert (status.recoveries, status.recovers_by_itself, status.reactivate) == (1, False, False)
+    assert HardwareStatus(last_error="configure failed").error_processed(1.0).endswith("(fault: configure failed)")
+
+
+def test_what_the_node_says_at_configure_at_a_stall_and_at_exit(gate):
+    rig = load_rig(None)
+    timing = CommandTiming(200.0, 0.2)
+    message = configured_message(rig, "mock", gate, timing, setpoint_shaper(ROBOT, "paper"))
+    assert message.startswith(f"configured: rig {rig.name!r}, backend 'mock' (simulated: no arm needed), 200 Hz, "
+                              "setpoint timeout 0.2 s, limit 4 bar, ")
+    assert message.endswith("lag compensation off")
+    real = CommandGate(joint_count=9, setpoint_timeout_s=0.2, requires_arm=True)
+    assert "(real regulators: nothing above 0 bar until an operator calls ~/arm)" in configured_message(
+        rig, "can", real, timing, setpoint_shaper(ROBOT, "paper"))
+    gate.disarm()
+    assert "(simulated, disarmed: 0 bar until ~/arm)" in configured_message(rig, "mock", gate, timing,
+                                                                           setpoint_shaper(ROBOT, "paper"))
+    assert stall_message(0.1).startswith("command ticks stalled longer than 0.1 s")
+    assert exit_message("hardware_node", True, True) == "hardware_node: stopped; every valve vented to 0 bar"
+    assert exit_message("srs_bringup", True, False) == "srs_bringup: stopped; no backend was open, nothing to vent"
+    assert exit_message("hardware_node", False, True) == f"hardware_node: stopped; {VENT_FAILED}"
