@@ -14,9 +14,9 @@ transitions (``ChangeState`` events); with ``autostart:=true`` it configures and
 Numbers are handed to the nodes as doubles whether written ``3`` or ``3.0``; a number that is not one
 (``amplitude_bar:=abc``) stops the launch before any node starts, with an error naming the argument, its
 value and what it takes; a switch takes ``true`` or ``false`` only. ``ros2 launch srs_ros srs.launch.py
---show-args`` lists the arguments. Their defaults (gait, amplitude, frequency, rig) are read from the
-parameter specs of srs_ros (:mod:`srs_ros.core.gait.request`, :data:`srs_ros.core.rig.SYSTEM_RIG`), as
-``srs_bringup``'s are, so neither restates a value.
+--show-args`` lists the arguments. Their defaults (gait, amplitude, frequency, rig, camera preset) are read from the
+parameter specs of srs_ros (:mod:`srs_ros.core.gait.request`, :data:`srs_ros.core.rig.SYSTEM_RIG` and
+:data:`~srs_ros.core.rig.SIM_COLOR_PRESET`), as ``srs_bringup``'s are, so neither restates a value.
 """
 
 import math
@@ -30,9 +30,9 @@ from launch.substitutions import LaunchConfiguration
 from launch_ros.actions import LifecycleNode, Node
 from launch_ros.parameter_descriptions import ParameterValue
 
+from srs_ros.core import rig
 from srs_ros.core.gait.library import list_gaits
 from srs_ros.core.gait.request import FREQUENCY_FIELD, gait_field
-from srs_ros.core.rig import SYSTEM_RIG
 from srs_ros.core.robot import amplitude_field, default_robot
 
 #: The numeric launch arguments: (unit, an example value).
@@ -71,7 +71,7 @@ def generate_launch_description():
                               description=f"largest pressure of the cycle, {amplitude.expected} (3 or 3.0)"),
         DeclareLaunchArgument("frequency_hz", default_value=str(FREQUENCY_FIELD.default),
                               description=f"gait frequency, {FREQUENCY_FIELD.expected} (1 or 1.0)"),
-        DeclareLaunchArgument("rig_file", default_value=os.path.join(config, "rigs", f"{SYSTEM_RIG}.yaml"),
+        DeclareLaunchArgument("rig_file", default_value=os.path.join(config, "rigs", f"{rig.SYSTEM_RIG}.yaml"),
                               description="rig YAML (backend, channels, rates); rigs/sim.yaml = the simulated robot"),
         DeclareLaunchArgument("sim", default_value="true", choices=["true", "false"],
                               description="start sim_world, the simulated robot (for rigs/sim.yaml)"),
@@ -79,9 +79,9 @@ def generate_launch_description():
                               description="configure and activate the hardware node, play the gait"),
         DeclareLaunchArgument("camera", default_value="true", choices=["true", "false"],
                               description="start the camera tracker (on image_raw)"),
-        DeclareLaunchArgument("camera_preset", default_value="sim_bands", choices=["sim_bands", ""],
-                              description="camera_tracker color_preset: sim_bands for sim_world's camera, '' for "
-                                          "config/camera_tracker.yaml (ArUco markers of a real robot)"),
+        DeclareLaunchArgument("camera_preset", default_value=rig.SIM_COLOR_PRESET, choices=list(rig.COLOR_PRESETS),
+                              description=f"camera_tracker color_preset: {rig.SIM_COLOR_PRESET} for sim_world's "
+                                          "camera, '' for config/camera_tracker.yaml (ArUco markers of a real robot)"),
         DeclareLaunchArgument("namespace", default_value="", description="ROS namespace of every node"),
         DeclareLaunchArgument("use_sim_time", default_value="false", choices=["true", "false"],
                               description="use /clock (simulation) time"),

@@ -16,7 +16,7 @@ from trajectory_msgs.msg import JointTrajectory
 
 from srs_ros.core.gait.library import list_gaits
 from srs_ros.core.gait.request import FREQUENCY_FIELD, gait_field
-from srs_ros.core.rig import SYSTEM_RIG
+from srs_ros.core.rig import SIM_COLOR_PRESET, SYSTEM_RIG
 from srs_ros.core.robot import amplitude_field, default_robot
 from srs_ros.ros.interfaces import TRAJECTORY_TOPIC, latched_qos
 
@@ -51,7 +51,7 @@ def evaluate(ament_prefix, *arguments, prelude=None):
 def test_defaults_run_the_simulated_robot_with_hardware_node_as_a_lifecycle_node(ament_prefix):
     nodes = evaluate(ament_prefix)
     assert sorted(nodes) == ["camera_tracker", "gait_player", "hardware_node", "sim_world", "trajectory_server"]
-    assert nodes["camera_tracker"]["parameters"]["color_preset"] == "sim_bands"
+    assert nodes["camera_tracker"]["parameters"]["color_preset"] == SIM_COLOR_PRESET == "sim_bands"
     assert nodes["hardware_node"]["kind"] == "LifecycleNode"
     assert nodes["trajectory_server"]["kind"] == nodes["gait_player"]["kind"] == "Node"
     server = nodes["trajectory_server"]["parameters"]
@@ -76,6 +76,7 @@ request.FREQUENCY_FIELD = dataclasses.replace(request.FREQUENCY_FIELD, default=0
 amplitude_field = robot.amplitude_field
 robot.amplitude_field = lambda r: dataclasses.replace(amplitude_field(r), default=2.5)
 rig.SYSTEM_RIG = "mock"
+rig.SIM_COLOR_PRESET = ""
 sys.argv = sys.argv[1:]
 runpy.run_path(sys.argv[0], run_name="__main__")
 """
@@ -93,6 +94,7 @@ def test_the_defaults_are_read_from_the_specs_so_a_changed_spec_changes_the_laun
     server = nodes["trajectory_server"]["parameters"]
     assert (server["gait"], server["amplitude_bar"], server["frequency_hz"]) == ("serpentine", 2.5, 0.5)
     assert Path(nodes["hardware_node"]["parameters"]["rig_file"]).name == "mock.yaml"
+    assert nodes["camera_tracker"]["parameters"]["color_preset"] == ""
 
 
 @pytest.mark.parametrize("written", ["3", "3.0"])

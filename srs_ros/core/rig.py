@@ -36,6 +36,11 @@ class RigConfig:
 #: The rig a whole system starts on by default (``srs_bringup``, ``launch/srs.launch.py``): the simulated robot.
 #: A hardware node started alone takes the mock rig (:func:`default_rig_path`).
 SYSTEM_RIG = "sim"
+#: The camera_tracker colour preset for the simulated robot's camera (sim_world's images): its head and tail
+#: bands. ``srs_bringup`` gives it to the tracker on the simulated rig, and it is the launch file's default.
+SIM_COLOR_PRESET = "sim_bands"
+#: The colour presets camera_tracker knows ('' = none: its own detector, marker ids and HSV bounds).
+COLOR_PRESETS = ("", SIM_COLOR_PRESET)
 
 
 def rig_path(name: str) -> Path:

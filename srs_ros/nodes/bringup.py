@@ -272,7 +272,7 @@ def _params_file(args: argparse.Namespace, ros_args: list[str]) -> str:
         "hardware_node": {"autostart": True, "rig_file": args.rig, "backend": args.backend,
                           "realtime_priority": args.realtime_priority},
         "sim_world": {"sim_config_file": args.sim_config},
-        "camera_tracker": {"color_preset": "sim_bands"},
+        "camera_tracker": {"color_preset": rig_config.SIM_COLOR_PRESET},
     }
     params = {node: {k: v for k, v in values.items() if k not in given} for node, values in params.items()}
     with tempfile.NamedTemporaryFile("w", prefix="srs_bringup_", suffix=".yaml", delete=False) as stream:

@@ -36,6 +36,7 @@ from rclpy.qos import qos_profile_sensor_data
 from sensor_msgs.msg import Image
 
 from srs_ros.core.errors import ConfigurationError, InvalidInputError, SrsError
+from srs_ros.core.rig import COLOR_PRESETS, SIM_COLOR_PRESET
 from srs_ros.core.vision.camera_calibration import load_calibration
 from srs_ros.core.vision.tracking import (
     DEFAULT_ARUCO_DICTIONARY,
@@ -85,10 +86,10 @@ PARAMETERS = (
     ParameterSpec("head_color_hsv_low", [170, 120, 70], "colour detector: head HSV lower bound (H wraps)",
                   read_only=True),
     ParameterSpec("head_color_hsv_high", [10, 255, 255], "colour detector: head HSV upper bound", read_only=True),
-    ParameterSpec("color_preset", "", "'' or 'sim_bands': the colour detector set for the simulated robot's head "
-                  "and tail bands (config/sim.yaml), replacing detector and the HSV bounds; with no calibration_file "
-                  "the simulated camera's calibration in the bands' plane", read_only=True,
-                  additional_constraints="'' or 'sim_bands'"),
+    ParameterSpec("color_preset", "", f"'' or '{SIM_COLOR_PRESET}': the colour detector set for the simulated robot's "
+                  "head and tail bands (config/sim.yaml), replacing detector and the HSV bounds; with no "
+                  "calibration_file the simulated camera's calibration in the bands' plane", read_only=True,
+                  choices=COLOR_PRESETS),
     ParameterSpec("min_blob_area_px", 20.0, "colour detector: smallest blob, px^2", 1.0, 1e7, read_only=True),
     ParameterSpec("position_ratio", 0.5, "pose point between tail (0) and head (1)", 0.0, 1.0, read_only=True),
     ParameterSpec("velocity_window_s", 0.5, "velocity smoothing window, s", 0.01, 60.0, read_only=True),
@@ -114,8 +115,8 @@ def tracker_config(params: dict[str, Any]) -> TrackerConfig:
     preset = params.get("color_preset", "")
     if not preset:
         return config
-    if preset != "sim_bands":
-        raise ConfigurationError(f"color_preset is {preset!r}; expected '' or 'sim_bands'.")
+    if preset != SIM_COLOR_PRESET:
+        raise ConfigurationError(f"color_preset is {preset!r}; expected one of {list(COLOR_PRESETS)}.")
     from srs_ros.sim.camera import band_tracker_config
     from srs_ros.sim.config import load_sim_config
 
@@ -152,7 +153,7 @@ class CameraTrackerNode(Node):
         declare_parameters(self, PARAMETERS)
         p = {spec.name: self.get_parameter(spec.name).value for spec in PARAMETERS}
         calibration_file = p["calibration_file"] or None
-        if p["color_preset"] == "sim_bands" and calibration_file is None:
+        if p["color_preset"] == SIM_COLOR_PRESET and calibration_file is None:
             self.calibration = sim_band_calibration()
         else:
             self.calibration = load_calibration(calibration_file)

@@ -3,6 +3,8 @@
 import dataclasses
 from pathlib import Path
 
+import yaml
+
 from srs_ros.core import rig
 from srs_ros.core.gait import request
 from srs_ros.core.gait.library import list_gaits
@@ -32,3 +34,21 @@ def test_a_changed_spec_changes_the_default(monkeypatch):
     args = bringup.build_parser().parse_args([])
     assert (args.gait, args.frequency_hz, args.samples, args.rate_hz, Path(args.rig).name) == (
         "serpentine", 0.5, 32, 300.0, "mock.yaml")
+
+
+def test_the_camera_tracker_gets_the_sim_colour_preset_of_core_rig_as_the_launch_file_does(monkeypatch):
+    """One source for the preset (srs_ros.core.rig.SIM_COLOR_PRESET): bringup's params file follows a change of it."""
+    args = bringup.build_parser().parse_args([])
+    assert read_params(bringup._params_file(args, []))["camera_tracker"]["color_preset"] == rig.SIM_COLOR_PRESET
+    assert rig.SIM_COLOR_PRESET in rig.COLOR_PRESETS and "" in rig.COLOR_PRESETS
+    monkeypatch.setattr(rig, "SIM_COLOR_PRESET", "")
+    assert read_params(bringup._params_file(args, []))["camera_tracker"]["color_preset"] == ""
+
+
+def read_params(path: str) -> dict:
+    """A params file bringup wrote, by node name (then removed, as bringup does)."""
+    try:
+        data = yaml.safe_load(Path(path).read_text())
+    finally:
+        Path(path).unlink()
+    return {key.removeprefix("/**/"): value["ros__parameters"] for key, value in data.items()}
