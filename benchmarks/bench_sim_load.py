@@ -14,29 +14,18 @@ import argparse
 import os
 import subprocess
 import sys
+import tempfile
 import time
 
 import numpy as np
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import PoseStamped
-from srs_testing import NodeProcess, RosClient, allocate_domain, release_domain, ros_args
+from srs_testing import RosClient, RosSession, launch_sim_loop
 from std_msgs.msg import Float64MultiArray
 
-from srs_ros.core.robot import config_dir
 from srs_ros.ros.interfaces import diagnostic_values
 
 COUNTERS = ("holds", "stale_vents", "recoveries")
-
-
-def start_layout(env: dict) -> dict:
-    rig = str(config_dir() / "rigs" / "sim.yaml")
-    return {
-        "sim_world": NodeProcess("sim_world", ros_args(), env=env),
-        "hardware_node": NodeProcess("hardware_node", ros_args({"autostart": True, "rig_file": rig}), env=env),
-        "trajectory_server": NodeProcess("trajectory_server", ros_args(), env=env),
-        "gait_player": NodeProcess("gait_player", ros_args({"autostart": True}), env=env),
-        "camera_tracker": NodeProcess("camera_tracker", ros_args({"color_preset": "sim_bands"}), env=env),
-    }
 
 
 def latest(diagnostics: list, prefix: str) -> dict:
@@ -81,11 +70,9 @@ def main():
     parser.add_argument("--duration-s", type=float, default=30.0, help="measuring window per count, s")
     args = parser.parse_args()
     os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
-    domain = allocate_domain()
-    env = dict(os.environ, ROS_DOMAIN_ID=str(domain))
-    processes = start_layout(env)
-    client = RosClient(domain)
-    try:
+    with RosSession(tempfile.mkdtemp(prefix="bench_sim_load_")) as session:  # stops every process, pass or fail
+        launch_sim_loop(session.launch)
+        client = session.client
         streams = {"diagnostics": client.subscribe(DiagnosticArray, "/diagnostics"),
                    "truth": client.subscribe(PoseStamped, "sim/ground_truth_pose"),
                    "commands": client.subscribe(Float64MultiArray, "commanded_pressure_bar")}
@@ -96,11 +83,6 @@ def main():
         print("busy | world  | slipped | cmd/s   | holds | stale | board | faults | recov | cm/s")
         for busy in args.busy:
             print(measure(client, busy, args.duration_s, streams), flush=True)
-    finally:
-        client.close()
-        for proc in processes.values():
-            proc.stop()
-        release_domain(domain)
 
 
 if __name__ == "__main__":

@@ -10,14 +10,13 @@ Run: python benchmarks/bench_sim_world_node.py [--duration-s 20] [--camera-rate-
 
 import argparse
 import os
+import tempfile
 import time
 from pathlib import Path
 
 from geometry_msgs.msg import PoseStamped
 from sensor_msgs.msg import Image
-from srs_testing import NodeProcess, RosClient, allocate_domain, release_domain, ros_args
-
-from srs_ros.core.robot import config_dir
+from srs_testing import RosSession, launch_sim_loop
 
 CLOCK_TICKS = os.sysconf("SC_CLK_TCK")
 
@@ -34,18 +33,10 @@ def main():
     parser.add_argument("--camera-rate-hz", type=float, default=30.0, help="sim_world camera rate (default 30)")
     args = parser.parse_args()
     os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
-    domain = allocate_domain()
-    env = dict(os.environ, ROS_DOMAIN_ID=str(domain))
-    rig = str(config_dir() / "rigs" / "sim.yaml")
-    processes = {
-        "sim_world": NodeProcess("sim_world", ros_args({"camera_rate_hz": args.camera_rate_hz}), env=env),
-        "hardware_node": NodeProcess("hardware_node", ros_args({"autostart": True, "rig_file": rig}), env=env),
-        "trajectory_server": NodeProcess("trajectory_server", ros_args({"samples": 64}), env=env),
-        "gait_player": NodeProcess("gait_player", ros_args({"autostart": True}), env=env),
-        "camera_tracker": NodeProcess("camera_tracker", ros_args({"color_preset": "sim_bands"}), env=env),
-    }
-    client = RosClient(domain)
-    try:
+    with RosSession(tempfile.mkdtemp(prefix="bench_sim_world_node_")) as session:  # stops every process at the end
+        processes = launch_sim_loop(session.launch, {"sim_world": {"camera_rate_hz": args.camera_rate_hz},
+                                                     "trajectory_server": {"samples": 64}})
+        client = session.client
         images = client.subscribe(Image, "image_raw", 1)
         tracked = client.subscribe(PoseStamped, "robot_pose")
         truth = client.subscribe(PoseStamped, "sim/ground_truth_pose")
@@ -64,11 +55,6 @@ def main():
             print(f"  {name:18s} {share:5.1f} % of a core{target}")
         rates = [(len(x) - c) / span_s for x, c in zip((images, tracked, truth), counts)]
         print(f"  received: images {rates[0]:.1f}/s, tracked poses {rates[1]:.1f}/s, ground truth {rates[2]:.1f}/s")
-    finally:
-        client.close()
-        for proc in processes.values():
-            proc.stop()
-        release_domain(domain)
 
 
 if __name__ == "__main__":

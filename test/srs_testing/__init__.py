@@ -6,8 +6,10 @@ Modules:
   :func:`release_domain`), node processes started by their console scripts (:class:`NodeProcess`,
   :func:`ros_args`, :func:`script_path`), the rclpy client that does what ``ros2 topic echo`` / ``ros2
   service call`` / ``ros2 param set`` / ``ros2 lifecycle set`` do (:class:`RosClient`), all of it for longer
-  than one test (:class:`RosSession`: a node process several tests share), and Fast DDS's shared memory
-  cleaned after a process was killed (:func:`fastdds_shm_clean_if_killed`).
+  than one test (:class:`RosSession`: a node process several tests share; a context manager that stops
+  every process it started, pass or fail), the simulated loop as the launch file starts it
+  (:func:`launch_sim_loop`), and Fast DDS's shared memory cleaned after a process was killed
+  (:func:`fastdds_shm_clean_if_killed`).
 - :mod:`srs_testing.backend`: what the mock backend of a node in another process wrote (:func:`recorded_rig`,
   :class:`BackendRecord`).
 - :mod:`srs_testing.gaits`: gait cycles as a sender publishes them (:data:`JOINT_NAMES`, :func:`rolling_cycle`,
@@ -32,6 +34,7 @@ from srs_testing.ros import (
     allocate_domain,
     fastdds_shm_clean,
     fastdds_shm_clean_if_killed,
+    launch_sim_loop,
     note_killed,
     release_domain,
     ros_args,
@@ -40,6 +43,6 @@ from srs_testing.ros import (
 
 __all__ = [
     "JOINT_NAMES", "BackendRecord", "NetnsLab", "NodeProcess", "RosClient", "RosSession", "allocate_domain",
-    "fastdds_shm_clean", "fastdds_shm_clean_if_killed", "note_killed", "recorded_rig", "release_domain",
-    "rolling_cycle", "ros_args", "script_path", "trajectory",
+    "fastdds_shm_clean", "fastdds_shm_clean_if_killed", "launch_sim_loop", "note_killed", "recorded_rig",
+    "release_domain", "rolling_cycle", "ros_args", "script_path", "trajectory",
 ]

@@ -368,3 +368,23 @@ class RosSession:
         finally:
             release_domain(self.domain)
             fastdds_shm_clean_if_killed()
+
+
+def launch_sim_loop(launch: Callable[..., NodeProcess], overrides: dict[str, dict[str, Any]] | None = None
+                    ) -> dict[str, NodeProcess]:
+    """The simulated loop as separate processes, as the launch file's defaults start it; by node name.
+
+    sim_world, hardware_node on the sim rig (autostart), trajectory_server, gait_player (autostart) and
+    camera_tracker on the simulated camera's bands. ``launch`` starts one node (:meth:`RosSession.launch`, the
+    ``launch_node`` fixture); ``overrides`` adds or replaces parameters by node (e.g. ``{"sim_world":
+    {"camera_rate_hz": 15.0}}``). With a :class:`RosSession` as a context manager every process is stopped at
+    its end, pass or fail.
+    """
+    from srs_ros.core.rig import SIM_COLOR_PRESET, rig_path
+
+    params = {"sim_world": {}, "hardware_node": {"autostart": True, "rig_file": str(rig_path("sim"))},
+              "trajectory_server": {}, "gait_player": {"autostart": True},
+              "camera_tracker": {"color_preset": SIM_COLOR_PRESET}}
+    for node, values in (overrides or {}).items():
+        params[node] = {**params[node], **values}
+    return {node: launch(node, ros_args(values)) for node, values in params.items()}
