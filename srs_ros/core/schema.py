@@ -12,15 +12,18 @@ value and what is expected::
     config/robot.yaml: robot.mass_kg is missing; expected a number > 0 (kg).
 
 Rules that span several keys (a timeout at least another one, a period a whole number of time steps)
-stay with the code that knows them and raise through :func:`refusal`, so they read the same.
+stay with the code that knows them and raise through :func:`refusal`, so they read the same. A CSV table
+(:func:`read_csv_rows`) is checked a row at a time by a :class:`Table`, its refusals naming file and line.
 """
 
 from __future__ import annotations
 
+import csv
 import math
 import numbers
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -323,3 +326,53 @@ class Table:
             else:
                 values[f.name] = f.default if f.default is None else f.check(f.default, where, key, error)
         return values
+
+
+def read_csv_rows(path: str | Path, table: Table, error: type[Exception] = ConfigurationError
+                  ) -> list[dict[str, Any]]:
+    """The rows of a CSV file whose header line names the table's keys (in any order), each checked by the table.
+
+    A cell is read as a number where its field takes one. A refusal names the file and its line
+    (``ruler.csv:3``), the column, the cell and what is expected, in the format of :func:`refusal`:
+    ``ruler.csv:3: pressure_bar is '9'; expected a number in [0, 4] (bar).``
+    """
+    path = Path(path)
+    columns = ",".join(table.names)
+    if path.exists() and not path.is_file():  # a FIFO or a device would block the reader
+        raise error(f"{path}: not a regular file (a directory, pipe or device); expected a CSV file {columns}.")
+    try:
+        with path.open(newline="", encoding="utf-8") as stream:
+            reader = csv.reader(stream)
+            header = next(reader, [])
+            lines = [(reader.line_num, cells) for cells in reader if cells]
+    except FileNotFoundError:
+        raise error(f"{path}: no such file.") from None
+    except (OSError, UnicodeDecodeError, csv.Error) as exc:
+        raise error(f"{path}: cannot be read as CSV ({exc}); expected a header line {columns} and a row each.") \
+            from None
+    if sorted(header) != sorted(table.names):
+        raise refusal(str(path), "the header line", ",".join(header), f"{columns} (in any order)", error)
+    return [_csv_row(header, cells, table, f"{path}:{line}", error) for line, cells in lines]
+
+
+def _csv_row(header: list[str], cells: list[str], table: Table, where: str, error: type[Exception]
+             ) -> dict[str, Any]:
+    """One CSV row checked by ``table`` (a cell beyond the header's columns is refused)."""
+    if len(cells) > len(header):
+        raise refusal(where, "the row", ",".join(cells), f"{len(header)} cells, one a column", error)
+    row = dict(zip(header, cells))
+    values = {}
+    for f in table:
+        if f.name not in row:
+            raise missing(where, f.name, f.expected, error)
+        text = row[f.name].strip()
+        values[f.name] = f.check(_number(text, f.kind) if f.kind in (float, int) else text, where, error=error)
+    return values
+
+
+def _number(text: str, kind: type) -> Any:
+    """A cell's text as ``kind`` (float or int), or the text itself where it is not one (for the refusal)."""
+    try:
+        return kind(text)
+    except ValueError:
+        return text

@@ -19,7 +19,6 @@ world) and records what was sent and what the rig measured. From the record:
 
 from __future__ import annotations
 
-import csv
 import math
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
@@ -32,6 +31,7 @@ from scipy.signal import lfilter
 
 from srs_ros.core.errors import ConfigurationError, FitError
 from srs_ros.core.robot import RobotDescription
+from srs_ros.core.schema import Field, Table, read_csv_rows
 
 #: Share of a step's hold at its end over which it counts as settled (averaged for the static fit).
 SETTLED_SHARE = 0.25
@@ -273,39 +273,27 @@ def settled_points(recording: Recording, plan: CommandPlan, joint: int) -> tuple
     return np.array(pressures), np.array(lengths)
 
 
+def length_table_schema(robot: RobotDescription) -> Table:
+    """The columns of a ruler-and-pressure table for ``robot``: one measured point a row."""
+    return Table("", (
+        Field("joint", str, choices=tuple(robot.joint_names), description="the muscle measured"),
+        Field("pressure_bar", float, minimum=0.0, maximum=robot.max_pressure_bar, unit="bar",
+              description="the pressure held"),
+        Field("length_m", float, unit="m", description="the length change measured at that pressure"),
+    ))
+
+
 def read_length_table(path: str | Path, robot: RobotDescription) -> dict[str, tuple[np.ndarray, np.ndarray]]:
     """A ruler-and-pressure table: CSV with a header ``joint,pressure_bar,length_m``, one measured point a row.
 
-    Returns ``{joint: (pressures bar, lengths m)}``. Raises :class:`ConfigurationError` naming the file,
-    the line and what is expected.
+    Returns ``{joint: (pressures bar, lengths m)}``. Raises :class:`ConfigurationError` in the schema's one
+    format, naming the file and line, the column, the cell and what is expected
+    (:func:`~srs_ros.core.schema.read_csv_rows`).
     """
-    path = Path(path)
-    try:
-        with path.open(newline="", encoding="utf-8") as stream:
-            rows = list(csv.DictReader(stream))
-            header = list(rows[0].keys()) if rows else []
-    except OSError as exc:
-        raise ConfigurationError(f"{path}: cannot be read ({exc}); expected a CSV file joint,pressure_bar,length_m.")\
-            from None
-    expected = ["joint", "pressure_bar", "length_m"]
-    if sorted(header) != sorted(expected):
-        raise ConfigurationError(f"{path}: columns {header}; expected a header line {','.join(expected)} and one "
-                                 "measured point per row (length change in m at a held pressure in bar).")
     points: dict[str, list[tuple[float, float]]] = {}
-    for line, row in enumerate(rows, start=2):
-        if row["joint"] not in robot.joint_index:
-            raise ConfigurationError(f"{path}:{line}: joint {row['joint']!r}; expected one of "
-                                     f"{list(robot.joint_names)}.")
-        try:
-            pressure, length = float(row["pressure_bar"]), float(row["length_m"])
-        except (TypeError, ValueError):
-            raise ConfigurationError(f"{path}:{line}: pressure_bar {row['pressure_bar']!r}, length_m "
-                                     f"{row['length_m']!r}; expected two numbers (bar, m).") from None
-        if not (math.isfinite(pressure) and math.isfinite(length) and 0.0 <= pressure <= robot.max_pressure_bar):
-            raise ConfigurationError(f"{path}:{line}: pressure_bar {pressure!r}, length_m {length!r}; expected a "
-                                     f"pressure in [0, {robot.max_pressure_bar}] bar and a finite length in m.")
-        points.setdefault(row["joint"], []).append((pressure, length))
-    return {joint: (np.array([p for p, _ in rows_]), np.array([v for _, v in rows_])) for joint, rows_ in
+    for row in read_csv_rows(path, length_table_schema(robot)):
+        points.setdefault(row["joint"], []).append((row["pressure_bar"], row["length_m"]))
+    return {joint: (np.array([p for p, _ in rows]), np.array([v for _, v in rows])) for joint, rows in
             points.items()}
 
 

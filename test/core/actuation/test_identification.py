@@ -141,14 +141,27 @@ def test_a_ruler_table_gives_the_static_characteristic(tmp_path):
     assert found.values["m3_pma2"]["saturation_bar"] == pytest.approx(3.5)
     bad = tmp_path / "bad.csv"
     bad.write_text("joint,pressure_bar,length_m\nm1_pma1,2.0,0.02\nm9_pma1,2.0,0.02\n")
-    with pytest.raises(ConfigurationError, match=r"bad.csv:3: joint 'm9_pma1'"):
+    with pytest.raises(ConfigurationError, match=r"bad.csv:3: joint is 'm9_pma1'; expected one of \['m1_pma1', "):
         read_length_table(bad, ROBOT)
-    bad.write_text("muscle,bar,m\n")
-    with pytest.raises(ConfigurationError, match="expected a header line joint,pressure_bar,length_m"):
+
+
+@pytest.mark.parametrize(("text", "refusal"), [
+    ("muscle,bar,m\n", "bad.csv: the header line is 'muscle,bar,m'; expected joint,pressure_bar,length_m (in any "
+                       "order)."),
+    ("joint,pressure_bar,length_m\nm1_pma1,2.0,0.02\nm1_pma1,9.0,0.02\n",
+     "bad.csv:3: pressure_bar is 9.0; expected a number in [0, 4] (bar)."),
+    ("pressure_bar,joint,length_m\n2.0,m1_pma1,abc\n", "bad.csv:2: length_m is 'abc'; expected a number (finite) (m)."),
+    ("joint,pressure_bar,length_m\nm1_pma1,nan,0.02\n", "bad.csv:2: pressure_bar is nan; expected a number in [0, 4]"),
+    ("joint,pressure_bar,length_m\nm1_pma1,2.0\n", "bad.csv:2: length_m is missing; expected a number (finite) (m)."),
+    ("joint,pressure_bar,length_m\nm1_pma1,2.0,0.02,7\n", "bad.csv:2: the row is 'm1_pma1,2.0,0.02,7'; expected 3 "
+                                                      "cells, one a column."),
+])
+def test_a_bad_value_in_a_ruler_table_is_refused_with_file_line_column_and_what_is_expected(tmp_path, text, refusal):
+    bad = tmp_path / "bad.csv"
+    bad.write_text(text)
+    with pytest.raises(ConfigurationError) as refused:
         read_length_table(bad, ROBOT)
-    bad.write_text("joint,pressure_bar,length_m\nm1_pma1,9.0,0.02\n")
-    with pytest.raises(ConfigurationError, match=r"bad.csv:2: .*expected a pressure in \[0, 4.0\] bar"):
-        read_length_table(bad, ROBOT)
+    assert str(refused.value).startswith(f"{bad.parent}/{refusal}")
 
 
 def test_dynamics_need_a_pressure_read_back():
