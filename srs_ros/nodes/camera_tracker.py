@@ -39,7 +39,7 @@ from srs_ros.core.errors import ConfigurationError, InvalidInputError, SrsError
 from srs_ros.core.rig import COLOR_PRESETS, SIM_COLOR_PRESET
 from srs_ros.core.vision.camera_calibration import load_calibration
 from srs_ros.core.vision.tracking import (
-    DEFAULT_ARUCO_DICTIONARY,
+    TRACKER_TABLE,
     Tracker,
     TrackerConfig,
     TrackResult,
@@ -67,6 +67,9 @@ STATUS_NAME_SUFFIX = "marker tracking"
 RENAMED_PARAMETERS = {"lost_timeout_s": "image_timeout_s (no images: ERROR camera silent) and lost_after_s "
                                         "(no pose: WARN robot out of the camera's view)"}
 
+#: Options of the tracker the node does not take as parameters (the default holds).
+NOT_PARAMETERS = ("max_marker_spacing_m",)
+
 PARAMETERS = (
     ParameterSpec("calibration_file", "", "floor calibration YAML; empty = config/camera_calibration.yaml",
                   read_only=True),
@@ -75,28 +78,12 @@ PARAMETERS = (
     ParameterSpec("source_rate_hz", 0.0, "frame rate for 'source', Hz; 0 = the video's own rate (30 if unknown)",
                   0.0, 1000.0, read_only=True),
     ParameterSpec("loop", False, "restart a 'source' video file at its end", read_only=True),
-    ParameterSpec("detector", "aruco", "marker kind: 'aruco' or 'color'", read_only=True),
-    ParameterSpec("aruco_dictionary", DEFAULT_ARUCO_DICTIONARY, "cv2.aruco predefined dictionary name",
-                  read_only=True),
-    ParameterSpec("tail_marker_id", 0, "ArUco id of the tail marker", 0, 1023, read_only=True),
-    ParameterSpec("head_marker_id", 1, "ArUco id of the head marker", 0, 1023, read_only=True),
-    ParameterSpec("tail_color_hsv_low", [100, 120, 70], "colour detector: tail HSV lower bound (OpenCV scale)",
-                  read_only=True),
-    ParameterSpec("tail_color_hsv_high", [130, 255, 255], "colour detector: tail HSV upper bound", read_only=True),
-    ParameterSpec("head_color_hsv_low", [170, 120, 70], "colour detector: head HSV lower bound (H wraps)",
-                  read_only=True),
-    ParameterSpec("head_color_hsv_high", [10, 255, 255], "colour detector: head HSV upper bound", read_only=True),
+    # the tracker's options: types, ranges and defaults from srs_ros.core.vision.tracking.TRACKER_TABLE
+    *(ParameterSpec.from_field(f, read_only=True) for f in TRACKER_TABLE if f.name not in NOT_PARAMETERS),
     ParameterSpec("color_preset", "", f"'' or '{SIM_COLOR_PRESET}': the colour detector set for the simulated robot's "
                   "head and tail bands (config/sim.yaml), replacing detector and the HSV bounds; with no "
                   "calibration_file the simulated camera's calibration in the bands' plane", read_only=True,
                   choices=COLOR_PRESETS),
-    ParameterSpec("min_blob_area_px", 20.0, "colour detector: smallest blob, px^2", 1.0, 1e7, read_only=True),
-    ParameterSpec("position_ratio", 0.5, "pose point between tail (0) and head (1)", 0.0, 1.0, read_only=True),
-    ParameterSpec("velocity_window_s", 0.5, "velocity smoothing window, s", 0.01, 60.0, read_only=True),
-    ParameterSpec("max_gap_s", 0.5, "longest gap between tracked frames inside one velocity window, s",
-                  0.01, 60.0, read_only=True),
-    ParameterSpec("roi_margin_px", 40, "search margin around the last markers, px (0 = whole frame)", 0, 10000,
-                  read_only=True),
     ParameterSpec("frame_id", "", "frame of the outputs; empty = the calibration's frame_id", read_only=True),
     ParameterSpec("path_max_poses", 5000, "longest trail kept in robot_path", 2, 1000000, read_only=True),
     ParameterSpec("path_min_step_m", 0.002, "a trail point is added after this much motion, m", 0.0, 10.0,
@@ -111,7 +98,7 @@ PARAMETERS = (
 
 def tracker_config(params: dict[str, Any]) -> TrackerConfig:
     """The tracker settings from the node's parameters, with the ``color_preset`` applied."""
-    config = TrackerConfig.from_dict(params)
+    config = TrackerConfig.from_dict(params, "camera_tracker")
     preset = params.get("color_preset", "")
     if not preset:
         return config

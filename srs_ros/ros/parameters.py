@@ -36,13 +36,15 @@ class ParameterSpec:
     above_minimum: bool = False
     #: Unit of the value ('' where the description names it).
     unit: str = ""
+    #: The exact number of items of a list parameter (None: any).
+    length: int | None = None
 
     @classmethod
     def from_field(cls, field: Field, read_only: bool = False, name: str | None = None) -> ParameterSpec:
         """The parameter of a schema field (``name`` replaces the field's, e.g. ``serpentine.radius_m``)."""
         return cls(name or field.name, field.default, field.description, field.minimum, field.maximum, read_only,
                    additional_constraints=field.expected, choices=tuple(field.choices),
-                   above_minimum=field.above_minimum, unit=field.unit)
+                   above_minimum=field.above_minimum, unit=field.unit, length=field.length)
 
     @property
     def is_double(self) -> bool:
@@ -55,7 +57,7 @@ class ParameterSpec:
         kind = type(self.default) if isinstance(self.default, (bool, int, float, str)) else list
         item = _item_type(self.default) if kind is list else None
         return Field(self.name, kind, self.default, self.minimum, self.maximum, self.unit, self.description,
-                     choices=self.choices, above_minimum=self.above_minimum, item=item,
+                     choices=self.choices, above_minimum=self.above_minimum, item=item, length=self.length,
                      example=repr(self.default) if self.is_double else "")
 
     def descriptor(self) -> ParameterDescriptor:

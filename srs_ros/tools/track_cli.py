@@ -17,7 +17,7 @@ import numpy as np
 
 from srs_ros.core.errors import ConfigurationError, InvalidInputError, SrsError
 from srs_ros.core.vision.camera_calibration import load_calibration
-from srs_ros.core.vision.tracking import DEFAULT_ARUCO_DICTIONARY, Tracker, TrackerConfig, traveling_velocity
+from srs_ros.core.vision.tracking import DETECTORS, TRACKER_TABLE, Tracker, TrackerConfig, traveling_velocity
 
 
 def track_video(video: str | Path, tracker: Tracker, fps: float | None = None) -> tuple[np.ndarray, int]:
@@ -94,18 +94,24 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--out", required=True, help="output CSV (time_s, x_m, y_m, yaw_rad)")
     parser.add_argument("--plot", help="also save a plot of the path (PNG)")
     parser.add_argument("--fps", type=float, help="frame rate, Hz, if the file's is wrong or missing")
-    parser.add_argument("--detector", choices=("aruco", "color"), default="aruco", help="marker kind (default aruco)")
-    parser.add_argument("--dictionary", default=DEFAULT_ARUCO_DICTIONARY, help="ArUco dictionary")
-    parser.add_argument("--tail-id", type=int, default=0, help="ArUco id of the tail marker (default 0)")
-    parser.add_argument("--head-id", type=int, default=1, help="ArUco id of the head marker (default 1)")
-    parser.add_argument("--position-ratio", type=float, default=0.5,
-                        help="tracked point between tail (0) and head (1) (default 0.5)")
+    option = {f.name: f for f in TRACKER_TABLE}  # the defaults and ranges of the camera_tracker node's options
+    parser.add_argument("--detector", choices=DETECTORS, default=option["detector"].default,
+                        help=f"marker kind (default {option['detector'].default})")
+    parser.add_argument("--dictionary", default=option["aruco_dictionary"].default, help="ArUco dictionary")
+    parser.add_argument("--tail-id", type=int, default=option["tail_marker_id"].default,
+                        help=f"ArUco id of the tail marker (default {option['tail_marker_id'].default})")
+    parser.add_argument("--head-id", type=int, default=option["head_marker_id"].default,
+                        help=f"ArUco id of the head marker (default {option['head_marker_id'].default})")
+    parser.add_argument("--position-ratio", type=float, default=option["position_ratio"].default,
+                        help=f"tracked point between tail (0) and head (1) (default "
+                             f"{option['position_ratio'].default})")
     parser.add_argument("--end-window", type=float, default=0.0,
                         help="average the position over this many seconds at each end of the run (default 0)")
     args = parser.parse_args(argv)
     try:
-        config = TrackerConfig(detector=args.detector, aruco_dictionary=args.dictionary, tail_marker_id=args.tail_id,
-                               head_marker_id=args.head_id, position_ratio=args.position_ratio)
+        config = TrackerConfig.from_dict({"detector": args.detector, "aruco_dictionary": args.dictionary,
+                                          "tail_marker_id": args.tail_id, "head_marker_id": args.head_id,
+                                          "position_ratio": args.position_ratio}, "srs_track")
         tracker = Tracker(load_calibration(args.calibration), config)
         rows, frames = track_video(args.video, tracker, args.fps)
         write_track_csv(args.out, rows)

@@ -11,7 +11,11 @@ from nav_msgs.msg import Path
 from sensor_msgs.msg import Image
 from srs_testing import ros_args
 
+from srs_ros.core.errors import ConfigurationError
+from srs_ros.core.rig import SIM_COLOR_PRESET
 from srs_ros.core.vision.camera_calibration import save_calibration
+from srs_ros.core.vision.tracking import TRACKER_TABLE, TrackerConfig
+from srs_ros.nodes.camera_tracker import PARAMETERS, tracker_config
 from srs_ros.ros.interfaces import (
     array_to_image_msg,
     diagnostic_values,
@@ -224,3 +228,22 @@ def test_tracker_node_says_when_the_robot_leaves_the_view_and_when_the_camera_fa
     assert "no images from /image_raw for" in silent.message and "(camera silent)" in silent.message
     assert "robot last seen " in silent.message and "last_seen_x_m" in values_of(silent)
     assert node.alive() and "Traceback" not in node.output()
+
+
+def test_the_tracker_options_and_their_defaults_come_from_the_tracker_table():
+    node = {spec.name: spec for spec in PARAMETERS}
+    for field in TRACKER_TABLE:
+        if field.name in node:
+            assert node[field.name].default == field.default and node[field.name].read_only, field.name
+    assert {f.name for f in TRACKER_TABLE} - set(node) == {"max_marker_spacing_m"}
+
+
+def test_the_colour_preset_is_the_one_for_the_simulated_camera_and_an_unknown_one_is_refused():
+    params = {field.name: field.default for field in TRACKER_TABLE}
+    assert tracker_config({**params, "color_preset": ""}) == TrackerConfig()
+    bands = tracker_config({**params, "color_preset": SIM_COLOR_PRESET})
+    assert bands.detector == "color" and bands.tail_color != TrackerConfig().tail_color
+    with pytest.raises(ConfigurationError, match=r"color_preset is 'stripes'; expected one of \['', 'sim_bands'\]"):
+        tracker_config({**params, "color_preset": "stripes"})
+    with pytest.raises(ConfigurationError, match=r"^camera_tracker: roi_margin_px is -1; expected an integer in"):
+        tracker_config({**params, "color_preset": "", "roi_margin_px": -1})

@@ -56,7 +56,7 @@ def test_console_script_reports_a_bad_calibration(recording, tmp_path):
     done = subprocess.run([script_path("srs_track"), str(video), "--calibration", str(bad), "--out",
                            str(tmp_path / "t.csv")], capture_output=True, text=True, timeout=60)
     assert done.returncode == 2
-    assert "missing section 'camera_calibration:'" in done.stderr
+    assert "bad.yaml: camera_calibration is missing; expected a mapping with frame_id" in done.stderr
 
 
 def test_unreadable_video_is_an_error_not_an_empty_track(tmp_path, capsys):

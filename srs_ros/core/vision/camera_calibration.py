@@ -15,7 +15,6 @@ maps *undistorted* pixels to the floor. Models: ``plumb_bob`` (k1, k2, p1, p2[, 
 
 from __future__ import annotations
 
-import csv
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -27,6 +26,7 @@ import yaml
 
 from srs_ros.core.errors import ConfigurationError, InvalidInputError
 from srs_ros.core.robot import config_dir, read_yaml
+from srs_ros.core.schema import REQUIRED, Field, Table, missing, read_csv_rows, refusal, section
 
 #: Top-level key of the calibration YAML.
 CALIBRATION_KEY = "camera_calibration"
@@ -131,6 +131,33 @@ def reprojection_errors_mm(homography: np.ndarray, image_px: Any, floor_m: Any) 
 #: Distortion models (sensor_msgs/CameraInfo names) -> allowed numbers of coefficients.
 DISTORTION_MODELS = {"plumb_bob": (4, 5), "rational_polynomial": (8,), "equidistant": (4,)}
 
+#: A lens as sensor_msgs/CameraInfo names it: the calibration file's ``intrinsics:`` section.
+INTRINSICS_TABLE = Table(f"{CALIBRATION_KEY}.intrinsics", (
+    Field("distortion_model", str, "plumb_bob", choices=tuple(DISTORTION_MODELS), description="the lens model"),
+    Field("k", list, REQUIRED, item=float, length=9,
+          expected_text="9 numbers, the camera matrix row by row (fx 0 cx 0 fy cy 0 0 1, fx and fy > 0)"),
+    Field("d", list, REQUIRED, item=float, nonempty=True, expected_text="a list of the distortion coefficients"),
+), description="a mapping with distortion_model, k and d (sensor_msgs/CameraInfo names)")
+
+#: One point pair of a calibration: a pixel and the floor point it shows.
+POINT_PAIR_TABLE = Table(f"{CALIBRATION_KEY}.point_pairs", (
+    Field("u_px", float, unit="px", description="pixel column"),
+    Field("v_px", float, unit="px", description="pixel row"),
+    Field("x_m", float, unit="m", description="floor x"),
+    Field("y_m", float, unit="m", description="floor y"),
+), description="a mapping with u_px, v_px, x_m, y_m")
+
+#: The ``camera_calibration:`` section of a calibration file (``config/camera_calibration.yaml``).
+CALIBRATION_TABLE = Table(CALIBRATION_KEY, (
+    Field("frame_id", str, "floor", nonempty=True, description="the floor frame the poses are given in"),
+    Field("homography_image_to_floor", object, None, expected_text="a finite, invertible 3 x 3 list of rows"),
+    Field("point_pairs", list, None, item=dict, expected_text="a list of {u_px, v_px, x_m, y_m} mappings"),
+    Field("image_size_px", list, None, 1, 100_000, unit="px", item=int, length=2, description="[width, height]"),
+    Field("intrinsics", dict, None, expected_text=INTRINSICS_TABLE.description),
+    Field("reprojection_rms_mm", float, None, 0.0, unit="mm", description="written by srs_calibrate_camera"),
+    Field("reprojection_max_mm", float, None, 0.0, unit="mm", description="written by srs_calibrate_camera"),
+), description="a mapping with frame_id, homography_image_to_floor or point_pairs, image_size_px, intrinsics")
+
 
 @dataclass(frozen=True, eq=False)
 class CameraIntrinsics:
@@ -215,36 +242,42 @@ class CameraIntrinsics:
                 "d": [float(v) for v in d]}
 
     @classmethod
-    def from_dict(cls, data: Mapping[str, Any], source: str = "<intrinsics>") -> CameraIntrinsics:
+    def from_dict(cls, data: Any, source: str = "<intrinsics>", path: str = "") -> CameraIntrinsics:
         """From CameraInfo names (``k``, ``d``, ``distortion_model``) or the ROS camera_calibration YAML.
 
         The latter (``camera_matrix: {data: [...]}``, ``distortion_coefficients: {data: [...]}``,
-        ``distortion_model``) is what ``ros2 run camera_calibration cameracalibrator`` saves.
+        ``distortion_model``) is what ``ros2 run camera_calibration cameracalibrator`` saves. ``path`` is
+        the mapping's dotted key in ``source`` ('' at the top); refusals are the schema's
+        (:data:`INTRINSICS_TABLE`).
         """
-        if not isinstance(data, Mapping):
-            raise ConfigurationError(f"{source}: intrinsics must be a mapping with k, d and distortion_model.")
-        def numbers(key: str, block: str) -> Any:
-            nested = data.get(block)
-            return data[key] if key in data else nested.get("data") if isinstance(nested, Mapping) else None
-
-        k, d = numbers("k", "camera_matrix"), numbers("d", "distortion_coefficients")
-        if k is None or d is None:
-            raise ConfigurationError(f"{source}: intrinsics need the camera matrix (k, or camera_matrix.data) and the "
-                                     "distortion coefficients (d, or distortion_coefficients.data).")
-        try:
-            return cls(np.asarray(k, dtype=np.float64), np.asarray(d, dtype=np.float64),
-                       str(data.get("distortion_model", "plumb_bob")))
-        except (TypeError, ValueError) as exc:
-            raise ConfigurationError(f"{source}: intrinsics k and d must be lists of numbers ({exc}).") from None
-        except ConfigurationError as exc:
-            raise ConfigurationError(f"{source}: {exc}") from None
+        table = INTRINSICS_TABLE.at(path)
+        if isinstance(data, Mapping) and ("k" in data or "d" in data or not data):
+            values = table.read(data, source)
+        else:
+            if not isinstance(data, Mapping):
+                raise refusal(source, path or "the content", data, table.description)
+            values = {"distortion_model": table["distortion_model"].check(
+                data.get("distortion_model", "plumb_bob"), source, table.key("distortion_model"))}
+            for name, block in (("k", "camera_matrix"), ("d", "distortion_coefficients")):
+                key, nested = table.key(f"{block}.data"), data.get(block)
+                if not isinstance(nested, Mapping) or "data" not in nested:
+                    raise missing(source, key, table[name].expected)
+                values[name] = table[name].check(nested["data"], source, key)
+        model, k, d = values["distortion_model"], values["k"], values["d"]
+        if len(d) not in DISTORTION_MODELS[model]:
+            counts = " or ".join(map(str, DISTORTION_MODELS[model]))
+            raise refusal(source, table.key("d"), list(d), f"{counts} coefficients for {model}")
+        if k[0] <= 0 or k[4] <= 0:
+            raise refusal(source, table.key("k"), list(k), table["k"].expected)
+        return cls(np.asarray(k, dtype=np.float64), np.asarray(d, dtype=np.float64), model)
 
 
 def load_intrinsics(path: str | Path) -> CameraIntrinsics:
     """Intrinsics from a YAML file: a ROS camera_calibration file, CameraInfo fields, or a calibration file."""
     data = read_yaml(path)
     if isinstance(data, Mapping) and isinstance(data.get(CALIBRATION_KEY), Mapping):
-        data = data[CALIBRATION_KEY].get("intrinsics")
+        return CameraIntrinsics.from_dict(data[CALIBRATION_KEY].get("intrinsics"), str(path),
+                                          CALIBRATION_TABLE.key("intrinsics"))
     return CameraIntrinsics.from_dict(data, str(path))
 
 
@@ -312,50 +345,53 @@ def calibration_from_pairs(image_px: Any, floor_m: Any, image_size_px: tuple[int
     return CameraCalibration(h, image_px, floor_m, image_size_px, frame_id, intrinsics=intrinsics)
 
 
-def calibration_from_dict(data: Mapping[str, Any], source: str = "<dict>") -> CameraCalibration:
+def calibration_from_dict(data: Any, source: str = "<dict>") -> CameraCalibration:
     """Build a calibration from the parsed YAML; the stored homography wins, else it is fitted from the pairs.
 
-    Raises :class:`ConfigurationError` naming the file, the key and what was expected.
+    Checked by the schema (:data:`CALIBRATION_TABLE`, :data:`POINT_PAIR_TABLE`, :data:`INTRINSICS_TABLE`): a
+    refusal names the file, the key, the value and what is expected.
     """
-    section = data.get(CALIBRATION_KEY) if isinstance(data, Mapping) else None
-    if not isinstance(section, Mapping):
-        raise ConfigurationError(
-            f"{source}: missing section '{CALIBRATION_KEY}:' (see config/{DEFAULT_CALIBRATION_FILE})."
-        )
-    pairs = section.get("point_pairs") or []
-    try:
-        image_px = np.array([[p["u_px"], p["v_px"]] for p in pairs], dtype=np.float64).reshape(-1, 2)
-        floor_m = np.array([[p["x_m"], p["y_m"]] for p in pairs], dtype=np.float64).reshape(-1, 2)
-    except (KeyError, TypeError, ValueError) as exc:
-        raise ConfigurationError(
-            f"{source}: 'point_pairs' entries must be mappings with u_px, v_px, x_m, y_m numbers ({exc!r})."
-        ) from exc
-    size = section.get("image_size_px")
-    if size is not None and not (isinstance(size, list) and len(size) == 2 and all(isinstance(v, int) for v in size)):
-        raise ConfigurationError(f"{source}: 'image_size_px' is {size!r}; expected [width, height] integers.")
-    frame_id = str(section.get("frame_id", "floor"))
+    values = CALIBRATION_TABLE.read(section(data, CALIBRATION_KEY, source, what=CALIBRATION_TABLE.description),
+                                    source)
+    pairs = [POINT_PAIR_TABLE.at(f"{POINT_PAIR_TABLE.path}[{i}]").read(pair, source)
+             for i, pair in enumerate(values["point_pairs"] or ())]
+    image_px, floor_m = _pair_arrays(pairs)
     intrinsics = None
-    if section.get("intrinsics") is not None:
-        intrinsics = CameraIntrinsics.from_dict(section["intrinsics"], f"{source} [intrinsics]")
-    stored = section.get("homography_image_to_floor")
+    if values["intrinsics"] is not None:
+        intrinsics = CameraIntrinsics.from_dict(values["intrinsics"], source, CALIBRATION_TABLE.key("intrinsics"))
+    stored, key = values["homography_image_to_floor"], CALIBRATION_TABLE.key("homography_image_to_floor")
     try:
         if stored is not None:
-            h = np.asarray(stored, dtype=np.float64)
-            if h.shape != (3, 3) or not np.all(np.isfinite(h)) or abs(np.linalg.det(h)) < 1e-15:
-                raise ConfigurationError(
-                    f"{source}: 'homography_image_to_floor' must be a finite, invertible 3 x 3 list of rows."
-                )
-            h = h / h[2, 2]
+            h = _stored_homography(stored, source, key)
         elif len(image_px) >= MIN_POINT_PAIRS:
             h = fit_homography(intrinsics.undistort_px(image_px) if intrinsics else image_px, floor_m)
         else:
-            raise ConfigurationError(
-                f"{source}: neither 'homography_image_to_floor' nor >= {MIN_POINT_PAIRS} 'point_pairs'; "
-                "run srs_calibrate_camera to create them."
-            )
+            raise missing(source, key, f"{CALIBRATION_TABLE['homography_image_to_floor'].expected}, or at least "
+                          f"{MIN_POINT_PAIRS} point_pairs to fit it from; run srs_calibrate_camera to create them")
     except InvalidInputError as exc:
         raise ConfigurationError(f"{source}: {exc}") from exc
-    return CameraCalibration(h, image_px, floor_m, tuple(size) if size else None, frame_id, source, intrinsics)
+    size = values["image_size_px"]
+    return CameraCalibration(h, image_px, floor_m, tuple(size) if size else None, values["frame_id"], source,
+                             intrinsics)
+
+
+def _pair_arrays(pairs: list[dict[str, float]]) -> tuple[np.ndarray, np.ndarray]:
+    """(image_px (n, 2), floor_m (n, 2)) of checked point pairs."""
+    image_px = np.array([[p["u_px"], p["v_px"]] for p in pairs], dtype=np.float64).reshape(-1, 2)
+    floor_m = np.array([[p["x_m"], p["y_m"]] for p in pairs], dtype=np.float64).reshape(-1, 2)
+    return image_px, floor_m
+
+
+def _stored_homography(stored: Any, source: str, key: str) -> np.ndarray:
+    """The file's homography scaled so that ``[2, 2] = 1``; refused unless a finite, invertible 3 x 3."""
+    expected = CALIBRATION_TABLE["homography_image_to_floor"].expected
+    try:
+        h = np.asarray(stored, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise refusal(source, key, stored, expected) from None
+    if h.shape != (3, 3) or not np.all(np.isfinite(h)) or abs(np.linalg.det(h)) < 1e-15 or h[2, 2] == 0.0:
+        raise refusal(source, key, stored, expected)
+    return h / h[2, 2]
 
 
 def load_calibration(path: str | Path | None = None) -> CameraCalibration:
@@ -397,27 +433,16 @@ def read_point_pairs(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
     """Read (image_px (n, 2), floor_m (n, 2)) from a CSV (header u_px,v_px,x_m,y_m) or a YAML file.
 
     The YAML form is the ``point_pairs`` list of the calibration file, at top level or under
-    ``camera_calibration:``.
+    ``camera_calibration:``. Both are checked by the schema (:data:`POINT_PAIR_TABLE`).
     """
     path = Path(path)
     if path.suffix.lower() == ".csv":
-        try:
-            with path.open(newline="", encoding="utf-8") as stream:
-                rows = list(csv.DictReader(stream))
-            image_px = np.array([[float(r["u_px"]), float(r["v_px"])] for r in rows]).reshape(-1, 2)
-            floor_m = np.array([[float(r["x_m"]), float(r["y_m"])] for r in rows]).reshape(-1, 2)
-        except FileNotFoundError:
-            raise ConfigurationError(f"{path}: no such file.") from None
-        except (KeyError, TypeError, ValueError) as exc:
-            raise ConfigurationError(
-                f"{path}: expected a CSV with header u_px,v_px,x_m,y_m and numbers in every row ({exc!r})."
-            ) from exc
-        return image_px, floor_m
+        return _pair_arrays(read_csv_rows(path, POINT_PAIR_TABLE))
     data = read_yaml(path)
     if isinstance(data, Mapping) and CALIBRATION_KEY in data:
         data = data[CALIBRATION_KEY]
     if not isinstance(data, Mapping) or "point_pairs" not in data:
-        raise ConfigurationError(f"{path}: expected a 'point_pairs:' list of {{u_px, v_px, x_m, y_m}} mappings.")
+        raise missing(str(path), "point_pairs", CALIBRATION_TABLE["point_pairs"].expected)
     calib = calibration_from_dict({CALIBRATION_KEY: {"point_pairs": data["point_pairs"],
                                                      "homography_image_to_floor": np.eye(3).tolist()}}, str(path))
     return calib.image_px, calib.floor_m

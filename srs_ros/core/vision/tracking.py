@@ -25,6 +25,7 @@ from typing import Any
 import numpy as np
 
 from srs_ros.core.errors import ConfigurationError, InvalidInputError
+from srs_ros.core.schema import Field, Table, refusal
 from srs_ros.core.vision.aruco import dictionary as aruco_dictionary  # noqa: F401 (public name)
 from srs_ros.core.vision.camera_calibration import CameraCalibration, apply_homography
 from srs_ros.core.vision.detectors import (  # noqa: F401 (also public here)
@@ -183,38 +184,82 @@ def traveling_velocity(time_s: Any, x_m: Any, y_m: Any, end_window_s: float = 0.
 # ------------------------------------------------------------------------------------------
 # The per-frame tracker
 # ------------------------------------------------------------------------------------------
+#: The detectors a tracker can use.
+DETECTORS = ("aruco", "color")
+_HSV = {"item": int, "length": 3, "minimum": 0, "maximum": 255}
+
+#: The tracker's options (the ``camera_tracker`` node's tracking parameters), with their defaults and ranges.
+TRACKER_TABLE = Table("", (
+    Field("detector", str, "aruco", choices=DETECTORS, description="marker kind: 'aruco' or 'color'"),
+    Field("aruco_dictionary", str, DEFAULT_ARUCO_DICTIONARY, nonempty=True,
+          description="cv2.aruco predefined dictionary name"),
+    Field("tail_marker_id", int, 0, 0, 1023, description="ArUco id of the tail marker"),
+    Field("head_marker_id", int, 1, 0, 1023, description="ArUco id of the head marker"),
+    Field("tail_color_hsv_low", list, [100, 120, 70], **_HSV,
+          description="colour detector: tail HSV lower bound (OpenCV scale)"),
+    Field("tail_color_hsv_high", list, [130, 255, 255], **_HSV, description="colour detector: tail HSV upper bound"),
+    Field("head_color_hsv_low", list, [170, 120, 70], **_HSV,
+          description="colour detector: head HSV lower bound (H wraps)"),
+    Field("head_color_hsv_high", list, [10, 255, 255], **_HSV, description="colour detector: head HSV upper bound"),
+    Field("min_blob_area_px", float, 20.0, 1.0, 1e7, description="colour detector: smallest blob, px^2"),
+    Field("position_ratio", float, 0.5, 0.0, 1.0, description="pose point between tail (0) and head (1)"),
+    Field("velocity_window_s", float, 0.5, 0.01, 60.0, description="velocity smoothing window, s"),
+    Field("max_gap_s", float, 0.5, 0.01, 60.0,
+          description="longest gap between tracked frames inside one velocity window, s"),
+    Field("roi_margin_px", int, 40, 0, 10000,
+          description="search margin around the last markers, px (0 = whole frame)"),
+    Field("max_marker_spacing_m", float, 2.0, 0.0, 100.0, above_minimum=True,
+          description="head and tail farther apart than this on the floor are a false detection, m"),
+), description="the tracker's options")
+
+
+def _color(end: str) -> ColorRange:
+    """The default HSV box of the ``end`` ("tail", "head") marker."""
+    return ColorRange(tuple(TRACKER_TABLE[f"{end}_color_hsv_low"].default),
+                      tuple(TRACKER_TABLE[f"{end}_color_hsv_high"].default))
+
+
 @dataclass(frozen=True)
 class TrackerConfig:
-    """What to look for and how to smooth it (the ``camera_tracker`` node's parameters)."""
+    """What to look for and how to smooth it (the ``camera_tracker`` node's parameters).
 
-    detector: str = "aruco"
-    aruco_dictionary: str = DEFAULT_ARUCO_DICTIONARY
-    tail_marker_id: int = 0
-    head_marker_id: int = 1
-    tail_color: ColorRange = ColorRange((100, 120, 70), (130, 255, 255))
-    head_color: ColorRange = ColorRange((170, 120, 70), (10, 255, 255))
-    min_blob_area_px: float = 20.0
-    position_ratio: float = 0.5
-    velocity_window_s: float = 0.5
-    max_gap_s: float = 0.5
-    roi_margin_px: int = 40
-    max_marker_spacing_m: float = 2.0
+    The defaults are :data:`TRACKER_TABLE`'s; :meth:`from_dict` builds it from options checked against the table.
+    """
+
+    detector: str = TRACKER_TABLE["detector"].default
+    aruco_dictionary: str = TRACKER_TABLE["aruco_dictionary"].default
+    tail_marker_id: int = TRACKER_TABLE["tail_marker_id"].default
+    head_marker_id: int = TRACKER_TABLE["head_marker_id"].default
+    tail_color: ColorRange = _color("tail")
+    head_color: ColorRange = _color("head")
+    min_blob_area_px: float = TRACKER_TABLE["min_blob_area_px"].default
+    position_ratio: float = TRACKER_TABLE["position_ratio"].default
+    velocity_window_s: float = TRACKER_TABLE["velocity_window_s"].default
+    max_gap_s: float = TRACKER_TABLE["max_gap_s"].default
+    roi_margin_px: int = TRACKER_TABLE["roi_margin_px"].default
+    max_marker_spacing_m: float = TRACKER_TABLE["max_marker_spacing_m"].default
 
     def __post_init__(self):
-        if self.detector not in ("aruco", "color"):
-            raise ConfigurationError(f"detector is {self.detector!r}; expected 'aruco' or 'color'.")
+        if self.detector not in DETECTORS:
+            raise refusal("the tracker settings", "detector", self.detector, f"one of {list(DETECTORS)}")
         if self.tail_marker_id == self.head_marker_id:
-            raise ConfigurationError(f"head and tail marker ids are both {self.head_marker_id}; they must differ.")
+            raise refusal("the tracker settings", "head_marker_id", self.head_marker_id,
+                          f"an id other than tail_marker_id {self.tail_marker_id} (the two markers must differ)")
 
     @classmethod
-    def from_dict(cls, data: Mapping[str, Any]) -> TrackerConfig:
-        """Build from a flat mapping (node parameters or YAML); colours as ``[h, s, v]`` lists."""
-        known = {f: data[f] for f in cls.__dataclass_fields__ if f in data and not f.endswith("_color")}
-        for end in ("tail", "head"):
-            low, high = data.get(f"{end}_color_hsv_low"), data.get(f"{end}_color_hsv_high")
-            if low is not None and high is not None:
-                known[f"{end}_color"] = ColorRange(tuple(int(v) for v in low), tuple(int(v) for v in high))
-        return cls(**known)
+    def from_dict(cls, data: Mapping[str, Any], where: str = "the tracker settings") -> TrackerConfig:
+        """Build from a flat mapping of options (node parameters: keys the table does not know are left alone).
+
+        Each option is checked against :data:`TRACKER_TABLE` (colours as ``[h, s, v]`` lists); a refusal names
+        ``where``, the option, its value and what is expected.
+        """
+        values = TRACKER_TABLE.read({key: value for key, value in data.items() if key in TRACKER_TABLE}, where)
+        if values["tail_marker_id"] == values["head_marker_id"]:
+            raise refusal(where, "head_marker_id", values["head_marker_id"],
+                          f"an id other than tail_marker_id {values['tail_marker_id']} (the two markers must differ)")
+        colors = {f"{end}_color": ColorRange(values.pop(f"{end}_color_hsv_low"), values.pop(f"{end}_color_hsv_high"))
+                  for end in ("tail", "head")}
+        return cls(**values, **colors)
 
 
 @dataclass(frozen=True)

@@ -249,7 +249,7 @@ def test_traveling_velocity_skips_lost_frames_and_averages_ends():
 
 
 def test_tracker_config_rejects_bad_choices():
-    with pytest.raises(ConfigurationError, match="'aruco' or 'color'"):
+    with pytest.raises(ConfigurationError, match=r"detector is 'laser'; expected one of \['aruco', 'color'\]"):
         TrackerConfig(detector="laser")
     with pytest.raises(ConfigurationError, match="must differ"):
         TrackerConfig(tail_marker_id=3, head_marker_id=3)
