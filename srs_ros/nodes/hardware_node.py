@@ -126,10 +126,13 @@ class Runtime:
 class HardwareNode(LifecycleNode):
     """Lifecycle wiring around a backend and the ROS-free pieces of :mod:`srs_ros.core.actuation`.
 
-    :class:`~srs_ros.core.actuation.timing.CommandTiming` checks the clocks at configure,
+    :func:`~srs_ros.core.actuation.settings.hardware_setup` turns the parameters into rig, timing and shaper
+    at configure (:class:`~srs_ros.core.actuation.timing.CommandTiming` checks the clocks),
     :func:`~srs_ros.core.actuation.intake.take_setpoint` takes each setpoint into the
-    :class:`~srs_ros.core.actuation.safety.CommandGate`, which decides every command, and
-    :class:`~srs_ros.core.actuation.status.HardwareStatus` counts and reports; the node logs and publishes.
+    :class:`~srs_ros.core.actuation.safety.CommandGate`, which decides every command,
+    :mod:`~srs_ros.core.actuation.operator` answers the services and
+    :class:`~srs_ros.core.actuation.status.HardwareStatus` counts, keeps the fault and reports; the node
+    holds the typed :class:`Runtime` entities, logs and publishes.
     """
 
     def __init__(self, **kwargs):
