@@ -120,7 +120,8 @@ def image_msg_to_array(msg: Image) -> np.ndarray:
     pixels = buffer[:, :row_bytes].reshape(msg.height, msg.width, channels)
     if channels == 1:
         return pixels[:, :, 0].copy()
-    return np.ascontiguousarray(pixels[:, :, _TO_BGR.get(msg.encoding, slice(None))])
+    order = _TO_BGR.get(msg.encoding)
+    return pixels.copy() if order is None else np.ascontiguousarray(pixels[:, :, order])
 
 
 def array_to_image_msg(image: np.ndarray, stamp: Time | None = None, frame_id: str = "camera") -> Image:

@@ -61,7 +61,8 @@ def test_images_become_what_opencv_converts_them_to(encoding, to_bgr):
     expected = cv2.cvtColor(pixels, to_bgr) if to_bgr is not None else pixels.squeeze(-1) if channels == 1 else pixels
     image = image_msg_to_array(msg)
     np.testing.assert_array_equal(image, expected)
-    assert image.flags.c_contiguous and image.dtype == np.uint8
+    assert image.flags.c_contiguous and image.flags.writeable and image.dtype == np.uint8  # a copy of the data
+    assert not np.shares_memory(image, np.frombuffer(msg.data, np.uint8))
 
 
 def test_a_joint_state_leaves_what_was_not_measured_empty():
