@@ -36,6 +36,8 @@ START_SETTLE_CYCLES = 1.5
 STOP_WITHIN = 0.8
 #: Cycles a direction must have been played before a stop counts on its learned resting point.
 STOP_AFTER_CYCLES = 1.0
+#: A cycle's displacement at least this long (m) gives the travel direction directly.
+MEASURED_TRAVEL_M = 0.02
 #: A straight line passing this close to the goal (times the tolerance) needs no three-point turn.
 STRAIGHT_WITHIN = 0.7
 
@@ -69,6 +71,7 @@ class NavigationController:
         self._phase: float | None = None
         self._phase_seen: float | None = None
         self._direction_since_s = 0.0
+        self._clock_s = 0.0
         self._best = (math.inf, 0.0)
 
     # ------------------------------------------------------------------ goals
@@ -126,7 +129,7 @@ class NavigationController:
         """Take a camera pose (older than the last one: ignored) and return the command for now."""
         if not self.history.add(pose):
             return self._command
-        self._last_pose_s = pose.time_s
+        self._last_pose_s = self._clock_s = pose.time_s
         if self.state is NavigationState.DRIVING:
             self._drive(pose)
         elif self.state is NavigationState.STOPPING:
@@ -192,9 +195,21 @@ class NavigationController:
         return False
 
     def _travel_heading_rad(self, direction: str) -> float:
-        period = 1.0 / max(self._command.frequency_hz, self.settings.cruise_frequency_hz)
-        level = self._level if direction == self._command.direction else None
-        return self.history.smoothed_yaw_rad(period) + self.travel.offset(direction, level)
+        """Where the robot travels now in ``direction``: measured while it rolls that way, else yaw + offset.
+
+        Measured: the direction of the last cycle's displacement, turned on by the yaw turned since the middle
+        of that cycle (the displacement lags the turn by half a cycle).
+        """
+        command = self._command
+        period = 1.0 / max(command.frequency_hz, self.settings.cruise_frequency_hz)
+        yaw_now = self.history.smoothed_yaw_rad(period)
+        if direction == command.direction and self._clock_s - self._direction_since_s >= 1.5 * period:
+            cycle = measure_cycle(self.history, period)
+            if cycle is not None and float(np.hypot(*cycle.displacement_m)) >= MEASURED_TRAVEL_M:
+                dx, dy = cycle.displacement_m
+                return math.atan2(dy, dx) + (yaw_now - cycle.mean_yaw_rad)
+        level = self._level if direction == command.direction else None
+        return yaw_now + self.travel.offset(direction, level)
 
     def _aims(self, pose: Pose2D) -> tuple[dict[str, float], dict[str, float]]:
         """Per direction: heading error (rad) and distance (m) to its aim point.
