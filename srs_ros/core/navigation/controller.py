@@ -72,6 +72,7 @@ class NavigationController:
         self._phase_seen: float | None = None
         self._direction_since_s = 0.0
         self._clock_s = 0.0
+        self._fresh_goal = False
         self._best = (math.inf, 0.0)
 
     # ------------------------------------------------------------------ goals
@@ -107,7 +108,7 @@ class NavigationController:
                 "" if math.isfinite(x) and math.isfinite(y) else f"goal ({x}, {y}) is not a finite floor position (m)")
             if reason:
                 return self._refuse(reason if len(points) == 1 else f"waypoint {i + 1} of {len(points)}: {reason}")
-        self._goals, self._index, self._backing_from = points, 0, None
+        self._goals, self._index, self._backing_from, self._fresh_goal = points, 0, None, True
         self.state, self._started_s = NavigationState.DRIVING, float(now_s)
         self._best = (math.inf, float(now_s))
         self._last_pose_s = max(self._last_pose_s, float(now_s))
@@ -256,8 +257,8 @@ class NavigationController:
     def _choose_direction(self, now_s: float, errors: dict[str, float]) -> str:
         """The direction nearer the goal's bearing; the current one kept unless the other is clearly nearer."""
         best = min(DIRECTIONS, key=lambda d: abs(errors[d]))
-        current = self._command.direction
-        if current in errors and best != current:
+        current, fresh, self._fresh_goal = self._command.direction, self._fresh_goal, False
+        if current in errors and best != current and not fresh:
             held = now_s - self._changed_s >= self._hold_s(self.settings.min_hold_cycles)
             if not held or abs(errors[best]) + self.settings.direction_hysteresis_rad > abs(errors[current]):
                 return current
