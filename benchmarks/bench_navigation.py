@@ -1,0 +1,75 @@
+"""Closed-loop navigation on the simulated robot: success rate, resting error, time, path length (issue 20).
+
+For each physics (default isotropic friction, anisotropic friction; ``--sim-config`` for another, e.g. the
+calibrated one) it draws random goals 0.4-1.0 m from the start inside the simulated camera's view (seeded),
+drives each from the start on a fresh world with one navigator (what it learns is kept, as a running
+navigator keeps it) and prints:
+
+- success: goals reached (the controller reports REACHED and the robot rests within goal_tolerance_m);
+- resting error (cm) of every goal, reached or not;
+- time (s) and time / (straight distance / gait speed), gait speed = the straight rolling speed
+  (turn_phase_rad 0, mean of inward and outward) measured on the same physics;
+- path length / straight distance (path of the tracked point sampled at 2 Hz).
+
+Targets of the issue: >= 9 of 10 reached within 5 cm, median time <= 2 x straight distance / gait speed.
+
+Run: python benchmarks/bench_navigation.py [--goals 10] [--seed 20] [--camera] [--sim-config FILE]
+"""
+
+import argparse
+import statistics
+import time
+
+import numpy as np
+
+from srs_ros.core.navigation import load_navigation_settings
+from srs_ros.experiments.turning import measure_turn_phase
+from srs_ros.sim.config import load_sim_config
+from srs_ros.sim.navigation import random_goals, run_navigation
+
+
+def gait_speed_m_s(config) -> float:
+    """Straight rolling speed (turn_phase_rad 0), mean of both directions, on ``config``."""
+    runs = [m for d in ("inward_rolling", "outward_rolling")
+            for m in measure_turn_phase(d, 4.0, 1.0, 0.0, config, start_yaws_rad=(0.0,))]
+    return statistics.mean(m.speed_m_s for m in runs)
+
+
+def report(label, config, goals, camera, settings):
+    started = time.perf_counter()
+    speed = gait_speed_m_s(config)
+    result = run_navigation(goals, config=config, settings=settings, camera=camera, from_start=True,
+                            goal_timeout_s=60.0, progress=lambda line: print("   ", line, flush=True))
+    outcomes = result.outcomes
+    reached = [o for o in outcomes if o.reached and o.final_error_m <= settings.goal_tolerance_m]
+    ratios = [o.time_s * speed / o.straight_m for o in outcomes]
+    print(f"{label}: {len(reached)} of {len(outcomes)} reached within {100 * settings.goal_tolerance_m:g} cm; "
+          f"gait speed {100 * speed:.1f} cm/s")
+    print(f"  resting error (cm): median {100 * statistics.median(o.final_error_m for o in outcomes):.1f}, "
+          f"reached ones {[round(100 * o.final_error_m, 1) for o in reached]}")
+    reached_ratios = [r for r, o in zip(ratios, outcomes) if o in reached]
+    reached_ratio = statistics.median(reached_ratios) if reached_ratios else float("nan")
+    print(f"  time (s): median {statistics.median(o.time_s for o in outcomes):.1f}; time / (straight / speed): "
+          f"median {statistics.median(ratios):.2f} (target <= 2), of the reached ones {reached_ratio:.2f}")
+    print(f"  path / straight: median {statistics.median(o.path_length_m / o.straight_m for o in outcomes):.2f}"
+          f"; wall {time.perf_counter() - started:.0f} s")
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--goals", type=int, default=10)
+    parser.add_argument("--seed", type=int, default=20)
+    parser.add_argument("--camera", action="store_true", help="pose from the simulated camera + tracker")
+    parser.add_argument("--sim-config", help="another simulation config (e.g. the calibrated one)")
+    args = parser.parse_args()
+    settings = load_navigation_settings()
+    base = load_sim_config(args.sim_config)
+    for friction in ("isotropic", "anisotropic"):
+        config = base.replace("contact", friction=friction)
+        goals = random_goals(np.random.default_rng(args.seed), args.goals, config, settings)
+        report(f"{config.contact.describe()} ({'camera' if args.camera else 'simulator pose'})", config, goals,
+               args.camera, settings)
+
+
+if __name__ == "__main__":
+    main()
