@@ -64,6 +64,12 @@ VARIANTS = [Variant(*v) for v in (
     ("combined", {"muscles.pressure_time_constant_s": 0.2, "contact.contact_time_constant_s": 0.02,
                   "contact.friction_coefficient": 0.4, "servo.skin_bend_stiffness_nm_per_rad": 1.0},
      "line lag + carpet + soft skin"),
+    ("high_friction", {"contact.friction_coefficient": 1.5},
+     "rubber gripping carpet fibres: the top of the calibration's range"),
+    ("roll_damping", {"contact.roll_damping_nms_per_rad": 0.02},
+     "viscous resistance to the body spinning about its axis (dragged supply lines, carpet hysteresis)"),
+    ("roll_damping_line_lag", {"contact.roll_damping_nms_per_rad": 0.02, "muscles.pressure_time_constant_s": 0.2},
+     "roll damping with the supply lines' lag"),
     ("segments_3", {"body.segments_per_module": 3}, "coarser body (cost and sensitivity)"),
 )]
 
