@@ -7,7 +7,7 @@ roll at 4 bar 1 Hz in this process (largest bend, real-time factor on one core),
 :mod:`srs_ros.experiments.fidelity` figures per variant (markdown) and writes them to ``--csv``.
 
 Run: python benchmarks/model_study.py [--variants shipped,no_skin,...] [--duration-s 15] [--workers N]
-     [--scheduler tcp://HOST:8786] [--csv study.csv]
+     [--scheduler tcp://HOST:8786] [--sim-config FILE] [--csv study.csv]
 ``--list`` prints the variants. A run of every variant takes about 1.5 min per variant on 2 cores.
 """
 
@@ -114,6 +114,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--duration-s", type=float, default=paper_table().duration_s)
     parser.add_argument("--workers", type=int, default=default_workers())
     parser.add_argument("--scheduler", default=None, help="a running Dask scheduler, e.g. tcp://HOST:8786")
+    parser.add_argument("--sim-config", default=None,
+                        help="the configuration the variants change (default: config/sim.yaml), e.g. a calibrated one")
     parser.add_argument("--csv", default=None, help="write the table here too")
     parser.add_argument("--list", action="store_true", help="print the variants and exit")
     args = parser.parse_args(argv)
@@ -127,7 +129,7 @@ def main(argv: list[str] | None = None) -> int:
         print(f"unknown variant {unknown[0]!r}; expected some of {sorted(known)} (--list explains them)",
               file=sys.stderr)
         return 2
-    base, rows = load_sim_config(), []
+    base, rows = load_sim_config(args.sim_config), []
     with OfflineRunner(args.workers) as runner:  # TODO(lead): runner_for(args.scheduler, ...) after the dask merge
         for i, name in enumerate(names, 1):
             started = time.perf_counter()
