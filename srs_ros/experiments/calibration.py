@@ -86,14 +86,21 @@ FIT_PARAMETERS: dict[str, FitParameter] = {p.name: p for p in (
                  "pressure below which a muscle does not extend (at least 1 bar: nothing moves at 1 bar)"),
     FitParameter("skin_bend_stiffness_nm_per_rad", "servo", "skin_bend_stiffness_nm_per_rad", 0.5, 10.0,
                  "the skin's resistance to bending, per module"),
+    FitParameter("roll_damping_nms_per_rad", "contact", "roll_damping_nms_per_rad", 0.0, 0.05,
+                 "viscous resistance to the body spinning about its axis (supply lines, carpet)"),
 )}
+
+
+#: The parameters fitted by default besides the friction of the configured model.
+DEFAULT_FIT_BEYOND_FRICTION = ("skin_radius_m", "pressure_time_constant_s", "transport_delay_s", "deadzone_bar",
+                               "roll_damping_nms_per_rad")
 
 
 def default_fit(config: SimConfig) -> tuple[str, ...]:
     """The parameters fitted by default: friction (of the configured model), skin radius, lag, delay, deadzone."""
     friction = (("friction_along_body", "friction_across_body") if config.contact.friction == "anisotropic"
                 else ("friction_coefficient",))
-    return (*friction, "skin_radius_m", "pressure_time_constant_s", "transport_delay_s", "deadzone_bar")
+    return (*friction, *DEFAULT_FIT_BEYOND_FRICTION)
 
 
 def fit_parameters(names: Sequence[str]) -> list[FitParameter]:

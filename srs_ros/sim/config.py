@@ -59,6 +59,7 @@ class ContactConfig:
     friction_across_body: float
     torsional_friction_m: float
     rolling_friction_m: float
+    roll_damping_nms_per_rad: float
     self_contact: bool
     self_contact_min_separation_m: float
     contact_time_constant_s: float
@@ -169,6 +170,8 @@ SIM_TABLES: dict[str, Table] = {table.path.split(".")[1]: table for table in (
         Field("friction_across_body", float, minimum=0.0, maximum=10.0, description="Coulomb coefficient across"),
         Field("torsional_friction_m", float, minimum=0.0, maximum=0.1, unit="m"),
         Field("rolling_friction_m", float, minimum=0.0, maximum=0.1, unit="m"),
+        Field("roll_damping_nms_per_rad", float, minimum=0.0, maximum=10.0, unit="N m s/rad",
+              description="viscous resistance to the body turning about its own axis"),
         Field("self_contact", bool, description="segments far apart along the body touch"),
         Field("self_contact_min_separation_m", float, minimum=0.0, maximum=10.0, unit="m",
               description="segments closer than this along the body never touch"),

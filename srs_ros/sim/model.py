@@ -192,6 +192,7 @@ def _add_node_joints(body, k: int, with_hinges: bool, servo, n: int, spec: mujoc
 def build_model(config: SimConfig, robot: RobotDescription) -> tuple[mujoco.MjModel, BodyLayout]:
     """Compile the model and return it with the :class:`BodyLayout` that indexes it."""
     model = build_spec(config, robot).compile()
+    _set_roll_damping(model, config.contact.roll_damping_nms_per_rad)
     n = config.body.segments_per_module
     count = robot.module_count * n
 
@@ -220,6 +221,16 @@ def build_model(config: SimConfig, robot: RobotDescription) -> tuple[mujoco.MjMo
         slide_actuator=np.array([actuator(s) for s in slide_names], dtype=int),
     )
     return model, layout
+
+
+def _set_roll_damping(model: mujoco.MjModel, damping_nms_per_rad: float) -> None:
+    """Viscous damping of the tail's spin about its own axis (the free joint's local z rotation, dof 5).
+
+    The body cannot twist, so this resists the whole body rolling about its axis; turning on the floor
+    and translation stay free. MuJoCo applies joint damping implicitly (stable at any value).
+    """
+    base = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, "base")
+    model.dof_damping[int(model.jnt_dofadr[base]) + 5] = damping_nms_per_rad
 
 
 class ShapeTargets:

@@ -36,6 +36,7 @@ from tqdm import tqdm
 
 from srs_ros.core.errors import ConfigurationError, SrsError
 from srs_ros.experiments.calibration import (
+    DEFAULT_FIT_BEYOND_FRICTION,
     DEFAULT_MAX_EVALUATIONS,
     FIT_PARAMETERS,
     calibrate,
@@ -110,8 +111,8 @@ def build_parser() -> argparse.ArgumentParser:
     cal = parser.add_argument_group("--calibrate (fit the simulation to a measured table)")
     cal.add_argument("--calibrate", metavar="TABLE", help="measured table to fit (e.g. config/paper_table1.yaml)")
     cal.add_argument("--fit", nargs="+", metavar="PARAM",
-                     help=f"parameters to fit (default: friction, skin_radius_m, pressure_time_constant_s, "
-                          f"transport_delay_s, deadzone_bar); any of {', '.join(FIT_PARAMETERS)}")
+                     help=f"parameters to fit (default: friction, {', '.join(DEFAULT_FIT_BEYOND_FRICTION)}); "
+                          f"any of {', '.join(FIT_PARAMETERS)}")
     cal.add_argument("--fit-duration-s", type=_number, default=DEFAULT_FIT_DURATION_S,
                      help=f"run time of the search's runs, s (default {DEFAULT_FIT_DURATION_S:g}; before and "
                           "after use the table's)")

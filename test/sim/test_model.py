@@ -89,3 +89,20 @@ def test_self_contact_excludes_only_neighbours_closer_than_the_separation():
             assert ((f"segment_{i}", f"segment_{j}") in excluded) == near
     model, layout = build_model(CONFIG.replace("contact", self_contact=False), ROBOT)
     assert np.all(model.geom_contype[layout.segment_geom] == 0)
+
+
+def _spin_left(config, dof: int, speed_rad_s: float = 10.0, duration_s: float = 0.1) -> float:
+    """Angular speed (rad/s) of the straight body's base about its local axis ``dof`` (3 x, 4 y, 5 z) after ``duration_s``."""
+    model, _ = build_model(config, ROBOT)
+    data = mujoco.MjData(model)
+    data.qpos[2] += 0.05                              # in the air: no floor contact, only the joint's damping
+    data.qvel[dof] = speed_rad_s
+    mujoco.mj_step(model, data, nstep=int(round(duration_s / model.opt.timestep)))
+    return float(data.qvel[dof])
+
+
+def test_roll_damping_slows_the_body_spinning_about_its_axis_and_nothing_else():
+    plain = CONFIG.replace("contact", roll_damping_nms_per_rad=0.0)
+    damped = CONFIG.replace("contact", roll_damping_nms_per_rad=0.05)
+    assert _spin_left(damped, 5) < 0.5 * _spin_left(plain, 5)          # about the body's own axis (local z)
+    assert _spin_left(damped, 4) == pytest.approx(_spin_left(plain, 4), rel=1e-6)   # turning on the floor: free

@@ -1,0 +1,148 @@
+"""The model study of issue 19: the paper's 48-run sweep for every model variant and ablation, as one table.
+
+Each variant is the shipped ``config/sim.yaml`` with a few values changed (one mechanism on or off, or a
+combination); nothing is keyed by amplitude, frequency or cell. For each it runs Table I's grid (3 gaits x
+4 pressures x 4 frequencies, 15 s), the serpentine at 4 bar on anisotropic friction, and one 15 s inward
+roll at 4 bar 1 Hz in this process (largest bend, real-time factor on one core), then prints one row of
+:mod:`srs_ros.experiments.fidelity` figures per variant (markdown) and writes them to ``--csv``.
+
+Run: python benchmarks/model_study.py [--variants shipped,no_skin,...] [--duration-s 15] [--workers N]
+     [--scheduler tcp://HOST:8786] [--sim-config FILE] [--csv study.csv]
+``--list`` prints the variants. A run of every variant takes about 1.5 min per variant on 2 cores.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import math
+import sys
+import time
+from dataclasses import dataclass
+
+from srs_ros.experiments.fidelity import fidelity_figures
+from srs_ros.experiments.sweep import OfflineRunner, SweepGrid, default_workers
+from srs_ros.experiments.table import cell_key, paper_table
+from srs_ros.sim.config import SimConfig, load_sim_config, sim_config_from_dict, to_dict
+from srs_ros.sim.experiment import run_experiment
+
+
+@dataclass(frozen=True)
+class Variant:
+    """A named change of the shipped configuration: ``{"section.key": value}``, and why it is tried."""
+
+    name: str
+    changes: dict
+    why: str
+
+    def config(self, base: SimConfig) -> SimConfig:
+        data = to_dict(base)
+        for path, value in self.changes.items():
+            section, key = path.split(".")
+            data[section][key] = value
+        return sim_config_from_dict({"sim": data}, source=f"{base.source} + {self.name}")
+
+
+_AUTHORS_BEND = 1.5 * 1750.0 * 0.0125 ** 2     # 3 muscles of 1750 N/m at r = 12.5 mm (Arachchige et al. 2023)
+VARIANTS = [Variant(*v) for v in (
+    ("shipped", {}, "config/sim.yaml as shipped"),
+    ("no_skin", {"servo.skin_bend_stiffness_nm_per_rad": 0.0, "servo.skin_axial_stiffness_n_per_m": 0.0},
+     "ablation: the muscles alone set the shape (the body reaches the kinematic model's bend)"),
+    ("soft_skin", {"servo.skin_bend_stiffness_nm_per_rad": 1.0},
+     "the skin takes a third of the bend instead of 60 %"),
+    ("authors_muscles", {"servo.bend_stiffness_nm_per_rad": round(_AUTHORS_BEND, 3),
+                         "servo.skin_bend_stiffness_nm_per_rad": 0.0},
+     "bend stiffness of the authors' dynamic model: muscles of 1750 N/m, no skin spring"),
+    ("line_lag", {"muscles.pressure_time_constant_s": 0.2},
+     "supply lines: P = 100 l fitted at 1 Hz against 0.065 m static at 4 bar suggests 40 % attenuation at 1 Hz"),
+    ("line_lag_delay", {"muscles.pressure_time_constant_s": 0.2, "muscles.transport_delay_s": 0.1},
+     "the same with a longer transport delay (3 m of 4 mm tube)"),
+    ("carpet", {"contact.contact_time_constant_s": 0.02, "contact.friction_coefficient": 0.4},
+     "compliant carpet contact (20 ms) with a low friction coefficient (the authors' penalty contact)"),
+    ("rolling_resistance", {"contact.rolling_friction_m": 0.005},
+     "ten times the rolling resistance (skin sinking into carpet)"),
+    ("combined", {"muscles.pressure_time_constant_s": 0.2, "contact.contact_time_constant_s": 0.02,
+                  "contact.friction_coefficient": 0.4, "servo.skin_bend_stiffness_nm_per_rad": 1.0},
+     "line lag + carpet + soft skin"),
+    ("high_friction", {"contact.friction_coefficient": 1.5},
+     "rubber gripping carpet fibres: the top of the calibration's range"),
+    ("roll_damping", {"contact.roll_damping_nms_per_rad": 0.02},
+     "viscous resistance to the body spinning about its axis (dragged supply lines, carpet hysteresis)"),
+    ("roll_damping_line_lag", {"contact.roll_damping_nms_per_rad": 0.02, "muscles.pressure_time_constant_s": 0.2},
+     "roll damping with the supply lines' lag"),
+    ("segments_3", {"body.segments_per_module": 3}, "coarser body (cost and sensitivity)"),
+)]
+
+
+def _roll_probe(config: SimConfig, duration_s: float) -> tuple[float, float]:
+    """Largest total bend (deg) and real-time factor of inward rolling at 4 bar 1 Hz in this process."""
+    result = run_experiment("inward_rolling", 4.0, 1.0, duration_s, config)
+    return math.degrees(result.peak_body_bend_rad), result.realtime_factor
+
+
+def study_variant(variant: Variant, base: SimConfig, runner, duration_s: float) -> dict:
+    """Every figure of one variant (a row of the table)."""
+    config = variant.config(base)
+    reference = paper_table()
+    grid = SweepGrid.of_table(reference, duration_s)
+    records = runner.run(grid.cells(), duration_s, config, keep_track=True)
+    figures = fidelity_figures(records, reference)
+    anisotropic = config.replace("contact", friction="anisotropic")
+    serpentine = runner.run([cell_key("serpentine", 4.0, f) for f in reference.frequencies_hz], duration_s,
+                            anisotropic, keep_track=False)
+    bend_deg, realtime = _roll_probe(config, duration_s)
+    return {"variant": variant.name, "within 2x": str(figures.within_factor), "rms log": f"{figures.rms_log:.2f}",
+            "amplitude trend": str(figures.amplitude_trend), "cycle trend": str(figures.cycle_distance_trend),
+            "inward > outward": str(figures.inward_faster), "1 bar still": str(figures.still_cells),
+            "serpentine top cm/s": f"{figures.serpentine_top_cm_s:.2f}",
+            "serpentine aniso. cm/s": f"{min(r.speed_cm_s for r in serpentine):.2f}-"
+                                      f"{max(r.speed_cm_s for r in serpentine):.2f}",
+            "bend 4 bar deg": f"{bend_deg:.0f}", "turn deg/cycle": f"{figures.turning_deg_per_cycle:.1f}",
+            "reversing runs": str(figures.reversing_runs), "real time x": f"{realtime:.1f}"}
+
+
+def _markdown(rows: list[dict]) -> str:
+    keys = list(rows[0])
+    lines = ["| " + " | ".join(keys) + " |", "|" + " --- |" * len(keys)]
+    lines += ["| " + " | ".join(row[k] for k in keys) + " |" for row in rows]
+    return "\n".join(lines)
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--variants", default=",".join(v.name for v in VARIANTS))
+    parser.add_argument("--duration-s", type=float, default=paper_table().duration_s)
+    parser.add_argument("--workers", type=int, default=default_workers())
+    parser.add_argument("--scheduler", default=None, help="a running Dask scheduler, e.g. tcp://HOST:8786")
+    parser.add_argument("--sim-config", default=None,
+                        help="the configuration the variants change (default: config/sim.yaml), e.g. a calibrated one")
+    parser.add_argument("--csv", default=None, help="write the table here too")
+    parser.add_argument("--list", action="store_true", help="print the variants and exit")
+    args = parser.parse_args(argv)
+    known = {v.name: v for v in VARIANTS}
+    if args.list:
+        print("\n".join(f"{v.name}: {v.why} {v.changes}" for v in VARIANTS))
+        return 0
+    names = [n.strip() for n in args.variants.split(",") if n.strip()]
+    unknown = [n for n in names if n not in known]
+    if unknown:
+        print(f"unknown variant {unknown[0]!r}; expected some of {sorted(known)} (--list explains them)",
+              file=sys.stderr)
+        return 2
+    base, rows = load_sim_config(args.sim_config), []
+    with OfflineRunner(args.workers) as runner:  # TODO(lead): runner_for(args.scheduler, ...) after the dask merge
+        for i, name in enumerate(names, 1):
+            started = time.perf_counter()
+            rows.append(study_variant(known[name], base, runner, args.duration_s))
+            print(f"[{i}/{len(names)}] {name}: {time.perf_counter() - started:.0f} s  {rows[-1]}", file=sys.stderr)
+    print(_markdown(rows))
+    if args.csv:
+        with open(args.csv, "w", newline="") as stream:
+            writer = csv.DictWriter(stream, fieldnames=list(rows[0]))
+            writer.writeheader()
+            writer.writerows(rows)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
