@@ -144,6 +144,7 @@ def fidelity_figures(records: Sequence[RunRecord], reference: MeasuredTable) -> 
     turning, reversing = motion_figures(records)
     return FidelityFigures(
         within_factor=within, rms_log=rms, amplitude_trend=amplitude, cycle_distance_trend=falling,
-        inward_faster=inward, still_cells=Count(sum(r.ok and r.speed_cm_s < STILL_CM_S for r in still), len(still)),
+        inward_faster=inward,
+        still_cells=Count(sum(r.ok and r.speed_cm_s < STILL_CM_S for r in still), len(still)),
         serpentine_top_cm_s=max(serpentine, default=math.nan), turning_deg_per_cycle=turning,
         reversing_runs=reversing)

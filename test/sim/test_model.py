@@ -92,7 +92,7 @@ def test_self_contact_excludes_only_neighbours_closer_than_the_separation():
 
 
 def _spin_left(config, dof: int, speed_rad_s: float = 10.0, duration_s: float = 0.1) -> float:
-    """Angular speed (rad/s) of the straight body's base about its local axis ``dof`` (3 x, 4 y, 5 z) after ``duration_s``."""
+    """Angular speed (rad/s) of the straight body's base about its local axis ``dof`` (3 x, 4 y, 5 z), later."""
     model, _ = build_model(config, ROBOT)
     data = mujoco.MjData(model)
     data.qpos[2] += 0.05                              # in the air: no floor contact, only the joint's damping
