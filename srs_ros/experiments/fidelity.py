@@ -119,7 +119,7 @@ def cycle_motion(record: RunRecord) -> tuple[np.ndarray, np.ndarray]:
 
 
 def motion_figures(records: Sequence[RunRecord]) -> tuple[float, Count]:
-    """Median |turning| per cycle (deg) of rolling runs at the top pressure, and runs that moved backwards in a cycle."""
+    """Median |turning| per cycle (deg) of rolling runs at the top pressure; runs that stepped backwards in a cycle."""
     rolling = [r for r in records if r.gait in ROLLING_GAITS and r.amplitude_bar >= MOVING_FROM_BAR and r.ok]
     top = max((r.amplitude_bar for r in rolling), default=math.nan)
     turning, reversing = [], 0
