@@ -50,6 +50,16 @@ class DaskRunner(OfflineRunner):
         super().close()
         self.client.close()
 
+    def check_usable(self) -> None:
+        """A client that lost its scheduler cancels its runs and takes new ones that never run: stop instead."""
+        if self.client.status != "running":
+            raise self.unusable(f"the connection is {self.client.status}")
+
+    def unusable(self, why: str) -> ClusterError:
+        return ClusterError(f"lost the Dask scheduler at {self.address} ({why}): it stopped, or the network "
+                            "between here and it failed; the runs of this batch are lost. Start it again with its "
+                            "workers (docs/cluster.md) and run again, or leave out --scheduler.")
+
 
 def runner_for(scheduler: str | None, workers: int | None = None, log: Callable[[str], None] | None = None,
                connect_timeout_s: float = CONNECT_TIMEOUT_S, worker_wait_s: float = WORKER_WAIT_S) -> OfflineRunner:

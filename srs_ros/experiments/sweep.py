@@ -200,7 +200,7 @@ def _lost_with_worker(error: BaseException) -> bool:
     return distributed is not None and isinstance(error, distributed.KilledWorker)
 
 
-def _reason(error: BaseException) -> str:
+def error_line(error: BaseException) -> str:
     """An error in one short line: its type and first sentence."""
     text = " ".join(str(error).split()).split(". ")[0].rstrip(".")
     text = text if len(text) <= 160 else text[:157] + "..."
@@ -284,16 +284,26 @@ class OfflineRunner:
             self._pool = None
 
     def submit(self, cell: Cell, job: tuple, attempt: int) -> tuple[Future, Executor]:
-        """Submit one run: its future and the executor that took it."""
+        """Submit one run: its future and the executor that took it (:meth:`unusable` if it takes none)."""
+        self.check_usable()
         executor = self._executor()
         try:
             return executor.submit(_run_task, cell, *job, attempt), executor
         except BrokenExecutor as exc:
             if executor is self._given:
-                raise ClusterError(f"the runner's executor cannot take runs any more ({_reason(exc)}); expected a "
-                                   "working executor: make a new one (or a new runner) and run again.") from None
+                raise self.unusable(error_line(exc)) from None
             self._drop_pool(executor)
             return self._executor().submit(_run_task, cell, *job, attempt), self._executor()
+        except Exception as exc:  # noqa: BLE001 - e.g. a shut down executor: it takes no more runs
+            raise self.unusable(error_line(exc)) from None
+
+    def check_usable(self) -> None:
+        """Raise :meth:`unusable` if the executor is known to take no more runs (the local pool always does)."""
+
+    def unusable(self, why: str) -> ClusterError:
+        """The error for an executor that takes no more runs."""
+        return ClusterError(f"the runner's executor takes no more runs ({why}); expected a working executor: "
+                            "make a new one (or a new runner) and run again.")
 
 
 class _Batch:
@@ -338,13 +348,13 @@ class _Batch:
         """A run lost with its worker: submitted again (None) or, after :data:`MAX_RESUBMITS`, a failed record."""
         if isinstance(error, BrokenExecutor):
             self.runner._drop_pool(executor)
-        name, reason = cell_name(self.cells[index]), _reason(error)
+        name, reason = cell_name(self.cells[index]), error_line(error)
         if attempt >= MAX_RESUBMITS:
             self.runner.log(f"{name}: lost with its worker {attempt + 1} times ({reason}); given up: a failed run")
             return RunRecord.failed(self.cells[index], f"lost with its worker {attempt + 1} times (last: {reason})")
         self._submit(index, attempt + 1)
-        self.runner.log(f"{name}: its worker was lost ({reason}); submitted again "
-                        f"(attempt {attempt + 2} of {MAX_RESUBMITS + 1})")
+        what = "it was cancelled" if isinstance(error, CancelledError) else "its worker was lost"
+        self.runner.log(f"{name}: {what} ({reason}); submitted again (attempt {attempt + 2} of {MAX_RESUBMITS + 1})")
         return None
 
 

@@ -234,6 +234,35 @@ def test_a_dask_worker_running_a_changed_copy_of_srs_ros_is_refused_before_any_r
             worker.wait(timeout=30)
 
 
+@pytest.mark.slow
+def test_a_lost_scheduler_stops_the_runs_with_a_clear_error(config):
+    """Without it, a client that lost its scheduler takes the lost runs again and waits for them forever."""
+    port = _free_port()
+    address = f"tcp://127.0.0.1:{port}"
+    quiet = {"stdout": subprocess.DEVNULL, "stderr": subprocess.DEVNULL, "cwd": ROOT}
+    scheduler = subprocess.Popen([sys.executable, "-m", "distributed.cli.dask_scheduler", "--host", "127.0.0.1",
+                                  "--port", str(port), "--dashboard-address", ":0"], **quiet)
+    worker = subprocess.Popen([sys.executable, "-m", "distributed.cli.dask_worker", address, "--nthreads", "1",
+                               "--no-nanny", "--no-dashboard"], **quiet)
+    killed = []
+
+    def kill_the_scheduler(_record):
+        if not killed:
+            scheduler.kill()
+            killed.append(time.monotonic())
+
+    try:
+        with runner_for(address, 1, connect_timeout_s=30.0) as runner:
+            with pytest.raises(ClusterError, match=rf"lost the Dask scheduler at {address} \(the connection is "
+                                                   r"\w+\): it stopped, or the network .* Start it again"):
+                runner.run(CELLS, DURATION_S, config, on_result=kill_the_scheduler)
+        assert time.monotonic() - killed[0] < 30.0
+    finally:
+        for process in (worker, scheduler):
+            process.kill()
+            process.wait(timeout=30)
+
+
 def _lab_table(path, rows, duration_s=1.5):
     path.write_text(yaml.safe_dump({"measured_table": {
         "name": "a lab's table", "velocity_definition": "displacement / run time", "duration_s": duration_s,
