@@ -1,4 +1,4 @@
-"""ament_python build of srs_ros; also installable with pip (extras ``wheels`` and ``test``)."""
+"""ament_python build of srs_ros; also installable with pip (extras ``wheels``, ``test`` and ``cluster``)."""
 
 from glob import glob
 
@@ -17,7 +17,10 @@ ROS_WHEELS = [
 # Hardware and vision libraries that a stock install takes from pip as well (see package.xml).
 HARDWARE = ["python-can>=4.3", "cantools>=39", "nidaqmx>=1.0"]
 VISION = ["opencv-contrib-python-headless>=4.8"]
-TEST = [
+# Dask distributed: `srs_sweep --scheduler tcp://HOST:8786` runs sweeps and calibrations on a cluster
+# (docs/cluster.md); tested with 2026.8.0. Optional for users; the tests run a real LocalCluster, so `test` has it.
+CLUSTER = ["dask>=2024.1", "distributed>=2024.1"]
+TEST = CLUSTER + [
     "pytest>=8",
     "pytest-timeout>=2.3",
     "pytest-xdist>=3.5",
@@ -47,6 +50,7 @@ setup(
         "wheels": ROS_WHEELS + HARDWARE + VISION,
         "hardware": HARDWARE,
         "vision": VISION,
+        "cluster": CLUSTER,
         "test": TEST,
     },
     zip_safe=True,

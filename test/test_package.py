@@ -73,7 +73,7 @@ IMPORT_KEYS = {
     "matplotlib": "python3-matplotlib", "cv2": "python3-opencv", "can": "python3-can",
     "cantools": "python3-cantools-pip", "mujoco": "python3-mujoco-pip", "rosbags": "python3-rosbags-pip",
     "tqdm": "python3-tqdm",
-    "nidaqmx": None, "pytest": "python3-pytest", "hypothesis": "python3-hypothesis",
+    "nidaqmx": None, "dask": None, "distributed": None, "pytest": "python3-pytest", "hypothesis": "python3-hypothesis",
     "setuptools": "python3-setuptools", "ament_index_python": "ament_index_python", "rclpy": "rclpy",
     "launch": "launch", "launch_ros": "launch_ros", "rcl_interfaces": "rcl_interfaces",
     "builtin_interfaces": "builtin_interfaces",

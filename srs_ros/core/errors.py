@@ -27,3 +27,7 @@ class BackendUnavailableError(HardwareError):
 
 class SimulationError(SrsError, RuntimeError):
     """The simulated world diverged (non-finite or exploding state) and cannot give a pose."""
+
+
+class ClusterError(SrsError, RuntimeError):
+    """The workers of the offline runs (a Dask cluster) cannot be reached, cannot be used or run other code."""

@@ -25,6 +25,7 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Callable, Mapping, Sequence
+from contextlib import nullcontext
 from dataclasses import dataclass, field
 from datetime import datetime, timezone
 from pathlib import Path
@@ -295,17 +296,20 @@ def calibrate(reference: MeasuredTable, config: SimConfig, parameters: Sequence[
               fit_duration_s: float | None = None, max_evaluations: int = DEFAULT_MAX_EVALUATIONS,
               workers: int | None = None, on_evaluation: Callable[[Evaluation], None] | None = None,
               on_stage: Callable[[str], None] | None = None,
-              on_result: Callable[[RunRecord], None] | None = None) -> CalibrationResult:
+              on_result: Callable[[RunRecord], None] | None = None,
+              runner: OfflineRunner | None = None) -> CalibrationResult:
     """Fit ``parameters`` (default :func:`default_fit`) of ``config`` to ``reference``; see the module docstring.
 
     ``on_stage(text)`` announces the stages (before, search, after), ``on_evaluation`` each cost evaluation,
-    ``on_result`` each finished run of the before/after sweeps (for a progress bar).
+    ``on_result`` each finished run of the before/after sweeps (for a progress bar). ``runner``: where the
+    runs run (e.g. a Dask cluster's, :func:`~srs_ros.experiments.cluster.runner_for`; left open), instead
+    of ``workers`` local processes.
     """
     started = time.perf_counter()
     space = _search_space(reference, config, parameters, fit_duration_s, max_evaluations)
     stage = on_stage or (lambda _text: None)
     cells, duration_s = list(reference.cells), reference.duration_s
-    with OfflineRunner(workers) as runner:
+    with nullcontext(runner) if runner is not None else OfflineRunner(workers) as runner:
         stage(f"before: {len(cells)} runs of {duration_s:g} s with {config.source}")
         before = runner.run(cells, duration_s, config, on_result=on_result)
         search = _Search(space, reference, config, runner, on_evaluation)

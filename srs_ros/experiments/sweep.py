@@ -5,28 +5,42 @@ frequencies in :data:`~srs_ros.core.robot.CYCLE_FREQUENCY_RANGE_HZ`, non-empty l
 and lists its cells in the paper's order; the paper's own grid is that of its Table I
 (``SweepGrid.of_table(paper_table())``, :mod:`srs_ros.experiments.table`). :class:`OfflineRunner` runs
 cells on the simulated robot (:func:`srs_ros.sim.experiment.run_experiment`, faster than real time) in a
-pool of worker processes, one per core by default; a run that diverges becomes a failed
-:class:`~srs_ros.experiments.table.RunRecord` with the reason, never a velocity. Runs are deterministic
-for a given configuration, whatever the number of workers. Each worker fits a cell's gait cycle once and
-keeps it for later runs (calibration runs the same cells many times).
+pool of worker processes, one per core by default, or on any :class:`concurrent.futures.Executor` such
+as a Dask cluster's (:mod:`srs_ros.experiments.cluster`); a run that diverges becomes a failed
+:class:`~srs_ros.experiments.table.RunRecord` with the reason, never a velocity, and a run whose worker
+is lost is submitted again. Runs are deterministic for a given configuration, whatever the number of
+workers or machines (:func:`code_fingerprint` keeps a worker with other code out). Each worker fits a
+cell's gait cycle once and keeps it for later runs (calibration runs the same cells many times).
 """
 
 from __future__ import annotations
 
+import hashlib
 import multiprocessing
 import os
+import socket
+import sys
 import warnings
 from collections.abc import Callable, Iterable, Sequence
-from concurrent.futures import Future, ProcessPoolExecutor, as_completed
+from concurrent.futures import (
+    FIRST_COMPLETED,
+    BrokenExecutor,
+    CancelledError,
+    Executor,
+    Future,
+    ProcessPoolExecutor,
+    wait,
+)
 from dataclasses import dataclass
 from functools import lru_cache
+from pathlib import Path
 from typing import Any
 
-from srs_ros.core.errors import InvalidInputError, SrsError
+from srs_ros.core.errors import ClusterError, InvalidInputError, SrsError
 from srs_ros.core.gait.library import list_gaits
 from srs_ros.core.gait.request import FREQUENCY_FIELD, SAMPLES_FIELD, amplitude_field, gait_field
 from srs_ros.core.gait.trajectory import GaitCycle, PoorFitWarning, generate_cycle
-from srs_ros.core.robot import RobotDescription, default_robot
+from srs_ros.core.robot import RobotDescription, config_dir, default_robot
 from srs_ros.core.schema import Field, refusal
 from srs_ros.experiments.table import Cell, MeasuredTable, RunRecord, cell_key, paper_table
 from srs_ros.sim.config import SimConfig
@@ -114,18 +128,116 @@ def default_workers() -> int:
     return max(1, os.cpu_count() or 1)
 
 
-class OfflineRunner:
-    """Runs cells on the simulated robot in ``workers`` processes (1: in this process); reuse it for many batches.
+# ------------------------------------------------------------------------------------------
+# What a run's result depends on besides its arguments (every worker of a cluster must match)
+# ------------------------------------------------------------------------------------------
+#: The code a run executes (folders and files of srs_ros; their .py files are hashed) and the files it reads.
+RUN_CODE = ("core", "sim", "experiments/sweep.py", "experiments/table.py")
+RUN_CONFIG_FILES = ("robot.yaml", "gaits.yaml")
 
-    Use as a context manager, or call :meth:`close`. Worker processes are started with ``spawn`` (no state
-    inherited from the caller, such as threads or an rclpy context).
+
+def _files(root: Path, parts: Sequence[str]) -> list[Path]:
+    """The .py files of ``parts`` (folders or files under ``root``), in a fixed order."""
+    files: list[Path] = []
+    for part in parts:
+        path = root / part
+        files += sorted(path.rglob("*.py")) if path.is_dir() else [path]
+    return files
+
+
+@lru_cache(maxsize=1)
+def code_fingerprint() -> dict[str, str]:
+    """srs_ros's version with a hash of the code and files a run uses, and the versions of the libraries under it."""
+    import mujoco
+    import numpy
+    import scipy
+
+    import srs_ros
+
+    root = Path(srs_ros.__file__).resolve().parent
+    digest = hashlib.sha256()
+    for path in _files(root, RUN_CODE):
+        digest.update(path.relative_to(root).as_posix().encode() + b"\0" + path.read_bytes())
+    for name in RUN_CONFIG_FILES:
+        digest.update(name.encode() + b"\0" + (config_dir() / name).read_bytes())
+    return {"srs_ros": f"{srs_ros.__version__} (code {digest.hexdigest()[:12]})", "mujoco": mujoco.__version__,
+            "numpy": numpy.__version__, "scipy": scipy.__version__}
+
+
+def fingerprint_mismatch(where: str, found: dict[str, str], expected: dict[str, str]) -> str:
+    """The message for a worker whose :func:`code_fingerprint` is ``found`` where ``expected`` was asked for."""
+    differences = ", ".join(f"{key} {found.get(key)} there, {value} here" for key, value in expected.items()
+                            if found.get(key) != value)
+    return (f"{where} runs other code than this machine ({differences}): its runs would not match a local run. "
+            "Install the same srs_ros (and mujoco, numpy, scipy) on every machine of the cluster (docs/cluster.md), "
+            "or stop that worker.")
+
+
+def _run_task(cell: Cell, duration_s: float, config: SimConfig, keep_track: bool, expected: dict[str, str] | None,
+              attempt: int) -> RunRecord:
+    """One run in a worker, refused if the worker's code is not ``expected``.
+
+    ``attempt`` makes a resubmission a new task for executors that name tasks by their arguments (Dask's pure tasks).
+    """
+    if expected is not None and code_fingerprint() != expected:
+        where = f"the worker on {socket.gethostname()} (pid {os.getpid()})"
+        raise ClusterError(fingerprint_mismatch(where, code_fingerprint(), expected))
+    return run_cell(cell, duration_s, config, keep_track)
+
+
+# ------------------------------------------------------------------------------------------
+# The runner
+# ------------------------------------------------------------------------------------------
+#: How often a run lost with its worker is submitted again before it becomes a failed record.
+MAX_RESUBMITS = 3
+
+
+def _lost_with_worker(error: BaseException) -> bool:
+    """Whether a run's error means that its worker went away (a killed process, a lost or restarted Dask worker)."""
+    if isinstance(error, (CancelledError, BrokenExecutor)):
+        return True
+    distributed = sys.modules.get("distributed")  # imported by whoever made a Dask executor
+    return distributed is not None and isinstance(error, distributed.KilledWorker)
+
+
+def error_line(error: BaseException) -> str:
+    """An error in one short line: its type and first sentence."""
+    text = " ".join(str(error).split()).split(". ")[0].rstrip(".")
+    text = text if len(text) <= 160 else text[:157] + "..."
+    return f"{type(error).__name__}: {text}" if text else type(error).__name__
+
+
+def cell_name(cell: Cell) -> str:
+    return f"{cell[0]} {cell[1]:g} bar {cell[2]:g} Hz"
+
+
+def _print_stderr(text: str) -> None:
+    print(f"srs_ros: {text}", file=sys.stderr, flush=True)
+
+
+class OfflineRunner:
+    """Runs cells on the simulated robot in ``workers`` local processes (1: in this process) or on ``executor``.
+
+    ``executor``: any :class:`concurrent.futures.Executor`, e.g. a Dask cluster's ``Client.get_executor()``
+    (:func:`srs_ros.experiments.cluster.runner_for` makes one from a scheduler's address); it is not shut
+    down by :meth:`close`. Both run the same way: progress per finished run, records in the order of the
+    cells, and a run whose worker is lost (a killed process, a lost Dask worker) submitted again up to
+    :data:`MAX_RESUBMITS` times with a message to ``log`` (default: stderr), then a failed record. Local
+    worker processes are started with ``spawn`` (no state inherited from the caller, such as threads or an
+    rclpy context). Use as a context manager, or call :meth:`close`; reuse it for many batches.
     """
 
-    def __init__(self, workers: int | None = None):
+    def __init__(self, workers: int | None = None, executor: Executor | None = None,
+                 log: Callable[[str], None] | None = None):
+        if executor is not None and workers is not None:
+            raise InvalidInputError(f"workers {workers} and an executor: give one (the executor's workers run the "
+                                    "runs).")
         workers = default_workers() if workers is None else int(workers)
         if workers < 1:
             raise InvalidInputError(f"workers: {workers}; expected 1 or more processes.")
-        self.workers = workers
+        self.workers = None if executor is not None else workers
+        self.log = log or _print_stderr
+        self._given = executor
         self._pool: ProcessPoolExecutor | None = None
 
     def __enter__(self) -> OfflineRunner:
@@ -134,8 +246,12 @@ class OfflineRunner:
     def __exit__(self, *exc) -> None:
         self.close()
 
+    def describe(self) -> str:
+        """Where the runs run, for a report."""
+        return f"{self.workers} workers" if self._given is None else f"a {type(self._given).__name__}"
+
     def close(self) -> None:
-        """Stop the worker processes (pending runs are cancelled)."""
+        """Stop the local worker processes (pending runs are cancelled); a given executor is left running."""
         if self._pool is not None:
             self._pool.shutdown(wait=True, cancel_futures=True)
             self._pool = None
@@ -144,20 +260,102 @@ class OfflineRunner:
             on_result: Callable[[RunRecord], None] | None = None) -> list[RunRecord]:
         """Run every cell; records in the order of ``cells``; ``on_result`` is called as each run finishes."""
         cells = list(cells)
-        if self.workers == 1 or len(cells) == 1:
+        if self._given is None and (self.workers == 1 or len(cells) == 1):
             records = []
             for cell in cells:
                 records.append(run_cell(cell, duration_s, config, keep_track))
                 if on_result is not None:
                     on_result(records[-1])
             return records
+        expected = None if self._given is None else code_fingerprint()  # the local pool runs this installation
+        return _Batch(self, cells, (duration_s, config, keep_track, expected), on_result).run()
+
+    def _executor(self) -> Executor:
+        if self._given is not None:
+            return self._given
         if self._pool is None:
             self._pool = ProcessPoolExecutor(self.workers, mp_context=multiprocessing.get_context("spawn"))
-        futures: list[Future] = [self._pool.submit(run_cell, cell, duration_s, config, keep_track) for cell in cells]
-        if on_result is not None:
-            for future in as_completed(futures):
-                on_result(future.result())
-        return [future.result() for future in futures]
+        return self._pool
+
+    def _drop_pool(self, broken: Executor) -> None:
+        """Replace a broken local pool (a worker process died) by a new one at the next submission."""
+        if broken is self._pool:
+            self._pool.shutdown(wait=False, cancel_futures=True)
+            self._pool = None
+
+    def submit(self, cell: Cell, job: tuple, attempt: int) -> tuple[Future, Executor]:
+        """Submit one run: its future and the executor that took it (:meth:`unusable` if it takes none)."""
+        self.check_usable()
+        executor = self._executor()
+        try:
+            return executor.submit(_run_task, cell, *job, attempt), executor
+        except BrokenExecutor as exc:
+            if executor is self._given:
+                raise self.unusable(error_line(exc)) from None
+            self._drop_pool(executor)
+            return self._executor().submit(_run_task, cell, *job, attempt), self._executor()
+        except Exception as exc:  # noqa: BLE001 - e.g. a shut down executor: it takes no more runs
+            raise self.unusable(error_line(exc)) from None
+
+    def check_usable(self) -> None:
+        """Raise :meth:`unusable` if the executor is known to take no more runs (the local pool always does)."""
+
+    def unusable(self, why: str) -> ClusterError:
+        """The error for an executor that takes no more runs."""
+        return ClusterError(f"the runner's executor takes no more runs ({why}); expected a working executor: "
+                            "make a new one (or a new runner) and run again.")
+
+
+class _Batch:
+    """One call of :meth:`OfflineRunner.run` on an executor: the futures in flight and the records so far."""
+
+    def __init__(self, runner: OfflineRunner, cells: list[Cell], job: tuple,
+                 on_result: Callable[[RunRecord], None] | None):
+        self.runner, self.cells, self.job, self.on_result = runner, cells, job, on_result
+        self.records: list[RunRecord | None] = [None] * len(cells)
+        self.pending: dict[Future, tuple[int, int, Executor]] = {}  # future -> cell index, attempt, executor
+
+    def run(self) -> list[RunRecord]:
+        try:
+            for index in range(len(self.cells)):
+                self._submit(index, 0)
+            while self.pending:
+                done, _ = wait(self.pending, return_when=FIRST_COMPLETED)
+                for future in done:
+                    self._finished(future, *self.pending.pop(future))
+        finally:
+            for future in self.pending:
+                future.cancel()
+        return self.records
+
+    def _submit(self, index: int, attempt: int) -> None:
+        future, executor = self.runner.submit(self.cells[index], self.job, attempt)
+        self.pending[future] = (index, attempt, executor)
+
+    def _finished(self, future: Future, index: int, attempt: int, executor: Executor) -> None:
+        try:
+            record = future.result()
+        except Exception as exc:  # noqa: BLE001 - anything but a lost worker is raised again
+            if not _lost_with_worker(exc):
+                raise
+            record = self._lost(index, attempt, executor, exc)
+        if record is not None:
+            self.records[index] = record
+            if self.on_result is not None:
+                self.on_result(record)
+
+    def _lost(self, index: int, attempt: int, executor: Executor, error: Exception) -> RunRecord | None:
+        """A run lost with its worker: submitted again (None) or, after :data:`MAX_RESUBMITS`, a failed record."""
+        if isinstance(error, BrokenExecutor):
+            self.runner._drop_pool(executor)
+        name, reason = cell_name(self.cells[index]), error_line(error)
+        if attempt >= MAX_RESUBMITS:
+            self.runner.log(f"{name}: lost with its worker {attempt + 1} times ({reason}); given up: a failed run")
+            return RunRecord.failed(self.cells[index], f"lost with its worker {attempt + 1} times (last: {reason})")
+        self._submit(index, attempt + 1)
+        what = "it was cancelled" if isinstance(error, CancelledError) else "its worker was lost"
+        self.runner.log(f"{name}: {what} ({reason}); submitted again (attempt {attempt + 2} of {MAX_RESUBMITS + 1})")
+        return None
 
 
 def run_offline_sweep(grid: SweepGrid, config: SimConfig, workers: int | None = None,

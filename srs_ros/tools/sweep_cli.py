@@ -4,7 +4,8 @@
 runs every cell offline on the simulated robot (faster than real time, one process per core, progress
 on stderr), writes ``DIR/table.csv`` (with the paper's Table I values beside each cell), ``DIR/table.png``
 and ``DIR/paths_<gait>.png``, and prints the table in the paper's layout. Without ``--gait`` it runs the
-paper's three gaits (48 runs).
+paper's three gaits (48 runs). ``--scheduler tcp://HOST:8786`` runs them on the workers of a running Dask
+cluster instead of the local processes, with the same results (docs/cluster.md).
 
 ``--ros``: the same sweep against running nodes (any rig; start them first, e.g. ``srs_bringup``), each
 run recorded as a rosbag2 directory in ``DIR/bags/``. On a rig with real regulators every run waits for
@@ -14,7 +15,7 @@ what was recorded.
 
 ``--calibrate TABLE``: fit the simulation's uncertain parameters to a measured table
 (``config/paper_table1.yaml`` or a lab's own in that format), print each cell's error before and after,
-and write ``DIR/sim.yaml``.
+and write ``DIR/sim.yaml`` (on the local pool, or on a Dask cluster with ``--scheduler``).
 
 Exit status: 0 done, 1 done with failed runs, 2 bad input or a rig that cannot be driven (nothing
 written), 130 interrupted (what was done is written).
@@ -46,8 +47,9 @@ from srs_ros.experiments.calibration import (
     target_report,
     write_sim_yaml,
 )
+from srs_ros.experiments.cluster import add_runner_arguments, runner_from_args
 from srs_ros.experiments.plots import plot_paths, plot_table
-from srs_ros.experiments.sweep import SweepGrid, default_workers, run_offline_sweep
+from srs_ros.experiments.sweep import OfflineRunner, SweepGrid
 from srs_ros.experiments.table import (
     MeasuredTable,
     RunRecord,
@@ -95,8 +97,7 @@ def build_parser() -> argparse.ArgumentParser:
     sim = parser.add_argument_group("offline (the simulated robot)")
     sim.add_argument("--sim-config", help="simulation YAML (default config/sim.yaml)")
     sim.add_argument("--friction", help="floor friction: isotropic | anisotropic | MU | ALONG,ACROSS (as srs_sim)")
-    sim.add_argument("--workers", type=int, default=None, help=f"worker processes (default {default_workers()}, "
-                                                               "one per core)")
+    add_runner_arguments(sim)
     sim.add_argument("--no-progress", action="store_true", help="no progress bar")
     ros = parser.add_argument_group("--ros (running nodes on any rig)")
     ros.add_argument("--ros", action="store_true", help="drive running nodes instead of the offline simulation")
@@ -161,17 +162,22 @@ def _finish(records: Sequence[RunRecord], reference: MeasuredTable, out: Path, l
     return EXIT_FAILED_RUNS if failed else EXIT_OK
 
 
-def _offline(args: argparse.Namespace, grid: SweepGrid, reference: MeasuredTable, out: Path) -> int:
+def _runner(args: argparse.Namespace) -> OfflineRunner:
+    """The local pool, or the Dask cluster of ``--scheduler`` (a ClusterError, exit 2, if it cannot be used)."""
+    return runner_from_args(args, log=lambda text: tqdm.write(f"{PROG}: {text}", file=sys.stderr))
+
+
+def _offline(args: argparse.Namespace, grid: SweepGrid, reference: MeasuredTable, out: Path,
+             runner: OfflineRunner) -> int:
     config = _sim_config(args)
-    workers = args.workers or default_workers()
     started = time.perf_counter()
     with _progress(len(grid), args, "simulated runs") as bar:
-        records = run_offline_sweep(grid, config, workers, on_result=lambda _r: bar.update())
-    how = f"simulated offline, {grid.duration_s:g} s each, {workers} workers, {config.contact.describe()}"
+        records = runner.run(grid.cells(), grid.duration_s, config, on_result=lambda _r: bar.update())
+    how = f"simulated offline, {grid.duration_s:g} s each, {runner.describe()}, {config.contact.describe()}"
     return _finish(records, reference, out, "simulated", time.perf_counter() - started, how)
 
 
-def _calibrate(args: argparse.Namespace, out: Path) -> int:
+def _calibrate(args: argparse.Namespace, out: Path, runner: OfflineRunner) -> int:
     reference = load_measured_table(args.calibrate)
     config = _sim_config(args)
     if args.fit:
@@ -195,7 +201,7 @@ def _calibrate(args: argparse.Namespace, out: Path) -> int:
               file=sys.stderr, flush=True)
 
     try:
-        result = calibrate(reference, config, args.fit, args.fit_duration_s, args.max_evaluations, args.workers,
+        result = calibrate(reference, config, args.fit, args.fit_duration_s, args.max_evaluations, runner=runner,
                            on_evaluation=evaluation, on_stage=stage, on_result=lambda _r: bar and bar.update())
     finally:
         if bar is not None:
@@ -204,7 +210,7 @@ def _calibrate(args: argparse.Namespace, out: Path) -> int:
              f"{reference.duration_s:g} s runs)", "", format_cell_errors(reference, result.before, result.after), ""]
     lines.append(f"RMS log speed error: {result.error_before:.4f} before, {result.error_after:.4f} after "
                  f"({len(result.history)} evaluations of {len(result.fit_cells)} cells x {result.fit_duration_s:g} s; "
-                 f"{result.wall_time_s:.0f} s wall time)")
+                 f"{result.wall_time_s:.0f} s wall time on {runner.describe()})")
     fitted = ", ".join(f"{k} {result.initial_values[k]:g} -> {v:g}" for k, v in result.fitted_values.items())
     lines.append(f"fitted: {fitted}" if result.accepted else
                  f"the best fit ({result.history and min(result.history, key=lambda e: e.error).values}) did not "
@@ -328,6 +334,9 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     if args.ros and args.calibrate:
         parser.error("--ros and --calibrate: choose one (calibration runs the offline simulation)")
+    if args.ros and args.scheduler:
+        parser.error("--ros and --scheduler: choose one (a rig runs one run at a time; --scheduler runs the offline "
+                     "simulation on a Dask cluster)")
     if args.workers is not None and args.workers < 1:
         parser.error(f"--workers {args.workers}: expected 1 or more")
     try:
@@ -337,14 +346,16 @@ def main(argv: list[str] | None = None) -> int:
                                          "config/paper_table1.yaml).")
             load_measured_table(args.calibrate)  # a malformed table: exit 2 before the output folder is made
             _sim_config(args)
-            return _calibrate(args, prepare_output(args.out))
+            with _runner(args) as runner:  # an unreachable cluster: exit 2 before the output folder is made
+                return _calibrate(args, prepare_output(args.out), runner)
         gaits = args.gaits or paper_table().gaits
         grid = SweepGrid.create(gaits, args.amplitudes, args.frequencies, args.duration_s)
         reference = load_measured_table(args.reference)
-        if not args.ros:
-            _sim_config(args)
-        out = prepare_output(args.out)
-        return _ros(args, grid, reference, out) if args.ros else _offline(args, grid, reference, out)
+        if args.ros:
+            return _ros(args, grid, reference, prepare_output(args.out))
+        _sim_config(args)
+        with _runner(args) as runner:
+            return _offline(args, grid, reference, prepare_output(args.out), runner)
     except SrsError as exc:
         print(f"{PROG}: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT

@@ -89,7 +89,7 @@ def test_without_grid_options_the_sweep_runs_the_grid_of_the_papers_table(tmp_pa
     smaller = dataclasses.replace(paper_table(), cells={("outward_rolling", 2.0, 0.5): (1.0, 2.0)}, duration_s=3.0)
     monkeypatch.setattr(sweep_cli, "paper_table", lambda: smaller)
     swept = []
-    monkeypatch.setattr(sweep_cli, "_offline", lambda args, grid, reference, out: swept.append(grid) or 0)
+    monkeypatch.setattr(sweep_cli, "_offline", lambda args, grid, reference, out, runner: swept.append(grid) or 0)
     assert main(["--out", str(tmp_path / "out")]) == 0
     assert swept == [SweepGrid.create(["outward_rolling"], [2.0], [0.5], 3.0)]
 

@@ -1,0 +1,312 @@
+"""Offline runs on Dask: a real ``distributed.LocalCluster`` of worker processes gives the local records exactly.
+
+Every run is counted as it finishes anywhere, a worker killed mid-sweep (SIGKILL) has its runs run again
+(by Dask's scheduler, or by the runner when Dask gives up on them), the local pool survives a killed
+process the same way, a worker with other code is refused, and every way of not reaching a cluster is a
+clear error. ``srs_sweep --scheduler`` and ``--calibrate --scheduler`` write what the local pool writes.
+"""
+
+import multiprocessing
+import os
+import shutil
+import signal
+import socket
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+import dask
+import numpy as np
+import pytest
+import yaml
+from distributed import Client, LocalCluster
+
+from srs_ros.core.errors import ClusterError, InvalidInputError
+from srs_ros.experiments import sweep
+from srs_ros.experiments.cluster import WORKER_DASK_CONFIG, DaskRunner, runner_for
+from srs_ros.experiments.sweep import MAX_RESUBMITS, OfflineRunner, code_fingerprint
+from srs_ros.sim.config import load_sim_config
+from srs_ros.tools.sweep_cli import main
+
+ROOT = Path(__file__).resolve().parents[2]
+CELLS = [("inward_rolling", 4.0, 1.0), ("outward_rolling", 3.0, 0.5), ("serpentine", 2.0, 0.5),
+         ("inward_rolling", 2.0, 0.25), ("outward_rolling", 4.0, 1.0), ("serpentine", 4.0, 1.0)]
+DURATION_S = 2.0
+
+
+def _cluster(n_workers=2, tuned=True, **config):
+    """Worker processes started as docs/cluster.md says (``tuned``) or with Dask's default environment."""
+    with dask.config.set({**(WORKER_DASK_CONFIG if tuned else {}), **config}):
+        return LocalCluster(n_workers=n_workers, processes=True, threads_per_worker=1, dashboard_address=":0")
+
+
+@pytest.fixture(scope="module")
+def config():
+    return load_sim_config()
+
+
+@pytest.fixture(scope="module")
+def local_records(config):
+    """The local run: every cell in this process."""
+    with OfflineRunner(1) as runner:
+        return runner.run(CELLS, DURATION_S, config)
+
+
+@pytest.fixture(scope="module")
+def cluster():
+    with _cluster() as running:
+        yield running
+
+
+def _assert_identical(records, local_records):
+    assert records == local_records  # every figure and status, exactly
+    assert all(np.array_equal(a.track, b.track) for a, b in zip(records, local_records))
+
+
+def _kill_busy_worker(client):
+    """SIGKILL the process of a Dask worker that has runs in progress; its address and those runs."""
+    processing = client.processing()
+    address = next(a for a, keys in processing.items() if keys)
+    os.kill(client.run(os.getpid)[address], signal.SIGKILL)
+    return address, processing[address]
+
+
+@pytest.mark.slow
+def test_a_dask_cluster_gives_the_local_records_exactly_and_counts_every_run(cluster, config, local_records):
+    finished, logs = [], []
+    with runner_for(cluster.scheduler_address, 2, log=logs.append) as runner:
+        assert isinstance(runner, DaskRunner)
+        records = runner.run(CELLS, DURATION_S, config, on_result=finished.append)
+        ran = runner.client.run(sweep._cycle.cache_info)  # each worker's fitted cycles: the runs ran there
+        assert runner.describe() == f"2 workers (2 threads) of the Dask cluster at {cluster.scheduler_address}"
+    _assert_identical(records, local_records)
+    assert sorted(r.cell for r in finished) == sorted(CELLS)  # each run counted once, as it finished
+    assert sum(info.hits + info.misses for info in ran.values()) == len(CELLS)
+    assert all(info.misses > 0 for info in ran.values())  # both workers took runs
+    assert logs == []  # workers started as docs/cluster.md says: no hint
+    with Client(cluster.scheduler_address) as client:
+        assert len(client.scheduler_info()["workers"]) == 2  # the runner closed its client, not the cluster
+
+
+@pytest.mark.slow
+def test_a_worker_killed_mid_sweep_has_its_runs_rescheduled_by_dask_with_identical_records(config, local_records):
+    finished, killed, logs = [], [], []
+
+    def kill_once(record):
+        if not killed:
+            killed.append(_kill_busy_worker(runner.client))
+        finished.append(record)
+
+    with _cluster(tuned=False) as cluster, runner_for(cluster.scheduler_address, 2, log=logs.append) as runner:
+        records = runner.run(CELLS, DURATION_S, config, on_result=kill_once)
+        workers_after = runner.client.scheduler_info()["workers"]
+    assert len(logs) == 1 and "2 Dask workers (e.g. tcp://" in logs[0]  # Dask's default environment: the hint
+    assert "run with MALLOC_TRIM_THRESHOLD_ set (Dask's default): each run takes about 1.7 times" in logs[0]
+    address, in_progress = killed[0]
+    assert in_progress and address not in workers_after  # it died with runs in progress and was removed
+    _assert_identical(records, local_records)
+    assert len(finished) == len(CELLS)
+
+
+@pytest.mark.slow
+def test_runs_that_dask_gives_up_on_are_resubmitted_by_the_runner_with_a_message(config, local_records):
+    """With no failure allowed, Dask fails a killed worker's runs (KilledWorker): the runner submits them again."""
+    killed, logs = [], []
+
+    def kill_once(_record):
+        if not killed:
+            killed.append(_kill_busy_worker(runner.client))
+
+    cluster = _cluster(**{"distributed.scheduler.allowed-failures": 0})
+    with cluster, runner_for(cluster.scheduler_address, 2, log=logs.append) as runner:
+        records = runner.run(CELLS, DURATION_S, config, on_result=kill_once)
+    _assert_identical(records, local_records)
+    lost = [line for line in logs if "its worker was lost (KilledWorker" in line]
+    assert lost and all(f"submitted again (attempt 2 of {MAX_RESUBMITS + 1})" in line for line in lost), logs
+
+
+@pytest.mark.slow
+def test_a_local_worker_process_killed_mid_sweep_has_its_runs_resubmitted_to_a_new_pool(config, local_records):
+    logs, killed = [], []
+
+    def kill_once(_record):
+        if not killed:
+            killed.append(multiprocessing.active_children()[0].pid)
+            os.kill(killed[0], signal.SIGKILL)
+
+    with OfflineRunner(2, log=logs.append) as runner:
+        records = runner.run(CELLS, DURATION_S, config, on_result=kill_once)
+    _assert_identical(records, local_records)
+    assert killed and any("its worker was lost (BrokenProcessPool" in line for line in logs), logs
+
+
+@pytest.mark.slow
+def test_a_run_lost_every_time_becomes_a_failed_record_after_the_resubmissions(config):
+    stop, logs = threading.Event(), []
+
+    def kill_every_worker():
+        while not stop.is_set():
+            for child in multiprocessing.active_children():
+                os.kill(child.pid, signal.SIGKILL)
+            time.sleep(0.01)
+
+    killer = threading.Thread(target=kill_every_worker)
+    killer.start()
+    try:
+        with OfflineRunner(2, log=logs.append) as runner:
+            records = runner.run(CELLS[:2], DURATION_S, config)
+    finally:
+        stop.set()
+        killer.join()
+    attempts = MAX_RESUBMITS + 1
+    assert [r.status.split(" (")[0] for r in records] == [f"failed: lost with its worker {attempts} times"] * 2
+    assert sum("submitted again" in line for line in logs) == 2 * MAX_RESUBMITS
+    assert sum("given up: a failed run" in line for line in logs) == 2
+
+
+def test_without_a_scheduler_the_runner_is_the_local_pool_and_bad_requests_are_refused():
+    with runner_for(None, 3) as runner:
+        assert type(runner) is OfflineRunner and runner.describe() == "3 workers"
+    with pytest.raises(InvalidInputError, match="give one"):
+        OfflineRunner(2, executor=object())
+    with pytest.raises(ClusterError, match=r"--scheduler 'foo' is not the address of a Dask scheduler .* expected "
+                                           r"tcp://HOST:PORT"):
+        runner_for("foo")
+    with pytest.raises(InvalidInputError, match="workers: 0; expected 1 or more"):
+        runner_for("tcp://127.0.0.1:8786", 0)
+
+
+def test_a_worker_with_other_code_refuses_the_run_it_is_given(config):
+    other = dict(code_fingerprint(), srs_ros="0.0.9 (code 000000000000)")
+    with pytest.raises(ClusterError, match=r"runs other code than this machine \(srs_ros 0.1.0 \(code \w+\) there, "
+                                           r"0.0.9 \(code 000000000000\) here\)"):
+        sweep._run_task(CELLS[0], DURATION_S, config, False, other, 0)
+
+
+def test_dask_not_installed_is_a_clear_error(monkeypatch):
+    monkeypatch.setitem(sys.modules, "distributed", None)  # as if it were not installed: import fails
+    with pytest.raises(ClusterError, match=r"needs Dask distributed, which is not installed here .* pip install "
+                                           r"'srs_ros\[cluster\]'"):
+        runner_for("tcp://127.0.0.1:8786")
+
+
+def _free_port():
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        return probe.getsockname()[1]
+
+
+def test_an_unreachable_scheduler_is_a_clear_error_within_the_timeout():
+    address = f"tcp://127.0.0.1:{_free_port()}"
+    started = time.monotonic()
+    with pytest.raises(ClusterError, match=f"cannot reach the Dask scheduler at '{address}' .* expected a running "
+                                           "`dask scheduler`"):
+        runner_for(address, connect_timeout_s=1.0)
+    assert time.monotonic() - started < 10.0
+
+
+def test_a_cluster_without_enough_workers_is_a_clear_error():
+    with LocalCluster(n_workers=0, processes=False, protocol="tcp", dashboard_address=":0") as empty:
+        with pytest.raises(ClusterError, match=r"has 0 workers after 1 s; expected 2\. Start `dask worker tcp://"):
+            runner_for(empty.scheduler_address, 2, worker_wait_s=1.0)
+
+
+@pytest.mark.slow
+def test_a_dask_worker_running_a_changed_copy_of_srs_ros_is_refused_before_any_run(tmp_path):
+    for folder in ("srs_ros", "config"):
+        shutil.copytree(ROOT / folder, tmp_path / folder, ignore=shutil.ignore_patterns("__pycache__"))
+    with (tmp_path / "srs_ros" / "sim" / "model.py").open("a") as model:
+        model.write("\n# a local change on one machine\n")
+    env = dict(os.environ, PYTHONPATH=str(tmp_path))
+    with LocalCluster(n_workers=0, processes=False, protocol="tcp", dashboard_address=":0") as scheduler_only:
+        address = scheduler_only.scheduler_address
+        worker = subprocess.Popen([sys.executable, "-m", "distributed.cli.dask_worker", address, "--nthreads", "1",
+                                   "--no-nanny", "--no-dashboard"], env=env, cwd=tmp_path,  # -m puts the cwd first
+                                  stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        try:
+            with pytest.raises(ClusterError, match=r"the Dask worker tcp://\S+ runs other code than this machine "
+                                                   r"\(srs_ros 0.1.0 \(code \w+\) there, 0.1.0 \(code \w+\) here\)"):
+                runner_for(address, 1, worker_wait_s=60.0)
+        finally:
+            worker.terminate()
+            worker.wait(timeout=30)
+
+
+@pytest.mark.slow
+def test_a_lost_scheduler_stops_the_runs_with_a_clear_error(config):
+    """Without it, a client that lost its scheduler takes the lost runs again and waits for them forever."""
+    port = _free_port()
+    address = f"tcp://127.0.0.1:{port}"
+    quiet = {"stdout": subprocess.DEVNULL, "stderr": subprocess.DEVNULL, "cwd": ROOT}
+    scheduler = subprocess.Popen([sys.executable, "-m", "distributed.cli.dask_scheduler", "--host", "127.0.0.1",
+                                  "--port", str(port), "--dashboard-address", ":0"], **quiet)
+    worker = subprocess.Popen([sys.executable, "-m", "distributed.cli.dask_worker", address, "--nthreads", "1",
+                               "--no-nanny", "--no-dashboard"], **quiet)
+    killed = []
+
+    def kill_the_scheduler(_record):
+        if not killed:
+            scheduler.kill()
+            killed.append(time.monotonic())
+
+    try:
+        with runner_for(address, 1, connect_timeout_s=30.0) as runner:
+            with pytest.raises(ClusterError, match=rf"lost the Dask scheduler at {address} \(the connection is "
+                                                   r"\w+\): it stopped, or the network .* Start it again"):
+                runner.run(CELLS, DURATION_S, config, on_result=kill_the_scheduler)
+        assert time.monotonic() - killed[0] < 30.0
+    finally:
+        for process in (worker, scheduler):
+            process.kill()
+            process.wait(timeout=30)
+
+
+def _lab_table(path, rows, duration_s=1.5):
+    path.write_text(yaml.safe_dump({"measured_table": {
+        "name": "a lab's table", "velocity_definition": "displacement / run time", "duration_s": duration_s,
+        "signed": False, "columns": ["gait", "amplitude_bar", "frequency_hz", "vx_cm_s", "vy_cm_s"], "rows": rows}}))
+    return path
+
+
+@pytest.mark.slow
+def test_srs_sweep_with_a_scheduler_writes_the_local_table(cluster, tmp_path, capsys):
+    grid = ["--gait", "outward_rolling", "--amplitudes", "2", "4", "--frequencies", "0.5", "1", "--duration-s", "1.5"]
+    assert main([*grid, "--workers", "2", "--out", str(tmp_path / "local")]) == 0
+    capsys.readouterr()
+    assert main([*grid, "--scheduler", cluster.scheduler_address, "--out", str(tmp_path / "dask")]) == 0
+    printed = capsys.readouterr()
+    assert (tmp_path / "dask" / "table.csv").read_text() == (tmp_path / "local" / "table.csv").read_text()
+    assert f"4 runs (simulated offline, 1.5 s each, 2 workers (2 threads) of the Dask cluster at " \
+           f"{cluster.scheduler_address}" in printed.out
+    assert "4/4" in printed.err  # the progress bar counted the cluster's runs
+
+
+@pytest.mark.slow
+def test_srs_sweep_calibrate_with_a_scheduler_fits_what_the_local_pool_fits(cluster, tmp_path, capsys):
+    table = _lab_table(tmp_path / "lab.yaml", [["inward_rolling", 4.0, 1.0, 5.61, 10.11],
+                                               ["outward_rolling", 4.0, 0.5, 6.56, 6.75]])
+    fit = ["--calibrate", str(table), "--fit", "friction_coefficient", "--max-evaluations", "2", "--fit-duration-s",
+           "1", "--no-progress"]
+    assert main([*fit, "--workers", "2", "--out", str(tmp_path / "local")]) == 0
+    local = capsys.readouterr().out
+    assert main([*fit, "--scheduler", cluster.scheduler_address, "--out", str(tmp_path / "dask")]) == 0
+    remote = capsys.readouterr().out
+    for name in ("table_before.csv", "table_after.csv"):
+        assert (tmp_path / "dask" / name).read_text() == (tmp_path / "local" / name).read_text()
+    fitted = [next(line for line in out.splitlines() if line.startswith(("fitted:", "the best fit")))
+              for out in (local, remote)]
+    assert fitted[0] == fitted[1]
+    assert f"of the Dask cluster at {cluster.scheduler_address})" in remote
+
+
+def test_srs_sweep_with_an_unreachable_scheduler_exits_2_and_writes_nothing(tmp_path, capsys):
+    out = tmp_path / "out"
+    assert main(["--gait", "serpentine", "--amplitudes", "2", "--frequencies", "1", "--duration-s", "1",
+                 "--scheduler", "nowhere", "--out", str(out)]) == 2
+    assert "--scheduler 'nowhere' is not the address of a Dask scheduler" in capsys.readouterr().err
+    assert not out.exists()
+    with pytest.raises(SystemExit):
+        main(["--ros", "--scheduler", "tcp://127.0.0.1:8786", "--out", str(out)])
+    assert "--ros and --scheduler: choose one" in capsys.readouterr().err
