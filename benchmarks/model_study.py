@@ -20,8 +20,9 @@ import sys
 import time
 from dataclasses import dataclass
 
+from srs_ros.experiments.cluster import add_runner_arguments, runner_from_args
 from srs_ros.experiments.fidelity import fidelity_figures
-from srs_ros.experiments.sweep import OfflineRunner, SweepGrid, default_workers
+from srs_ros.experiments.sweep import SweepGrid
 from srs_ros.experiments.table import cell_key, paper_table
 from srs_ros.sim.config import SimConfig, load_sim_config, sim_config_from_dict, to_dict
 from srs_ros.sim.experiment import run_experiment
@@ -112,8 +113,7 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--variants", default=",".join(v.name for v in VARIANTS))
     parser.add_argument("--duration-s", type=float, default=paper_table().duration_s)
-    parser.add_argument("--workers", type=int, default=default_workers())
-    parser.add_argument("--scheduler", default=None, help="a running Dask scheduler, e.g. tcp://HOST:8786")
+    add_runner_arguments(parser)
     parser.add_argument("--sim-config", default=None,
                         help="the configuration the variants change (default: config/sim.yaml), e.g. a calibrated one")
     parser.add_argument("--csv", default=None, help="write the table here too")
@@ -130,7 +130,7 @@ def main(argv: list[str] | None = None) -> int:
               file=sys.stderr)
         return 2
     base, rows = load_sim_config(args.sim_config), []
-    with OfflineRunner(args.workers) as runner:  # TODO(lead): runner_for(args.scheduler, ...) after the dask merge
+    with runner_from_args(args, log=lambda text: print(text, file=sys.stderr)) as runner:
         for i, name in enumerate(names, 1):
             started = time.perf_counter()
             rows.append(study_variant(known[name], base, runner, args.duration_s))
