@@ -7,7 +7,7 @@ import yaml
 
 from srs_ros.core.actuation.muscle_model import MUSCLE_OPTION_DEFAULTS
 from srs_ros.core.errors import ConfigurationError
-from srs_ros.core.robot import default_robot
+from srs_ros.core.robot import config_dir, default_robot
 from srs_ros.sim.config import default_sim_config_path, load_sim_config, sim_config_from_dict, with_friction
 
 
@@ -103,3 +103,10 @@ def test_replace_validates_the_new_value():
     assert config.start.yaw_rad == 0.0  # the original is untouched
     with pytest.raises(ConfigurationError, match=r"sim.body.skin_radius_m is 5.0; expected a number in \[0.002, 0.2\]"):
         config.replace("body", skin_radius_m=5.0)
+
+
+def test_the_shipped_calibration_to_the_paper_loads_and_differs_from_the_defaults_in_fitted_values_only():
+    calibrated = load_sim_config(config_dir() / "sim_calibrated_paper.yaml")
+    default = load_sim_config()
+    assert calibrated.contact.roll_damping_nms_per_rad > 0.0 == default.contact.roll_damping_nms_per_rad
+    assert calibrated.servo == default.servo and calibrated.physics == default.physics
