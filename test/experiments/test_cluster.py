@@ -6,6 +6,7 @@ process the same way, a worker with other code is refused, and every way of not 
 clear error. ``srs_sweep --scheduler`` and ``--calibrate --scheduler`` write what the local pool writes.
 """
 
+import contextlib
 import multiprocessing
 import os
 import shutil
@@ -62,6 +63,11 @@ def cluster():
 def _assert_identical(records, local_records):
     assert records == local_records  # every figure and status, exactly
     assert all(np.array_equal(a.track, b.track) for a, b in zip(records, local_records))
+
+
+def _new_children(before):
+    """This process's child processes started since ``before`` (pids): the runner's pool, not a cluster's."""
+    return [child for child in multiprocessing.active_children() if child.pid not in before]
 
 
 def _kill_busy_worker(client):
@@ -128,10 +134,11 @@ def test_runs_that_dask_gives_up_on_are_resubmitted_by_the_runner_with_a_message
 @pytest.mark.slow
 def test_a_local_worker_process_killed_mid_sweep_has_its_runs_resubmitted_to_a_new_pool(config, local_records):
     logs, killed = [], []
+    before = {child.pid for child in multiprocessing.active_children()}
 
     def kill_once(_record):
         if not killed:
-            killed.append(multiprocessing.active_children()[0].pid)
+            killed.append(_new_children(before)[0].pid)
             os.kill(killed[0], signal.SIGKILL)
 
     with OfflineRunner(2, log=logs.append) as runner:
@@ -143,11 +150,13 @@ def test_a_local_worker_process_killed_mid_sweep_has_its_runs_resubmitted_to_a_n
 @pytest.mark.slow
 def test_a_run_lost_every_time_becomes_a_failed_record_after_the_resubmissions(config):
     stop, logs = threading.Event(), []
+    before = {child.pid for child in multiprocessing.active_children()}
 
     def kill_every_worker():
         while not stop.is_set():
-            for child in multiprocessing.active_children():
-                os.kill(child.pid, signal.SIGKILL)
+            for child in _new_children(before):
+                with contextlib.suppress(ProcessLookupError):  # it may have died already
+                    os.kill(child.pid, signal.SIGKILL)
             time.sleep(0.01)
 
     killer = threading.Thread(target=kill_every_worker)
