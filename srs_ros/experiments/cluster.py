@@ -16,7 +16,6 @@ Dask is imported here only, and only when a scheduler is given: it is optional (
 from __future__ import annotations
 
 import argparse
-import os
 from collections.abc import Callable
 
 from srs_ros.core.errors import ClusterError, InvalidInputError
@@ -26,12 +25,11 @@ from srs_ros.experiments.sweep import OfflineRunner, code_fingerprint, default_w
 CONNECT_TIMEOUT_S = 10.0
 WORKER_WAIT_S = 60.0
 INSTALL_HINT = "pip install 'srs_ros[cluster]' (Dask: dask and distributed)"
-#: Dask's nanny starts its workers with this glibc variable at 65536 by default: freed memory goes back to the
-#: system at once and large arrays are mapped afresh, so a run takes about 1.7 times its CPU time (page faults).
-MALLOC_TRIM_VARIABLE = "MALLOC_TRIM_THRESHOLD_"
-#: The Dask setting that leaves it unset, for ``dask.config.set`` (a LocalCluster) or a worker machine's
-#: ``~/.config/dask/srs_ros.yaml`` (docs/cluster.md).
-WORKER_DASK_CONFIG = {f"distributed.nanny.pre-spawn-environ.{MALLOC_TRIM_VARIABLE}": None}
+#: Dask's nanny starts its workers with glibc's ``MALLOC_TRIM_THRESHOLD_`` at 65536: freed memory goes back to
+#: the system at once, which costs a run's start page faults (measured: up to 1.7x the CPU time of a 1 s run,
+#: nothing measurable for 15 s runs). The Dask setting that leaves it unset, for ``dask.config.set`` (a
+#: LocalCluster) or a worker machine's ``~/.config/dask/srs_ros.yaml`` (docs/cluster.md):
+WORKER_DASK_CONFIG = {"distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": None}
 
 
 class DaskRunner(OfflineRunner):
@@ -76,16 +74,11 @@ def runner_for(scheduler: str | None, workers: int | None = None, log: Callable[
     client = connect(scheduler, connect_timeout_s)
     try:
         wait_for_workers(client, scheduler, workers or 1, worker_wait_s)
-        trimming = check_workers(client, scheduler)
+        check_workers(client, scheduler)
     except BaseException:
         client.close()
         raise
-    runner = DaskRunner(client, scheduler, log)
-    if trimming:
-        runner.log(f"{len(trimming)} Dask workers (e.g. {trimming[0]}) run with {MALLOC_TRIM_VARIABLE} set (Dask's "
-                   "default): each run takes about 1.7 times the CPU time. Start the workers with it unset "
-                   "(docs/cluster.md, `~/.config/dask/srs_ros.yaml`).")
-    return runner
+    return DaskRunner(client, scheduler, log)
 
 
 def _distributed():
@@ -137,21 +130,11 @@ def wait_for_workers(client, scheduler: str, count: int, timeout_s: float = WORK
                            "(docs/cluster.md), or ask for fewer with --workers.") from None
 
 
-def worker_state() -> tuple[dict[str, str], str | None]:
-    """What :func:`check_workers` asks each worker: its code fingerprint and its ``MALLOC_TRIM_THRESHOLD_``."""
-    return code_fingerprint(), os.environ.get(MALLOC_TRIM_VARIABLE)
-
-
-def check_workers(client, scheduler: str) -> list[str]:
-    """Every connected worker has this machine's code fingerprint (:class:`ClusterError` names one that has not).
-
-    Returns the addresses of the workers with ``MALLOC_TRIM_THRESHOLD_`` set (slower runs, not wrong ones).
-    """
+def check_workers(client, scheduler: str) -> None:
+    """Every connected worker has this machine's code fingerprint; :class:`ClusterError` names one that has not."""
     expected = code_fingerprint()
-    found = client.run(worker_state, on_error="return")  # a worker without srs_ros cannot unpickle the call
+    found = client.run(code_fingerprint, on_error="return")  # a worker without srs_ros cannot unpickle the call
     broken = {address: there for address, there in found.items() if isinstance(there, BaseException)}
-    trimming = [address for address, there in found.items() if address not in broken and there[1] is not None]
-    found = {address: there if address in broken else there[0] for address, there in found.items()}
     wrong = {address: there for address, there in found.items() if address not in broken and there != expected}
     others = len(broken) + len(wrong) - 1
     more = f" ({others} more workers too)" if others else ""
@@ -163,7 +146,6 @@ def check_workers(client, scheduler: str) -> list[str]:
     if wrong:
         address, there = next(iter(wrong.items()))
         raise ClusterError(fingerprint_mismatch(f"the Dask worker {address}{more}", there, expected))
-    return trimming
 
 
 # ------------------------------------------------------------------------------------------

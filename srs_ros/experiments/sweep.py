@@ -294,7 +294,7 @@ class OfflineRunner:
                 raise self.unusable(error_line(exc)) from None
             self._drop_pool(executor)
             return self._executor().submit(_run_task, cell, *job, attempt), self._executor()
-        except Exception as exc:  # noqa: BLE001 - e.g. a shut down executor: it takes no more runs
+        except (RuntimeError, OSError) as exc:  # a shut down executor, a lost connection: it takes no more runs
             raise self.unusable(error_line(exc)) from None
 
     def check_usable(self) -> None:
