@@ -35,15 +35,29 @@ os.environ["MPLBACKEND"] = "Agg"
 ROS_FIXTURES = frozenset({"ros_domain", "ros_env", "ros_client", "launch_node", "ros_sessions"})
 
 
+#: What a test counts for when files are ordered (s): a ``slow`` one without a measured figure, one over DDS,
+#: any other (measured on the 2-core machine: most DDS tests take about a second, most others a few ms).
+SLOW_TEST_S, ROS_TEST_S, OTHER_TEST_S = 5.0, 1.0, 0.02
+
+
 def pytest_collection_modifyitems(items) -> None:
     """Mark ``ros`` every test whose fixtures (directly or through other fixtures) include a DDS fixture, and
-    run the files that hold a ``slow`` test first (in their order; each file's tests keep theirs): with
-    ``-n 2 --dist loadfile`` (scripts/test.sh) the long files start early and the short ones fill the end."""
+    run the longest files first: a file counts the ``seconds`` of its ``slow`` marks (``@pytest.mark.slow(
+    seconds=60)``, measured on the 2-core machine; :data:`SLOW_TEST_S` without a figure) and an estimate for its
+    other tests. Each file's tests keep their order. With ``-n 2 --dist loadfile --no-loadscope-reorder``
+    (scripts/test.sh) the long files start early and the short ones fill the end, so neither worker waits alone
+    for a long file at the end."""
+    file_s: dict[str, float] = {}
     for item in items:
         if ROS_FIXTURES & set(getattr(item, "fixturenames", ())):
             item.add_marker(pytest.mark.ros)
-    slow_files = {item.nodeid.split("::")[0] for item in items if item.get_closest_marker("slow")}
-    items.sort(key=lambda item: item.nodeid.split("::")[0] not in slow_files)
+        slow, path = item.get_closest_marker("slow"), item.nodeid.split("::")[0]
+        if slow is not None:
+            estimate_s = float(slow.kwargs.get("seconds", SLOW_TEST_S))
+        else:
+            estimate_s = ROS_TEST_S if item.get_closest_marker("ros") else OTHER_TEST_S
+        file_s[path] = file_s.get(path, 0.0) + estimate_s
+    items.sort(key=lambda item: -file_s.get(item.nodeid.split("::")[0], 0.0))
 
 
 def pytest_sessionfinish() -> None:

@@ -700,7 +700,7 @@ def socketcand_rig(tmp_path, port: int, rate_hz: float, setpoint_timeout_s: floa
 
 
 @pytest.mark.ros
-@pytest.mark.slow
+@pytest.mark.slow(seconds=4)
 def test_hardware_node_can_fault_goes_to_error_and_recovers(launch_node, ros_client, tmp_path):
     from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
     from sensor_msgs.msg import JointState

@@ -377,7 +377,7 @@ def test_the_fake_has_the_real_packages_names_signatures_and_error_codes(fake_ni
 
 
 @pytest.mark.ros
-@pytest.mark.slow
+@pytest.mark.slow(seconds=4)
 def test_hardware_node_takes_an_expired_watchdog_through_its_fault_path_and_recovers(launch_node, ros_client,
                                                                                      tmp_path):
     """The node (its own process, the stand-in driver on its path) stalls once for 0.5 s while commanding 2 bar."""

@@ -78,7 +78,7 @@ def _kill_busy_worker(client):
     return address, processing[address]
 
 
-@pytest.mark.slow
+@pytest.mark.slow(seconds=5)
 def test_a_dask_cluster_gives_the_local_records_exactly_and_counts_every_run(cluster, config, local_records):
     finished, logs = [], []
     with runner_for(cluster.scheduler_address, 2, log=logs.append) as runner:
@@ -95,7 +95,7 @@ def test_a_dask_cluster_gives_the_local_records_exactly_and_counts_every_run(clu
         assert len(client.scheduler_info()["workers"]) == 2  # the runner closed its client, not the cluster
 
 
-@pytest.mark.slow
+@pytest.mark.slow(seconds=5)
 def test_a_worker_killed_mid_sweep_has_its_runs_rescheduled_by_dask_with_identical_records(config, local_records):
     finished, killed, logs = [], [], []
 
@@ -114,7 +114,7 @@ def test_a_worker_killed_mid_sweep_has_its_runs_rescheduled_by_dask_with_identic
     assert len(finished) == len(CELLS)
 
 
-@pytest.mark.slow
+@pytest.mark.slow(seconds=6)
 def test_runs_that_dask_gives_up_on_are_resubmitted_by_the_runner_with_a_message(config, local_records):
     """With no failure allowed, Dask fails a killed worker's runs (KilledWorker): the runner submits them again."""
     killed, logs = [], []
@@ -131,7 +131,7 @@ def test_runs_that_dask_gives_up_on_are_resubmitted_by_the_runner_with_a_message
     assert lost and all(f"submitted again (attempt 2 of {MAX_RESUBMITS + 1})" in line for line in lost), logs
 
 
-@pytest.mark.slow
+@pytest.mark.slow(seconds=5)
 def test_a_local_worker_process_killed_mid_sweep_has_its_runs_resubmitted_to_a_new_pool(config, local_records):
     logs, killed = [], []
     before = {child.pid for child in multiprocessing.active_children()}
@@ -277,7 +277,7 @@ def _lab_table(path, rows, duration_s=1.5):
     return path
 
 
-@pytest.mark.slow
+@pytest.mark.slow(seconds=5)
 def test_srs_sweep_with_a_scheduler_writes_the_local_table(cluster, tmp_path, capsys):
     grid = ["--gait", "outward_rolling", "--amplitudes", "2", "4", "--frequencies", "0.5", "1", "--duration-s", "1.5"]
     assert main([*grid, "--workers", "2", "--out", str(tmp_path / "local")]) == 0
@@ -290,7 +290,7 @@ def test_srs_sweep_with_a_scheduler_writes_the_local_table(cluster, tmp_path, ca
     assert "4/4" in printed.err  # the progress bar counted the cluster's runs
 
 
-@pytest.mark.slow
+@pytest.mark.slow(seconds=5)
 def test_srs_sweep_calibrate_with_a_scheduler_fits_what_the_local_pool_fits(cluster, tmp_path, capsys):
     table = _lab_table(tmp_path / "lab.yaml", [["inward_rolling", 4.0, 1.0, 5.61, 10.11],
                                                ["outward_rolling", 4.0, 0.5, 6.56, 6.75]])

@@ -9,7 +9,7 @@ from sensor_msgs.msg import JointState
 from srs_ros.ros.interfaces import setpoint_qos
 
 
-@pytest.mark.slow
+@pytest.mark.slow(seconds=6)
 def test_ros_args_win_and_the_temporary_params_file_is_gone_while_running(launch_node, ros_client, tmp_path):
     temp = tmp_path / "tmp"
     temp.mkdir()
@@ -25,7 +25,7 @@ def test_ros_args_win_and_the_temporary_params_file_is_gone_while_running(launch
     assert list(temp.iterdir()) == []
 
 
-@pytest.mark.slow
+@pytest.mark.slow(seconds=6)
 def test_status_line_counts_cycles_so_a_1_hz_gait_sampled_each_second_visibly_advances(launch_node):
     proc = launch_node("srs_bringup", ["--duration-s", "5"])  # status period 1 s, gait 1 Hz
     assert proc.process.wait(60) == 0, proc.output()

@@ -52,7 +52,7 @@ def start_when_loaded(client):
     return responses[-1]
 
 
-@pytest.mark.slow
+@pytest.mark.slow(seconds=4)
 def test_start_follows_the_trajectory_at_the_rate_and_stop_ramps_to_zero(player, ros_client):
     proc, publisher, setpoints = player(rate_hz=200.0)
     refused = ros_client.trigger("gait_player/start")

@@ -427,7 +427,9 @@ def test_the_backend_is_written_at_the_command_rate_whatever_the_setpoint_rate(h
     received = float(rig.diagnostic("setpoint_rate_hz"))
     written = float(rig.diagnostic("command_rate_hz"))
     print(f"setpoints received {received:.0f}/s, backend writes {written:.0f}/s (command rate 100 Hz)")
-    assert received > 200.0, received  # the stream is faster than the command rate ...
+    # The stream is faster than the command rate (several hundred per second on an idle machine, 146/s seen beside
+    # another test process) ...
+    assert received > 1.3 * written, (received, written)
     assert 50.0 < written <= 110.0, written  # ... and the backend still gets 100 commands/s, the newest each time
     assert rig.counted("setpoints_received") > rig.counted("backend_writes")
 

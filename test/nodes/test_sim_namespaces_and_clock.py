@@ -25,7 +25,7 @@ def moved_m(poses, last: int = 0) -> float:
     return float(np.hypot(b.x - a.x, b.y - a.y))
 
 
-@pytest.mark.slow
+@pytest.mark.slow(seconds=10)
 def test_two_namespaced_robots_move_independently_and_nothing_of_them_is_on_the_root_namespace(
         launch_node, ros_client):
     for name, gait in (("snake1", "inward_rolling"), ("snake2", "outward_rolling")):

@@ -21,7 +21,7 @@ def stamps_s(msgs):
     return np.array([stamp_to_seconds(m.header.stamp) for m in msgs])
 
 
-@pytest.mark.slow
+@pytest.mark.slow(seconds=10)
 def test_the_gait_moves_the_simulated_robot_and_the_camera_tracks_it_by_pixels(launch_node, ros_client):
     world = launch_node("sim_world", ros_args({"camera_rate_hz": 15.0}))
     launch_node("camera_tracker", ros_args({"color_preset": "sim_bands"}))

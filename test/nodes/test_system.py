@@ -10,7 +10,7 @@ from std_msgs.msg import Float64MultiArray
 from srs_ros.core.robot import default_robot
 
 
-@pytest.mark.slow
+@pytest.mark.slow(seconds=8)
 def test_killing_gait_player_vents_the_valves_within_the_timeout(launch_node, ros_client):
     timeout_s, command_rate_hz = 0.2, 200.0
     launch_node("trajectory_server", ros_args({"gait": "inward_rolling", "samples": 32}))

@@ -66,7 +66,7 @@ def test_regenerate_latches_one_period_and_failures_keep_the_last_good_one(launc
     assert proc.alive(), proc.output()
 
 
-@pytest.mark.slow
+@pytest.mark.slow(seconds=6)
 def test_a_second_regenerate_during_a_fit_is_answered_busy(launch_node, ros_client):
     # Every sample of this request is poor, so each goes through the fitter's slow global retry.
     launch_node("trajectory_server", ros_args({"generate_on_start": False, "samples": 64, "gait": "serpentine",

@@ -109,7 +109,7 @@ def start_gait(launch_node, client, folder):
     return rig, record_path, backend, (server, hardware, player), setpoints
 
 
-@pytest.mark.slow
+@pytest.mark.slow(seconds=11)
 def test_killing_and_restarting_each_node_of_the_gait(launch_node, ros_client, tmp_path):
     client = ros_client
     rig, record_path, backend, (server, hardware, player), _ = start_gait(launch_node, client, tmp_path)
@@ -206,7 +206,7 @@ def test_camera_tracker_killed_frozen_and_restarted_tracks_again(launch_node, ro
     assert tracker.alive() and "Traceback" not in tracker.output()
 
 
-@pytest.mark.slow
+@pytest.mark.slow(seconds=8)
 def test_a_backend_that_fails_mid_gait_vents_reports_and_recovers(launch_node, ros_client, tmp_path):
     # 5 s at 200 Hz: the node finds the streaming player and ramps in well before, even on a busy machine
     failing, failing_record = recorded_rig(tmp_path, "failing", fail_after_writes=1000)

@@ -57,7 +57,7 @@ def hostile_images(draw, good_frame: np.ndarray):
     return msg
 
 
-@pytest.mark.slow
+@pytest.mark.slow(seconds=5)
 def test_hostile_images_are_refused_and_tracking_goes_on(tmp_path, launch_node, ros_client):
     calibration = save_calibration(SCENE.camera.calibration(), tmp_path / "cal.yaml")
     node = launch_node("camera_tracker", ros_args({"calibration_file": str(calibration), "image_timeout_s": 30.0}))

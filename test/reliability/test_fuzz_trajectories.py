@@ -137,7 +137,7 @@ def on_cycle(received: list[JointState], samples: np.ndarray, tolerance_m: float
     return all(np.min(np.max(np.abs(curve - np.asarray(m.position)), axis=1)) < tolerance_m for m in received)
 
 
-@pytest.mark.slow
+@pytest.mark.slow(seconds=10)
 def test_hostile_trajectories_are_refused_or_played_and_nothing_unsafe_reaches_the_backend(launch_node, ros_client,
                                                                                             tmp_path):
     rig, record_path = recorded_rig(tmp_path)

@@ -60,7 +60,7 @@ def test_outward_rolling_moves_the_opposite_way(frequency_hz):
     assert inward_opening > 0.0 > outward_opening
 
 
-@pytest.mark.slow
+@pytest.mark.slow(seconds=8)
 def test_serpentine_needs_anisotropic_friction_to_progress():
     isotropic, _ = run("serpentine", 4.0, 0.25)
     anisotropic, _ = run("serpentine", 4.0, 0.25, friction="anisotropic")

@@ -37,14 +37,16 @@ def rig_file(tmp_path, backend: str, options: str, name: str = "test_rig"):
     return path
 
 
-def assert_recovers(calibration, index, deadzone_bar, gain_m_per_bar, delay_s, tau_s):
+def assert_recovers(calibration, index, deadzone_bar, gain_m_per_bar, delay_s, tau_s, host_latency_s=0.0):
+    """The identified muscle is the model's; over DDS the delay also holds the host's own latency (up to
+    ``host_latency_s``: messages and scheduling between the hardware node and the world, as on a real rig)."""
     assert calibration.deadzone_bar[index] == pytest.approx(deadzone_bar, rel=0.2)
     assert calibration.extension_per_bar_m[index] == pytest.approx(gain_m_per_bar, rel=0.2)
-    assert calibration.transport_delay_s[index] == pytest.approx(delay_s, rel=0.2)
+    assert 0.8 * delay_s <= calibration.transport_delay_s[index] <= 1.2 * delay_s + host_latency_s
     assert calibration.pressure_time_constant_s[index] == pytest.approx(tau_s, rel=0.2)
 
 
-@pytest.mark.slow
+@pytest.mark.slow(seconds=4)
 def test_the_mock_rig_is_identified_per_muscle_and_written(tmp_path, capsys):
     rig = rig_file(tmp_path, "mock", "{transport_delay_s: 0.04, pressure_time_constant_s: 0.06, per_muscle: "
                                      "{m3_pma1: {deadzone_bar: 1.4, max_extension_m: 0.05}}}")
@@ -147,7 +149,7 @@ def test_ctrl_c_vents_at_once(tmp_path):
     assert time.monotonic() - sent < 10.0 and not (tmp_path / "c.yaml").exists()
 
 
-@pytest.mark.slow
+@pytest.mark.slow(seconds=24)
 def test_the_simulated_rig_is_identified_end_to_end_over_dds(launch_node, ros_env, tmp_path):
     world = launch_node("sim_world", ros_args({"camera_rate_hz": 0.0, "markers_rate_hz": 0.0}))
     # The simulated rig, with a read-back timeout that a machine busy with other tests cannot trip.
@@ -167,4 +169,4 @@ def test_the_simulated_rig_is_identified_end_to_end_over_dds(launch_node, ros_en
     calibration = dataclasses.replace(trials[0], **median)
     for index in range(9):
         assert_recovers(calibration, index, muscles.deadzone_bar, gain, muscles.transport_delay_s,
-                        muscles.pressure_time_constant_s)
+                        muscles.pressure_time_constant_s, host_latency_s=0.015)

@@ -16,7 +16,7 @@ from srs_ros.tools.sweep_cli import main
 PNG = b"\x89PNG\r\n\x1a\n"
 
 
-@pytest.mark.slow
+@pytest.mark.slow(seconds=6)
 def test_offline_sweep_of_a_small_grid_writes_the_table_figures_and_prints_the_papers_layout(tmp_path, capsys):
     out = tmp_path / "sweep"
     code = main(["--gait", "inward_rolling", "--gait", "serpentine", "--amplitudes", "1", "4", "--frequencies", "1",
@@ -53,7 +53,7 @@ def _lab_table(tmp_path, rows, duration_s=1.5):
     return path
 
 
-@pytest.mark.slow
+@pytest.mark.slow(seconds=4)
 def test_calibration_on_a_tiny_table_writes_a_loadable_sim_yaml_and_the_error_does_not_grow(tmp_path, capsys):
     table = _lab_table(tmp_path, [["inward_rolling", 4.0, 1.0, 5.61, 10.11], ["outward_rolling", 4.0, 1.0, 6.56, 6.75],
                                   ["serpentine", 1.0, 1.0, 0.0, 0.0]])
