@@ -300,13 +300,21 @@ class RosSweep:
         return float(np.median(data[:, 1])), float(np.median(data[:, 2])), float(data[-1, 3])
 
     def _wait_pose(self, since_s: float, what: str) -> tuple[float, float, float]:
-        """The robot's pose at rest: a fresh pose (after ``since_s``), then the median over POSE_WINDOW_S more."""
+        """The robot's pose at rest: a fresh pose (after ``since_s``), then the median over POSE_WINDOW_S more.
+
+        A tracker that publishes but has sent no pose yet (a rig launched with the sweep: camera and tracker
+        still starting) is given the discovery timeout; otherwise the pose timeout applies.
+        """
         timeout = self.options.pose_timeout_s
 
         def fresh() -> bool:
             return self._median_pose(max(since_s, time.monotonic() - POSE_WINDOW_S)) is not None
 
-        if not self.spin_until(fresh, timeout, self._abort_on_hardware_problem):
+        found = self.spin_until(fresh, timeout, self._abort_on_hardware_problem)
+        if not found and not self._poses and self.node.count_publishers(POSE_TOPIC) > 0:
+            timeout = self.options.discovery_timeout_s
+            found = self.spin_until(fresh, timeout - self.options.pose_timeout_s, self._abort_on_hardware_problem)
+        if not found:
             raise RunAborted(f"no pose on {self.node.resolve_topic_name(POSE_TOPIC)} for {timeout:g} s {what} "
                              "(is camera_tracker running and does it see both markers?)")
         found_s = time.monotonic()

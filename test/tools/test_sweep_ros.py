@@ -10,14 +10,19 @@ only that run.
 import csv
 import signal
 import subprocess
+import threading
+import time
 
 import pytest
-from diagnostic_msgs.msg import DiagnosticArray
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from geometry_msgs.msg import PoseStamped
 from srs_testing import RosClient, ros_args, script_path
 from std_msgs.msg import Float64MultiArray
 
 from srs_ros.core.robot import config_dir
 from srs_ros.experiments.recording import bag_message_counts, bag_topic_types
+from srs_ros.experiments.ros_sweep import RosSweep, RunAborted
+from srs_ros.ros.interfaces import POSE_TOPIC
 from srs_ros.experiments.table import TABLE_COLUMNS, read_table_csv
 
 SIM_RIG = str(config_dir() / "rigs" / "sim.yaml")
@@ -168,3 +173,36 @@ def test_on_a_rig_with_real_regulators_nothing_is_armed_without_the_operators_go
     seen = armed_seen()
     assert "True" in seen and seen[-1] == "False"
     assert max(max(m.data) for m in pressures) == 0.0  # armed, but the gait never started
+
+
+@pytest.mark.slow(seconds=8)
+def test_a_tracker_still_starting_is_waited_for_and_a_missing_one_is_not(ros_domain, monkeypatch):
+    """A sweep started with the rig (camera and tracker still starting) waits for the first pose as long as for
+    discovery; with no tracker at all the run fails after the pose timeout (2 s)."""
+    monkeypatch.setenv("ROS_DOMAIN_ID", str(ros_domain))
+    sweep = RosSweep()
+    stop = threading.Event()
+    with RosClient(ros_domain, "rig_stand_in") as rig:
+        status = DiagnosticStatus(name="hardware_node: actuators", level=DiagnosticStatus.OK,
+                                  values=[KeyValue(key="lifecycle_state", value="active")])
+        diagnostics = rig.node.create_publisher(DiagnosticArray, "/diagnostics", 10)
+        rig.node.create_timer(0.2, lambda: diagnostics.publish(DiagnosticArray(status=[status])))
+        spinner = threading.Thread(target=lambda: [rig.executor.spin_once(timeout_sec=0.05)
+                                                   for _ in iter(stop.is_set, True)])
+        spinner.start()
+        try:
+            sweep.spin_until(lambda: sweep._hardware is not None, 10.0)
+            started_s = time.monotonic()
+            with pytest.raises(RunAborted, match=r"no pose on /robot_pose for 2 s before the start"):
+                sweep._wait_pose(0.0, "before the start")
+            assert time.monotonic() - started_s < 4.0
+
+            poses = rig.node.create_publisher(PoseStamped, POSE_TOPIC, 10)
+            first_pose_s = time.monotonic() + 4.0  # the tracker's first pose 4 s after it appears
+            rig.node.create_timer(0.1, lambda: time.monotonic() > first_pose_s and poses.publish(PoseStamped()))
+            x_m, y_m, _yaw = sweep._wait_pose(0.0, "before the start")
+            assert (x_m, y_m) == (0.0, 0.0) and time.monotonic() >= first_pose_s
+        finally:
+            stop.set()
+            spinner.join()
+            sweep.close()
