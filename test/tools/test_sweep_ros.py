@@ -22,8 +22,8 @@ from std_msgs.msg import Float64MultiArray
 from srs_ros.core.robot import config_dir
 from srs_ros.experiments.recording import bag_message_counts, bag_topic_types
 from srs_ros.experiments.ros_sweep import RosSweep, RunAborted
-from srs_ros.ros.interfaces import POSE_TOPIC
 from srs_ros.experiments.table import TABLE_COLUMNS, read_table_csv
+from srs_ros.ros.interfaces import POSE_TOPIC
 
 SIM_RIG = str(config_dir() / "rigs" / "sim.yaml")
 
