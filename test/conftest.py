@@ -42,22 +42,27 @@ SLOW_TEST_S, ROS_TEST_S, OTHER_TEST_S = 5.0, 1.0, 0.02
 
 def pytest_collection_modifyitems(items) -> None:
     """Mark ``ros`` every test whose fixtures (directly or through other fixtures) include a DDS fixture, and
-    run the longest files first: a file counts the ``seconds`` of its ``slow`` marks (``@pytest.mark.slow(
-    seconds=60)``, measured on the 2-core machine; :data:`SLOW_TEST_S` without a figure) and an estimate for its
-    other tests. Each file's tests keep their order. With ``-n 2 --dist loadfile --no-loadscope-reorder``
-    (scripts/test.sh) the long files start early and the short ones fill the end, so neither worker waits alone
-    for a long file at the end."""
+    order the files for ``-n 2 --dist loadfile --no-loadscope-reorder`` (scripts/test.sh): first the files that
+    load the machine on purpose (``busy``: a minute beside busy processes), then the files without DDS, then
+    those with a DDS test, each group longest first. So the other worker runs tests that time nothing while one loads
+    the machine, and no worker waits alone for a long file at the end. A file counts the ``seconds`` of its
+    ``slow`` marks (``@pytest.mark.slow(seconds=60)``, measured on the 2-core machine; :data:`SLOW_TEST_S`
+    without a figure) and an estimate for its other tests. Each file's tests keep their order."""
     file_s: dict[str, float] = {}
+    group: dict[str, int] = {}
     for item in items:
+        path = item.nodeid.split("::")[0]
         if ROS_FIXTURES & set(getattr(item, "fixturenames", ())):
             item.add_marker(pytest.mark.ros)
-        slow, path = item.get_closest_marker("slow"), item.nodeid.split("::")[0]
+        is_ros, slow = item.get_closest_marker("ros") is not None, item.get_closest_marker("slow")
         if slow is not None:
             estimate_s = float(slow.kwargs.get("seconds", SLOW_TEST_S))
         else:
-            estimate_s = ROS_TEST_S if item.get_closest_marker("ros") else OTHER_TEST_S
+            estimate_s = ROS_TEST_S if is_ros else OTHER_TEST_S
         file_s[path] = file_s.get(path, 0.0) + estimate_s
-    items.sort(key=lambda item: -file_s.get(item.nodeid.split("::")[0], 0.0))
+        busy, had = item.get_closest_marker("busy") is not None, group.get(path, 1)
+        group[path] = 0 if busy or had == 0 else 2 if is_ros or had == 2 else 1  # a file with one DDS test: DDS
+    items.sort(key=lambda item: (group[item.nodeid.split("::")[0]], -file_s[item.nodeid.split("::")[0]]))
 
 
 def pytest_sessionfinish() -> None:
