@@ -198,7 +198,7 @@ def test_a_tracker_still_starting_is_waited_for_and_a_missing_one_is_not(ros_dom
             assert time.monotonic() - started_s < 4.0
 
             poses = rig.node.create_publisher(PoseStamped, POSE_TOPIC, 10)
-            first_pose_s = time.monotonic() + 4.0  # the tracker's first pose 4 s after it appears
+            first_pose_s = time.monotonic() + 3.0  # the tracker's first pose 3 s after it appears (timeout: 2 s)
             rig.node.create_timer(0.1, lambda: time.monotonic() > first_pose_s and poses.publish(PoseStamped()))
             x_m, y_m, _yaw = sweep._wait_pose(0.0, "before the start")
             assert (x_m, y_m) == (0.0, 0.0) and time.monotonic() >= first_pose_s
