@@ -61,9 +61,18 @@ def hostile_trajectory(mutations: list[str], seed: int):
     return msg, applied, (samples, frequency_hz)
 
 
+def _too_many(msg: JointTrajectory, rng: random.Random) -> bool:
+    """More points than allowed, small ones, so the byte bound passes and the count bound must refuse."""
+    msg.points = [JointTrajectoryPoint(positions=[0.01] * 9, time_from_start=Duration(nanosec=k * 1000))
+                  for k in range(rng.randint(MAX_POINTS + 1, MAX_POINTS + 60))]
+    return True
+
+
 def mutate(msg: JointTrajectory, mutation: str, rng: random.Random) -> bool:
     """Apply one mutation; False where it does not apply to this message (e.g. a point already cut short)."""
     points = msg.points
+    if not points:  # "too_few" cut every point: only a new point count applies (hypothesis found this)
+        return mutation == "too_many" and _too_many(msg, rng)
     i, j = rng.randrange(len(points)), rng.randrange(9)
     if j >= min(len(msg.joint_names), len(points[i].positions)):
         return False
@@ -83,9 +92,8 @@ def mutate(msg: JointTrajectory, mutation: str, rng: random.Random) -> bool:
         msg.joint_names[j] = msg.joint_names[(j + 1) % len(msg.joint_names)]
     elif mutation == "too_few":
         msg.points = points[:rng.randint(0, 4)]
-    elif mutation == "too_many":  # small points, so the byte bound passes and the count bound must refuse
-        msg.points = [JointTrajectoryPoint(positions=[0.01] * 9, time_from_start=Duration(nanosec=k * 1000))
-                      for k in range(rng.randint(MAX_POINTS + 1, MAX_POINTS + 60))]
+    elif mutation == "too_many":
+        _too_many(msg, rng)
     elif mutation == "backwards":
         k = rng.randint(1, len(points) - 1)
         points[k].time_from_start = points[k - 1].time_from_start
@@ -200,3 +208,9 @@ def test_hostile_trajectories_are_refused_or_played_and_nothing_unsafe_reaches_t
     assert refused, "no drawn trajectory had to be refused: the strategy is broken"
     assert "Traceback" not in player.output()
     assert len(record) > 200 * (time.monotonic() - time_start) * 0.5  # the hardware node kept commanding
+
+
+def test_the_generator_cuts_every_point_and_then_adds_too_many():
+    """Regression (hypothesis found it): ``too_few`` leaving no point, then ``too_many``, crashed the generator."""
+    counts = {len(hostile_trajectory(["too_few", "too_many"], seed)[0].points) for seed in range(40)}
+    assert min(counts) > MAX_POINTS
