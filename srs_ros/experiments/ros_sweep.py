@@ -101,7 +101,7 @@ class RosSweepOptions:
 
     settle_s: float = 2.0
     vent_timeout_s: float = 15.0
-    pose_timeout_s: float = 2.0
+    pose_timeout_s: float = 5.0  # at rest, before and after a run: a tracker on a busy machine pauses for 2 s
     discovery_timeout_s: float = 20.0
     service_timeout_s: float = 10.0
     fit_timeout_s: float = 120.0
