@@ -149,6 +149,10 @@ def test_ctrl_c_vents_at_once(tmp_path):
     assert time.monotonic() - sent < 10.0 and not (tmp_path / "c.yaml").exists()
 
 
+#: What the host may add to the identified delay over DDS on a busy machine (s).
+HOST_LATENCY_S = 0.05
+
+
 @pytest.mark.slow(seconds=24)
 def test_the_simulated_rig_is_identified_end_to_end_over_dds(launch_node, ros_env, ros_client, tmp_path):
     world = launch_node("sim_world", ros_args({"camera_rate_hz": 0.0, "markers_rate_hz": 0.0}))
@@ -187,11 +191,13 @@ def test_the_simulated_rig_is_identified_end_to_end_over_dds(launch_node, ros_en
     calibration = dataclasses.replace(trials[0], **median)
     print(f"identified over DDS (world rate {np.round(world_rates, 3)}): delay "
           f"{np.round(calibration.transport_delay_s, 3)} s, lag {np.round(calibration.pressure_time_constant_s, 3)} s")
-    # The delay also holds this host's latency between the hardware and the world (up to 15 ms).
+    # The identified delay is what the host sees, as on a real rig: the muscles' delay plus this host's messaging
+    # and scheduling between the hardware and the world: 2-5 ms on an idle machine, 28 ms seen while the suite ran
+    # in three workers on two cores; the bound allows HOST_LATENCY_S.
     for index in range(9):
         assert calibration.deadzone_bar[index] == pytest.approx(muscles.deadzone_bar, rel=0.2)
         assert calibration.extension_per_bar_m[index] == pytest.approx(gain, rel=0.2)
         assert 0.8 * muscles.transport_delay_s <= calibration.transport_delay_s[index] <= (
-            1.2 * muscles.transport_delay_s + 0.015)
+            1.2 * muscles.transport_delay_s + HOST_LATENCY_S)
         assert calibration.pressure_time_constant_s[index] == pytest.approx(muscles.pressure_time_constant_s,
                                                                              rel=0.2)
