@@ -3,7 +3,8 @@
 Each variant is the shipped ``config/sim.yaml`` with a few values changed (one mechanism on or off, or a
 combination); nothing is keyed by amplitude, frequency or cell. For each it runs Table I's grid (3 gaits x
 4 pressures x 4 frequencies, 15 s), the serpentine at 4 bar on anisotropic friction, and one 15 s inward
-roll at 4 bar 1 Hz in this process (largest bend, real-time factor on one core), then prints one row of
+roll at 4 bar 1 Hz in this process (largest bend, real-time factor on one core, the tail's spin about its
+own axis per cycle and the highest point of the body), then prints one row of
 :mod:`srs_ros.experiments.fidelity` figures per variant (markdown) and writes them to ``--csv``.
 
 Run: python benchmarks/model_study.py [--variants shipped,no_skin,...] [--duration-s 15] [--workers N]
@@ -19,6 +20,8 @@ import math
 import sys
 import time
 from dataclasses import dataclass
+
+import numpy as np
 
 from srs_ros.experiments.cluster import add_runner_arguments, runner_from_args
 from srs_ros.experiments.fidelity import fidelity_figures
@@ -72,13 +75,39 @@ VARIANTS = [Variant(*v) for v in (
     ("roll_damping_line_lag", {"contact.roll_damping_nms_per_rad": 0.02, "muscles.pressure_time_constant_s": 0.2},
      "roll damping with the supply lines' lag"),
     ("segments_3", {"body.segments_per_module": 3}, "coarser body (cost and sensitivity)"),
+    # Issue 19, flip / crankshaft hypothesis: can the body lift its middle or ends and tumble about its chord?
+    ("twist_soft", {"servo.twist_stiffness_nm_per_rad": 0.02},
+     "torsion: each module may twist about its axis (0.02 N m/rad, a tenth of a rubber sleeve's GJ/L)"),
+    ("muscle_tendons", {"servo.drive": "muscle_tendons"},
+     "muscles as springs along their own lines (1750 N/m, the authors' model) with the shipped skin"),
+    ("muscle_tendons_authors", {"servo.drive": "muscle_tendons", "servo.skin_bend_stiffness_nm_per_rad": 0.2,
+                                "servo.skin_axial_stiffness_n_per_m": 0.0, "body.mass_per_module_kg": 0.2},
+     "the authors' dynamic model: tendon muscles of 1750 N/m, 0.2 kg per section, only a rubber sleeve's "
+     "bending stiffness (0.2 N m/rad, config/sim.yaml estimate)"),
+    ("axis_points", {"contact.floor_contact": "points"},
+     "floor contact at one sphere per segment (5 per module) on the axis instead of continuous capsules"),
+    ("lobed_points", {"contact.floor_contact": "points", "contact.points_around": 3},
+     "floor contact at 3 spheres around the skin per segment, at the muscles: a lobed cross-section"),
 )]
 
 
-def _roll_probe(config: SimConfig, duration_s: float) -> tuple[float, float]:
-    """Largest total bend (deg) and real-time factor of inward rolling at 4 bar 1 Hz in this process."""
-    result = run_experiment("inward_rolling", 4.0, 1.0, duration_s, config)
-    return math.degrees(result.peak_body_bend_rad), result.realtime_factor
+def _roll_probe(config: SimConfig, duration_s: float) -> tuple[float, float, float, float]:
+    """Inward rolling at 4 bar 1 Hz in this process: largest total bend (deg), real-time factor, how many
+    turns per cycle the tail spins about its own axis (1 = a rolling pin: the bend stays put and the
+    material rolls inside it; 0 = the shape turns with the material, as a crankshaft) and the highest
+    node above the floor (cm: a body lifting its middle or ends)."""
+    up_angle, height = [], []
+
+    def on_frame(state) -> None:
+        w, x, y, z = state.base_quaternion_wxyz
+        # World up in the tail segment's frame: its angle in the segment's x-y plane.
+        up_angle.append(math.atan2(2 * (x * z - w * y), 2 * (y * z + w * x)))
+        height.append(float(state.nodes_m[:, 2].max()))
+
+    result = run_experiment("inward_rolling", 4.0, 1.0, duration_s, config, on_frame=on_frame)
+    turns = np.unwrap(np.array(up_angle))
+    spin = abs(turns[-1] - turns[0]) / (2 * math.pi) / (duration_s * 1.0)
+    return math.degrees(result.peak_body_bend_rad), result.realtime_factor, spin, 100 * max(height)
 
 
 def study_variant(variant: Variant, base: SimConfig, runner, duration_s: float) -> dict:
@@ -91,14 +120,15 @@ def study_variant(variant: Variant, base: SimConfig, runner, duration_s: float) 
     anisotropic = config.replace("contact", friction="anisotropic")
     serpentine = runner.run([cell_key("serpentine", 4.0, f) for f in reference.frequencies_hz], duration_s,
                             anisotropic, keep_track=False)
-    bend_deg, realtime = _roll_probe(config, duration_s)
+    bend_deg, realtime, spin, lift_cm = _roll_probe(config, duration_s)
     return {"variant": variant.name, "within 2x": str(figures.within_factor), "rms log": f"{figures.rms_log:.2f}",
             "amplitude trend": str(figures.amplitude_trend), "cycle trend": str(figures.cycle_distance_trend),
             "inward > outward": str(figures.inward_faster), "1 bar still": str(figures.still_cells),
             "serpentine top cm/s": f"{figures.serpentine_top_cm_s:.2f}",
             "serpentine aniso. cm/s": f"{min(r.speed_cm_s for r in serpentine):.2f}-"
                                       f"{max(r.speed_cm_s for r in serpentine):.2f}",
-            "bend 4 bar deg": f"{bend_deg:.0f}", "turn deg/cycle": f"{figures.turning_deg_per_cycle:.1f}",
+            "bend 4 bar deg": f"{bend_deg:.0f}", "spin turns/cycle": f"{spin:.2f}", "top cm": f"{lift_cm:.1f}",
+            "turn deg/cycle": f"{figures.turning_deg_per_cycle:.1f}",
             "reversing runs": str(figures.reversing_runs), "real time x": f"{realtime:.1f}"}
 
 
