@@ -23,6 +23,7 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
+from srs_ros.core.errors import ConfigurationError
 from srs_ros.core.kinematics import bending_vectors, shape_functions
 from srs_ros.core.robot import RobotDescription
 from srs_ros.sim.config import SimConfig
@@ -50,7 +51,7 @@ class BodyLayout:
     hinge_actuator: np.ndarray     # (N - 1, 2) actuator ids of the hinge servos (empty: drive muscle_tendons)
     slide_actuator: np.ndarray     # (N,) actuator ids of the slide servos (empty: drive muscle_tendons)
     muscle_actuator: np.ndarray    # (module_count * actuators,) tendon actuators, joint order (empty: servos)
-    muscle_rest_m: float           # a muscle tendon's length in the straight, unextended body
+    muscle_rest_m: float           # a muscle tendon's length in the straight, unextended body (0: extensions)
     floor_geom_segment: dict       # geom id -> segment index of every geom that touches the floor
 
 
@@ -211,27 +212,45 @@ def _contact_points(config: SimConfig, robot: RobotDescription, chain: _Chain, k
 
 
 def _add_muscle_tendons(spec: mujoco.MjSpec, config: SimConfig, robot: RobotDescription, chain: _Chain) -> None:
-    """``drive: muscle_tendons``: one spatial tendon per muscle through its line at every node of its module.
+    """``drive: muscle_tendons``: one tendon per muscle, its length the muscle's extension, pulled by a spring.
 
-    Muscle ``j`` of module ``m`` runs at the actuator radius, at actuator ``j``'s angle plus ``m`` sigma (the
-    modules are mounted twisted), through a site at every node of the module; a position actuator of the
-    muscle's stiffness and damping pulls it toward the length the pressure gives (the world sets
-    ``ctrl = rest + extension``), a spring in series with the body as in the authors' dynamic model.
+    A muscle at angle ``phi`` (actuator ``j``'s angle plus ``m`` sigma in the chain's frames: the modules are
+    mounted twisted) at radius ``r`` lengthens by its module's slides and by ``r (sin phi a - cos phi b)``
+    for a rotation ``(a, b)`` of the module's inner hinges about x and y (paper eq. 1, to first order;
+    scaled by ``n / (n - 1)``, as the ``n - 1`` inner hinges of a constant-curvature chord chain carry that
+    share of the bend): a fixed tendon, the configuration coordinate of the authors' dynamic model. A
+    position actuator of the muscle's stiffness and damping pulls it toward the extension the pressure
+    gives (the world sets ``ctrl``): a spring in series with the body, as in the authors' model. The hinge
+    where two modules meet is held at half the mean inner hinge angle of each (the chord chain's geometry)
+    by an equality constraint, so the modules join rigidly.
     """
-    servo, r = config.servo, robot.actuator_radius_m
+    servo, r, n = config.servo, robot.actuator_radius_m, chain.per_module
+    if n < 2:
+        raise ConfigurationError(f"{config.source}: sim.body.segments_per_module is {n}; drive muscle_tendons "
+                                 "needs at least 2 (a module bends at its inner hinges).")
+    scale = n / (n - 1.0)
     for m in range(robot.module_count):
+        inner = range(m * n + 1, (m + 1) * n)
         for j, theta in enumerate(robot.actuator_angles_rad):
-            angle = float(theta) + m * robot.module_twist_rad
+            phi = float(theta) + m * robot.module_twist_rad
             name = f"muscle_{m + 1}_{j + 1}"
             tendon = spec.add_tendon(name=name)
-            for k in range(m * chain.per_module, (m + 1) * chain.per_module + 1):
-                body = spec.body("head" if k == chain.count else f"segment_{k}")
-                site = f"{name}_node_{k}"
-                body.add_site(name=site, pos=[r * math.cos(angle), r * math.sin(angle), 0.0], group=4)
-                tendon.wrap_site(site)
+            for k in range(m * n + 1, (m + 1) * n + 1):
+                tendon.wrap_joint(f"slide_{k}", 1.0)
+            for k in inner:
+                tendon.wrap_joint(f"bend_x_{k}", scale * r * math.sin(phi))
+                tendon.wrap_joint(f"bend_y_{k}", -scale * r * math.cos(phi))
             actuator = spec.add_actuator(name=f"drive_{name}", target=name, trntype=mujoco.mjtTrn.mjTRN_TENDON)
             actuator.set_to_position(kp=servo.muscle_stiffness_n_per_m, kv=servo.muscle_damping_ns_per_m,
                                      timeconst=config.physics.control_period_s)
+    for junction in range(n, chain.count, n):
+        for axis in "xy":
+            # junction - (mean inner hinge of the module before + of the module after) / 2 = 0
+            coupling = spec.add_tendon(name=f"junction_{axis}_{junction}")
+            coupling.wrap_joint(f"bend_{axis}_{junction}", 1.0)
+            for k in [*range(junction - n + 1, junction), *range(junction + 1, junction + n)]:
+                coupling.wrap_joint(f"bend_{axis}_{k}", -0.5 / (n - 1))
+            spec.add_equality(type=mujoco.mjtEq.mjEQ_TENDON, name1=coupling.name, data=np.zeros(12))
 
 
 def _add_node_joints(body, k: int, with_hinges: bool, servo, n: int, spec: mujoco.MjSpec, smoothing_s: float) -> None:
@@ -307,7 +326,7 @@ def build_model(config: SimConfig, robot: RobotDescription) -> tuple[mujoco.MjMo
                                 dtype=int).reshape(-1, 2),
         slide_actuator=np.array([actuator(f"servo_{s}") for s in slide_names] if servos else [], dtype=int),
         muscle_actuator=np.array([] if servos else [actuator(a) for a in muscles], dtype=int),
-        muscle_rest_m=robot.unactuated_length_m,
+        muscle_rest_m=0.0,
         floor_geom_segment=floor_geoms,
     )
     return model, layout
