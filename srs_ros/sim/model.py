@@ -23,7 +23,6 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
-from srs_ros.core.errors import ConfigurationError
 from srs_ros.core.kinematics import bending_vectors, shape_functions
 from srs_ros.core.robot import RobotDescription
 from srs_ros.sim.config import SimConfig
@@ -50,8 +49,8 @@ class BodyLayout:
     slide_qpos: np.ndarray         # (N,) qpos addresses of the slides at nodes 1..N
     hinge_actuator: np.ndarray     # (N - 1, 2) actuator ids of the hinge servos (empty: drive muscle_tendons)
     slide_actuator: np.ndarray     # (N,) actuator ids of the slide servos (empty: drive muscle_tendons)
-    muscle_actuator: np.ndarray    # (module_count * actuators,) tendon actuators, joint order (empty: servos)
-    muscle_rest_m: float           # a muscle tendon's length in the straight, unextended body (0: extensions)
+    muscle_actuator: np.ndarray    # (joints * n,) actuators of the muscles' pieces, one per chord (empty: servos)
+    muscle_piece_map: np.ndarray   # (joints * n, 3N - 2): piece lengths = map @ [hinge angles (x, y)..., slides]
     floor_geom_segment: dict       # geom id -> segment index of every geom that touches the floor
 
 
@@ -212,45 +211,34 @@ def _contact_points(config: SimConfig, robot: RobotDescription, chain: _Chain, k
 
 
 def _add_muscle_tendons(spec: mujoco.MjSpec, config: SimConfig, robot: RobotDescription, chain: _Chain) -> None:
-    """``drive: muscle_tendons``: one tendon per muscle, its length the muscle's extension, pulled by a spring.
+    """``drive: muscle_tendons``: every muscle is ``n`` springs in series, one per chord, on its lengths.
 
-    A muscle at angle ``phi`` (actuator ``j``'s angle plus ``m`` sigma in the chain's frames: the modules are
-    mounted twisted) at radius ``r`` lengthens by its module's slides and by ``r (sin phi a - cos phi b)``
-    for a rotation ``(a, b)`` of the module's inner hinges about x and y (paper eq. 1, to first order;
-    scaled by ``n / (n - 1)``, as the ``n - 1`` inner hinges of a constant-curvature chord chain carry that
-    share of the bend): a fixed tendon, the configuration coordinate of the authors' dynamic model. A
-    position actuator of the muscle's stiffness and damping pulls it toward the extension the pressure
-    gives (the world sets ``ctrl``): a spring in series with the body, as in the authors' model. The hinge
-    where two modules meet is held at half the mean inner hinge angle of each (the chord chain's geometry)
-    by an equality constraint, so the modules join rigidly.
+    The piece of muscle ``j`` of module ``m`` along chord ``k`` is a fixed tendon: the chord's slide plus
+    ``r (sin phi a - cos phi b)`` for half the rotation ``(a, b)`` of each hinge at the chord's ends (paper
+    eq. 1 to first order; ``phi`` is actuator ``j``'s angle plus ``m`` sigma in the chain's frames, as the
+    modules are mounted twisted). A chord at a free end of the body counts its one hinge fully. A position
+    actuator of ``n`` times the muscle's stiffness (``n`` springs in series make the muscle's) pulls each
+    piece toward its length in the kinematic model's shape for the muscles' lengths (the world sets
+    ``ctrl`` through :attr:`BodyLayout.muscle_piece_map`), so the body's bending and axial stiffness come
+    from the muscles' stiffness and geometry (``1.5 k r^2`` per module in bending, ``3 k`` axially), as in
+    the authors' dynamic model, instead of from per-joint servo gains.
     """
     servo, r, n = config.servo, robot.actuator_radius_m, chain.per_module
-    if n < 2:
-        raise ConfigurationError(f"{config.source}: sim.body.segments_per_module is {n}; drive muscle_tendons "
-                                 "needs at least 2 (a module bends at its inner hinges).")
-    scale = n / (n - 1.0)
     for m in range(robot.module_count):
-        inner = range(m * n + 1, (m + 1) * n)
         for j, theta in enumerate(robot.actuator_angles_rad):
             phi = float(theta) + m * robot.module_twist_rad
-            name = f"muscle_{m + 1}_{j + 1}"
-            tendon = spec.add_tendon(name=name)
-            for k in range(m * n + 1, (m + 1) * n + 1):
-                tendon.wrap_joint(f"slide_{k}", 1.0)
-            for k in inner:
-                tendon.wrap_joint(f"bend_x_{k}", scale * r * math.sin(phi))
-                tendon.wrap_joint(f"bend_y_{k}", -scale * r * math.cos(phi))
-            actuator = spec.add_actuator(name=f"drive_{name}", target=name, trntype=mujoco.mjtTrn.mjTRN_TENDON)
-            actuator.set_to_position(kp=servo.muscle_stiffness_n_per_m, kv=servo.muscle_damping_ns_per_m,
-                                     timeconst=config.physics.control_period_s)
-    for junction in range(n, chain.count, n):
-        for axis in "xy":
-            # junction - (mean inner hinge of the module before + of the module after) / 2 = 0
-            coupling = spec.add_tendon(name=f"junction_{axis}_{junction}")
-            coupling.wrap_joint(f"bend_{axis}_{junction}", 1.0)
-            for k in [*range(junction - n + 1, junction), *range(junction + 1, junction + n)]:
-                coupling.wrap_joint(f"bend_{axis}_{k}", -0.5 / (n - 1))
-            spec.add_equality(type=mujoco.mjtEq.mjEQ_TENDON, name1=coupling.name, data=np.zeros(12))
+            for k in range(m * n, (m + 1) * n):
+                name = f"muscle_{m + 1}_{j + 1}_chord_{k}"
+                tendon = spec.add_tendon(name=name)
+                tendon.wrap_joint(f"slide_{k + 1}", 1.0)
+                hinges = [h for h in (k, k + 1) if 0 < h < chain.count]
+                for h in hinges:
+                    share = 1.0 / len(hinges) if len(hinges) == 1 else 0.5
+                    tendon.wrap_joint(f"bend_x_{h}", share * r * math.sin(phi))
+                    tendon.wrap_joint(f"bend_y_{h}", -share * r * math.cos(phi))
+                actuator = spec.add_actuator(name=f"drive_{name}", target=name, trntype=mujoco.mjtTrn.mjTRN_TENDON)
+                actuator.set_to_position(kp=n * servo.muscle_stiffness_n_per_m, kv=n * servo.muscle_damping_ns_per_m,
+                                         timeconst=config.physics.control_period_s)
 
 
 def _add_node_joints(body, k: int, with_hinges: bool, servo, n: int, spec: mujoco.MjSpec, smoothing_s: float) -> None:
@@ -307,8 +295,9 @@ def build_model(config: SimConfig, robot: RobotDescription) -> tuple[mujoco.MjMo
     hinge_names = [[f"bend_{a}_{k}" for a in "xy"] for k in range(1, count)]
     slide_names = [f"slide_{k}" for k in range(1, count + 1)]
     servos = config.servo.drive == "joint_servos"
-    muscles = [f"drive_muscle_{m + 1}_{j + 1}" for m in range(robot.module_count)
-               for j in range(robot.actuators_per_module)]
+    pieces = [(m * robot.actuators_per_module + j, f"drive_muscle_{m + 1}_{j + 1}_chord_{k}")
+              for m in range(robot.module_count) for j in range(robot.actuators_per_module)
+              for k in range(m * n, (m + 1) * n)]
     floor_geoms = {}
     for k in range(count):
         names = [f"skin_{k}"] if config.contact.floor_contact == "capsules" else [
@@ -325,11 +314,23 @@ def build_model(config: SimConfig, robot: RobotDescription) -> tuple[mujoco.MjMo
         hinge_actuator=np.array([[actuator(f"servo_{x}") for x in pair] for pair in hinge_names] if servos else [],
                                 dtype=int).reshape(-1, 2),
         slide_actuator=np.array([actuator(f"servo_{s}") for s in slide_names] if servos else [], dtype=int),
-        muscle_actuator=np.array([] if servos else [actuator(a) for a in muscles], dtype=int),
-        muscle_rest_m=0.0,
+        muscle_actuator=np.array([] if servos else [actuator(a) for _, a in pieces], dtype=int),
+        muscle_piece_map=_piece_map(model, [actuator(a) for _, a in pieces] if not servos else [],
+                                    [qpos(x) for pair in hinge_names for x in pair] + [qpos(s) for s in slide_names]),
         floor_geom_segment=floor_geoms,
     )
     return model, layout
+
+
+def _piece_map(model: mujoco.MjModel, actuators: list[int], columns: list[int]) -> np.ndarray:
+    """Coefficients of the fixed tendons behind ``actuators`` over the qpos addresses ``columns``."""
+    matrix = np.zeros((len(actuators), len(columns)))
+    where = {address: i for i, address in enumerate(columns)}
+    for row, actuator in enumerate(actuators):
+        tendon = int(model.actuator_trnid[actuator, 0])
+        for w in range(model.tendon_adr[tendon], model.tendon_adr[tendon] + model.tendon_num[tendon]):
+            matrix[row, where[int(model.jnt_qposadr[model.wrap_objid[w]])]] += model.wrap_prm[w]
+    return matrix
 
 
 def _set_roll_damping(model: mujoco.MjModel, damping_nms_per_rad: float) -> None:

@@ -133,10 +133,6 @@ class SimWorld:
         self._step_count = 0
         self._diverged: str | None = None
         self._bad_qacc = 0
-        muscles = self.layout.muscle_actuator
-        if muscles.size:  # tendon muscles (and their filtered set-points) start at rest, not at length 0
-            self.data.ctrl[muscles] = self.layout.muscle_rest_m
-            self.data.act[self.model.actuator_actadr[muscles]] = self.layout.muscle_rest_m
         mujoco.mj_forward(self.model, self.data)
 
     def command_pressures(self, pressure_bar, now_s: float | None = None) -> np.ndarray:
@@ -191,10 +187,10 @@ class SimWorld:
     def _set_servo_targets(self) -> None:
         _, length_m = self.muscles.state(self.time_s)
         ctrl, layout = self.data.ctrl, self.layout
-        if layout.muscle_actuator.size:
-            ctrl[layout.muscle_actuator] = layout.muscle_rest_m + length_m
-            return
         angles, slides = self.shape.joint_targets(length_m)
+        if layout.muscle_actuator.size:
+            ctrl[layout.muscle_actuator] = layout.muscle_piece_map @ np.concatenate([angles.ravel(), slides])
+            return
         ctrl[layout.hinge_actuator.ravel()] = angles.ravel()
         ctrl[layout.slide_actuator] = slides
 

@@ -10,7 +10,6 @@ import mujoco
 import numpy as np
 import pytest
 
-from srs_ros.core.errors import ConfigurationError
 from srs_ros.core.robot import default_robot
 from srs_ros.sim.config import load_sim_config
 from srs_ros.sim.model import ShapeTargets, build_model
@@ -29,32 +28,30 @@ def test_the_shipped_model_has_none_of_the_options():
     assert set(layout.floor_geom_segment) == set(layout.segment_geom.tolist())
 
 
-def test_muscle_tendons_replace_the_joint_servos_by_nine_muscle_springs_on_the_muscles_lengths():
+def test_muscle_tendons_replace_the_joint_servos_by_the_muscles_springs_one_piece_per_chord():
     model, layout = build_model(TENDONS, ROBOT)
     n = CONFIG.body.segments_per_module
-    assert model.nu == ROBOT.joint_count == layout.muscle_actuator.size
+    pieces = ROBOT.joint_count * n
+    assert model.nu == model.ntendon == pieces == layout.muscle_actuator.size
     assert layout.hinge_actuator.size == 0 and layout.slide_actuator.size == 0
     assert np.all(model.actuator_trntype == mujoco.mjtTrn.mjTRN_TENDON)
-    np.testing.assert_allclose(model.actuator_gainprm[:, 0], CONFIG.servo.muscle_stiffness_n_per_m)
-    # Nine muscle tendons (the module's n slides and n - 1 inner hinges) and two couplings per module junction.
-    assert model.ntendon == ROBOT.joint_count + 2 * (ROBOT.module_count - 1)
-    assert np.all(model.tendon_num[model.actuator_trnid[:, 0]] == n + 2 * (n - 1))
-    assert model.neq == 2 * (ROBOT.module_count - 1)
+    # n springs in series of n k each make a muscle of stiffness k.
+    np.testing.assert_allclose(model.actuator_gainprm[:, 0], n * CONFIG.servo.muscle_stiffness_n_per_m)
     # The joints are passive: the skin's spring and the damping the servos had.
     hinge = model.joint("bend_x_1")
     assert model.jnt_stiffness[hinge.id] == pytest.approx(CONFIG.servo.skin_bend_stiffness_nm_per_rad * n)
     assert model.dof_damping[hinge.dofadr[0]] == pytest.approx(CONFIG.servo.bend_damping_nms_per_rad * n)
-    # A tendon's length is its muscle's extension: the module's chords' growth and r times its bend.
+    # A piece's length is its muscle's extension along its chord: the chord's growth and r times its bend.
     data = mujoco.MjData(model)
-    data.qpos[model.joint("slide_3").qposadr[0]] = 0.01
+    data.qpos[model.joint("slide_3").qposadr[0]] = 0.01              # chord 2, in module 1
+    data.qpos[model.joint("bend_y_2").qposadr[0]] = 0.1              # between chords 1 and 2
     mujoco.mj_forward(model, data)
-    np.testing.assert_allclose(data.ten_length[model.actuator_trnid[:3, 0]], 0.01)
-    np.testing.assert_allclose(data.ten_length[model.actuator_trnid[3:, 0]], 0.0)
-
-
-def test_muscle_tendons_need_inner_hinges():
-    with pytest.raises(ConfigurationError, match="segments_per_module is 1; drive muscle_tendons needs at least 2"):
-        build_model(TENDONS.replace("body", segments_per_module=1), ROBOT)
+    lengths = data.ten_length[model.actuator_trnid[:, 0]].reshape(ROBOT.joint_count, n)
+    angles = np.asarray(ROBOT.actuator_angles_rad)
+    np.testing.assert_allclose(lengths[:3, 2], 0.01 - 0.05 * ROBOT.actuator_radius_m * np.cos(angles), atol=1e-12)
+    np.testing.assert_allclose(lengths[:3, 1], -0.05 * ROBOT.actuator_radius_m * np.cos(angles), atol=1e-12)
+    np.testing.assert_allclose(lengths[:3, [0, 3, 4]], 0.0)
+    np.testing.assert_allclose(lengths[3:], 0.0)
 
 
 def _distances(points: np.ndarray) -> np.ndarray:
@@ -71,11 +68,10 @@ def test_muscle_tendons_without_skin_or_gravity_bend_the_body_into_the_kinematic
     world.step(2.0)
     state = world.state()
     expected = ShapeTargets(world.layout, ROBOT).nodes(state.length_m)
-    # The shape (every distance between two nodes), wherever the body floats: within 5 mm of the kinematic one
-    # (the tendons are the muscles' lengths to first order in the hinge angles).
+    # The shape (every distance between two nodes), wherever the body floats: within 1 mm of the kinematic one.
     error = np.abs(_distances(state.nodes_m) - _distances(expected)).max()
-    assert error < 0.005, error
-    np.testing.assert_allclose(state.body_bend_rad, state.target_bend_rad, rtol=0.02)
+    assert error < 0.001, error
+    np.testing.assert_allclose(state.body_bend_rad, state.target_bend_rad, rtol=0.01)
     assert state.target_bend_rad.min() > math.radians(30)  # a real bend, not the straight body
     # The skin shares the bend: with it, the body bends less than the muscles' lengths say.
     skinned = SimWorld(TENDONS.replace("physics", gravity_m_s2=0.0), ROBOT)
