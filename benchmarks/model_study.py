@@ -84,6 +84,12 @@ VARIANTS = [Variant(*v) for v in (
                                 "servo.skin_axial_stiffness_n_per_m": 0.0, "body.mass_per_module_kg": 0.2},
      "the authors' dynamic model: tendon muscles of 1750 N/m, 0.2 kg per section, only a rubber sleeve's "
      "bending stiffness (0.2 N m/rad, config/sim.yaml estimate)"),
+    ("spin_restrained", {"contact.roll_damping_nms_per_rad": 0.3},
+     "a body that can hardly spin about its axis (roll damping 15x roll_damping's): does the shape tumble instead?"),
+    ("spin_restrained_authors", {"servo.drive": "muscle_tendons", "servo.skin_bend_stiffness_nm_per_rad": 0.2,
+                                 "servo.skin_axial_stiffness_n_per_m": 0.0, "body.mass_per_module_kg": 0.2,
+                                 "contact.roll_damping_nms_per_rad": 0.3},
+     "muscle_tendons_authors with the spin restrained"),
     ("axis_points", {"contact.floor_contact": "points"},
      "floor contact at one sphere per segment (5 per module) on the axis instead of continuous capsules"),
     ("lobed_points", {"contact.floor_contact": "points", "contact.points_around": 3},
