@@ -37,6 +37,7 @@ def test_muscle_tendons_replace_the_joint_servos_by_the_muscles_springs_one_piec
     assert np.all(model.actuator_trntype == mujoco.mjtTrn.mjTRN_TENDON)
     # n springs in series of n k each make a muscle of stiffness k.
     np.testing.assert_allclose(model.actuator_gainprm[:, 0], n * CONFIG.servo.muscle_stiffness_n_per_m)
+    np.testing.assert_allclose(model.actuator_biasprm[:, 2], -n * CONFIG.servo.muscle_damping_ns_per_m)
     # The joints are passive: the skin's spring and the damping the servos had.
     hinge = model.joint("bend_x_1")
     assert model.jnt_stiffness[hinge.id] == pytest.approx(CONFIG.servo.skin_bend_stiffness_nm_per_rad * n)
