@@ -92,6 +92,8 @@ VARIANTS = [Variant(*v) for v in (
                                  "servo.skin_axial_stiffness_n_per_m": 0.0, "body.mass_per_module_kg": 0.2,
                                  "contact.roll_damping_nms_per_rad": 0.3},
      "muscle_tendons_authors with the spin restrained"),
+    ("spin_restrained_twist", {"contact.roll_damping_nms_per_rad": 0.3, "servo.twist_stiffness_nm_per_rad": 0.02},
+     "the spin restrained at the tail, the body free to twist: does the twist relax what would force a tumble?"),
     ("axis_points", {"contact.floor_contact": "points"},
      "floor contact at one sphere per segment (5 per module) on the axis instead of continuous capsules"),
     ("lobed_points", {"contact.floor_contact": "points", "contact.points_around": 3},
