@@ -3,12 +3,15 @@
 Each variant is the shipped ``config/sim.yaml`` with a few values changed (one mechanism on or off, or a
 combination); nothing is keyed by amplitude, frequency or cell. For each it runs Table I's grid (3 gaits x
 4 pressures x 4 frequencies, 15 s), the serpentine at 4 bar on anisotropic friction, and one 15 s inward
-roll at 4 bar 1 Hz in this process (largest bend, real-time factor on one core), then prints one row of
+roll at 4 bar 1 Hz in this process (largest bend, real-time factor on one core, the tail's spin about its
+own axis per cycle and the highest point of the body), then prints one row of
 :mod:`srs_ros.experiments.fidelity` figures per variant (markdown) and writes them to ``--csv``.
 
 Run: python benchmarks/model_study.py [--variants shipped,no_skin,...] [--duration-s 15] [--workers N]
      [--scheduler tcp://HOST:8786] [--sim-config FILE] [--csv study.csv]
-``--list`` prints the variants. A run of every variant takes about 1.5 min per variant on 2 cores.
+``--list`` prints the variants; ``--probe`` runs only a quick probe of each (3 inward rolls in this process:
+distance per cycle, bend, the tail's spin per cycle, highest point). A run of every variant takes about
+1.5 min per variant on 2 cores (4 min on one worker).
 """
 
 from __future__ import annotations
@@ -19,6 +22,8 @@ import math
 import sys
 import time
 from dataclasses import dataclass
+
+import numpy as np
 
 from srs_ros.experiments.cluster import add_runner_arguments, runner_from_args
 from srs_ros.experiments.fidelity import fidelity_figures
@@ -72,13 +77,81 @@ VARIANTS = [Variant(*v) for v in (
     ("roll_damping_line_lag", {"contact.roll_damping_nms_per_rad": 0.02, "muscles.pressure_time_constant_s": 0.2},
      "roll damping with the supply lines' lag"),
     ("segments_3", {"body.segments_per_module": 3}, "coarser body (cost and sensitivity)"),
+    # Issue 19, flip / crankshaft hypothesis: can the body lift its middle or ends and tumble about its chord?
+    ("twist_soft", {"servo.twist_stiffness_nm_per_rad": 0.02},
+     "torsion: each module may twist about its axis (0.02 N m/rad, a tenth of a rubber sleeve's GJ/L)"),
+    ("muscle_tendons", {"servo.drive": "muscle_tendons"},
+     "muscles as springs along their own lines (1750 N/m, the authors' model) with the shipped skin"),
+    ("muscle_tendons_authors", {"servo.drive": "muscle_tendons", "servo.skin_bend_stiffness_nm_per_rad": 0.2,
+                                "servo.skin_axial_stiffness_n_per_m": 0.0, "body.mass_per_module_kg": 0.2},
+     "the authors' dynamic model: tendon muscles of 1750 N/m, 0.2 kg per section, only a rubber sleeve's "
+     "bending stiffness (0.2 N m/rad, config/sim.yaml estimate)"),
+    ("spin_restrained", {"contact.roll_damping_nms_per_rad": 0.3},
+     "a body that can hardly spin about its axis (roll damping 15x roll_damping's): does the shape tumble instead?"),
+    ("spin_restrained_authors", {"servo.drive": "muscle_tendons", "servo.skin_bend_stiffness_nm_per_rad": 0.2,
+                                 "servo.skin_axial_stiffness_n_per_m": 0.0, "body.mass_per_module_kg": 0.2,
+                                 "contact.roll_damping_nms_per_rad": 0.3},
+     "muscle_tendons_authors with the spin restrained"),
+    ("spin_restrained_twist", {"contact.roll_damping_nms_per_rad": 0.3, "servo.twist_stiffness_nm_per_rad": 0.02},
+     "the spin restrained at the tail, the body free to twist: does the twist relax what would force a tumble?"),
+    ("axis_points", {"contact.floor_contact": "points"},
+     "floor contact at one sphere per segment (5 per module) on the axis instead of continuous capsules"),
+    ("lobed_points", {"contact.floor_contact": "points", "contact.points_around": 3},
+     "floor contact at 3 spheres around the skin per segment, at the muscles: a lobed cross-section"),
 )]
 
 
-def _roll_probe(config: SimConfig, duration_s: float) -> tuple[float, float]:
-    """Largest total bend (deg) and real-time factor of inward rolling at 4 bar 1 Hz in this process."""
-    result = run_experiment("inward_rolling", 4.0, 1.0, duration_s, config)
-    return math.degrees(result.peak_body_bend_rad), result.realtime_factor
+@dataclass(frozen=True)
+class Probe:
+    """One inward roll in this process: how far per cycle, how bent, how high, how much the tail spins."""
+
+    cm_per_cycle: float
+    bend_deg: float
+    target_bend_deg: float
+    spin_turns_per_cycle: float
+    top_cm: float
+    realtime: float
+
+
+def roll_probe(config: SimConfig, amplitude_bar: float, frequency_hz: float, duration_s: float) -> Probe:
+    """Inward rolling in this process: net distance per cycle, largest total bend (deg, simulated and the
+    kinematic model's), how many turns per cycle the tail spins about its own axis (1 = a rolling pin: the
+    bend stays put and the material rolls inside it; 0 = the shape turns with the material, as a
+    crankshaft or a flipping arc), the highest node above the floor (cm: a body lifting its middle or
+    ends) and the real-time factor."""
+    up_angle, height = [], []
+
+    def on_frame(state) -> None:
+        w, x, y, z = state.base_quaternion_wxyz
+        # World up in the tail segment's frame: its angle in the segment's x-y plane.
+        up_angle.append(math.atan2(2 * (x * z - w * y), 2 * (y * z + w * x)))
+        height.append(float(state.nodes_m[:, 2].max()))
+
+    result = run_experiment("inward_rolling", amplitude_bar, frequency_hz, duration_s, config, on_frame=on_frame)
+    cycles = duration_s * frequency_hz
+    turns = np.unwrap(np.array(up_angle))
+    v = result.velocity
+    return Probe(100 * math.hypot(v.displacement_x_m, v.displacement_y_m) / cycles,
+                 math.degrees(result.peak_body_bend_rad), math.degrees(result.peak_target_bend_rad),
+                 abs(turns[-1] - turns[0]) / (2 * math.pi) / cycles, 100 * max(height), result.realtime_factor)
+
+
+#: The quick probe (--probe): the paper's farthest and shortest steps per cycle, and the 4 bar 1 Hz roll.
+PROBE_CELLS = ((4.0, 0.25, 12.0), (2.0, 1.0, 6.0), (4.0, 1.0, 6.0))
+PAPER_CM_PER_CYCLE = {(4.0, 0.25): 32.7, (2.0, 1.0): 5.5, (4.0, 1.0): 11.6}   # Table I, inward rolling
+
+
+def probe_rows(variant: Variant, base: SimConfig) -> list[dict]:
+    """The quick probe of one variant: a row per cell of :data:`PROBE_CELLS`."""
+    config, rows = variant.config(base), []
+    for bar, hz, duration_s in PROBE_CELLS:
+        p = roll_probe(config, bar, hz, duration_s)
+        rows.append({"variant": variant.name, "cell": f"{bar:g} bar {hz:g} Hz",
+                     "cm/cycle (paper)": f"{p.cm_per_cycle:.1f} ({PAPER_CM_PER_CYCLE[(bar, hz)]:g})",
+                     "bend deg (kinematic)": f"{p.bend_deg:.0f} ({p.target_bend_deg:.0f})",
+                     "spin turns/cycle": f"{p.spin_turns_per_cycle:.2f}", "top cm": f"{p.top_cm:.1f}",
+                     "real time x": f"{p.realtime:.1f}"})
+    return rows
 
 
 def study_variant(variant: Variant, base: SimConfig, runner, duration_s: float) -> dict:
@@ -91,14 +164,16 @@ def study_variant(variant: Variant, base: SimConfig, runner, duration_s: float) 
     anisotropic = config.replace("contact", friction="anisotropic")
     serpentine = runner.run([cell_key("serpentine", 4.0, f) for f in reference.frequencies_hz], duration_s,
                             anisotropic, keep_track=False)
-    bend_deg, realtime = _roll_probe(config, duration_s)
+    probe = roll_probe(config, 4.0, 1.0, duration_s)
+    bend_deg, realtime, spin, lift_cm = probe.bend_deg, probe.realtime, probe.spin_turns_per_cycle, probe.top_cm
     return {"variant": variant.name, "within 2x": str(figures.within_factor), "rms log": f"{figures.rms_log:.2f}",
             "amplitude trend": str(figures.amplitude_trend), "cycle trend": str(figures.cycle_distance_trend),
             "inward > outward": str(figures.inward_faster), "1 bar still": str(figures.still_cells),
             "serpentine top cm/s": f"{figures.serpentine_top_cm_s:.2f}",
             "serpentine aniso. cm/s": f"{min(r.speed_cm_s for r in serpentine):.2f}-"
                                       f"{max(r.speed_cm_s for r in serpentine):.2f}",
-            "bend 4 bar deg": f"{bend_deg:.0f}", "turn deg/cycle": f"{figures.turning_deg_per_cycle:.1f}",
+            "bend 4 bar deg": f"{bend_deg:.0f}", "spin turns/cycle": f"{spin:.2f}", "top cm": f"{lift_cm:.1f}",
+            "turn deg/cycle": f"{figures.turning_deg_per_cycle:.1f}",
             "reversing runs": str(figures.reversing_runs), "real time x": f"{realtime:.1f}"}
 
 
@@ -118,6 +193,9 @@ def main(argv: list[str] | None = None) -> int:
                         help="the configuration the variants change (default: config/sim.yaml), e.g. a calibrated one")
     parser.add_argument("--csv", default=None, help="write the table here too")
     parser.add_argument("--list", action="store_true", help="print the variants and exit")
+    parser.add_argument("--probe", action="store_true",
+                        help="only the quick probe in this process: inward rolling at 4 bar 0.25 Hz (12 s), 2 bar "
+                             "1 Hz and 4 bar 1 Hz (6 s): cm per cycle, bend, tail spin, highest point")
     args = parser.parse_args(argv)
     known = {v.name: v for v in VARIANTS}
     if args.list:
@@ -130,6 +208,12 @@ def main(argv: list[str] | None = None) -> int:
               file=sys.stderr)
         return 2
     base, rows = load_sim_config(args.sim_config), []
+    if args.probe:
+        for name in names:
+            rows += probe_rows(known[name], base)
+            print(f"probed {name}", file=sys.stderr)
+        print(_markdown(rows))
+        return 0
     with runner_from_args(args, log=lambda text: print(text, file=sys.stderr)) as runner:
         for i, name in enumerate(names, 1):
             started = time.perf_counter()

@@ -24,6 +24,10 @@ from srs_ros.core.schema import Field, Table, check_known, refusal, section
 DEFAULT_SIM_FILE = "sim.yaml"
 #: The friction models of the floor.
 FRICTION_MODES = ("isotropic", "anisotropic")
+#: What drives the body's shape: servos on every joint, or one spring-like muscle per actuator (tendon).
+DRIVES = ("joint_servos", "muscle_tendons")
+#: What touches the floor: the segments' capsules, or spheres at discrete points (a penalty grid).
+FLOOR_CONTACTS = ("capsules", "points")
 
 
 @dataclass(frozen=True)
@@ -33,6 +37,11 @@ class BodyConfig:
     segments_per_module: int
     skin_radius_m: float
     marker_offset_m: float
+    mass_per_module_kg: float
+
+    def mass_kg(self, robot: RobotDescription) -> float:
+        """The simulated body's mass: ``mass_per_module_kg`` per module, or the robot description's when 0."""
+        return self.mass_per_module_kg * robot.module_count if self.mass_per_module_kg > 0 else robot.mass_kg
 
 
 @dataclass(frozen=True)
@@ -47,6 +56,10 @@ class ServoConfig:
     skin_axial_stiffness_n_per_m: float
     hinge_armature_kg_m2: float
     slide_armature_kg: float
+    drive: str
+    muscle_stiffness_n_per_m: float
+    muscle_damping_ns_per_m: float
+    twist_stiffness_nm_per_rad: float
 
 
 @dataclass(frozen=True)
@@ -63,6 +76,10 @@ class ContactConfig:
     self_contact: bool
     self_contact_min_separation_m: float
     contact_time_constant_s: float
+    floor_contact: str
+    points_per_segment: int
+    points_around: int
+    point_radius_m: float
 
     @property
     def along_across(self) -> tuple[float, float]:
@@ -152,6 +169,8 @@ SIM_TABLES: dict[str, Table] = {table.path.split(".")[1]: table for table in (
         Field("skin_radius_m", float, minimum=0.002, maximum=0.2, unit="m", description="outer radius of the body"),
         Field("marker_offset_m", float, minimum=0.0, maximum=0.2, unit="m",
               description="distance of each marker from its end"),
+        Field("mass_per_module_kg", float, minimum=0.0, maximum=100.0, unit="kg",
+              description="0 = the robot description's mass"),
     )),
     Table("sim.servo", (
         Field("bend_stiffness_nm_per_rad", float, minimum=1e-4, maximum=1e4, unit="N m/rad"),
@@ -162,6 +181,13 @@ SIM_TABLES: dict[str, Table] = {table.path.split(".")[1]: table for table in (
         Field("skin_axial_stiffness_n_per_m", float, minimum=0.0, maximum=1e6, unit="N/m"),
         Field("hinge_armature_kg_m2", float, minimum=0.0, maximum=1.0, unit="kg m^2"),
         Field("slide_armature_kg", float, minimum=0.0, maximum=100.0, unit="kg"),
+        Field("drive", str, choices=DRIVES, description="what drives the shape"),
+        Field("muscle_stiffness_n_per_m", float, minimum=1e-2, maximum=1e6, unit="N/m",
+              description="one muscle's stiffness (drive muscle_tendons)"),
+        Field("muscle_damping_ns_per_m", float, minimum=0.0, maximum=1e4, unit="N s/m",
+              description="one muscle's damping (drive muscle_tendons)"),
+        Field("twist_stiffness_nm_per_rad", float, minimum=0.0, maximum=1e4, unit="N m/rad",
+              description="a module's torsional stiffness; 0 = rigid (no twist joint)"),
     )),
     Table("sim.contact", (
         Field("friction", str, choices=FRICTION_MODES, description="the friction model of the floor"),
@@ -176,6 +202,13 @@ SIM_TABLES: dict[str, Table] = {table.path.split(".")[1]: table for table in (
         Field("self_contact_min_separation_m", float, minimum=0.0, maximum=10.0, unit="m",
               description="segments closer than this along the body never touch"),
         Field("contact_time_constant_s", float, minimum=1e-4, maximum=1.0, unit="s"),
+        Field("floor_contact", str, choices=FLOOR_CONTACTS, description="what touches the floor"),
+        Field("points_per_segment", int, minimum=1, maximum=10, unit="points",
+              description="contact points along each segment (floor_contact points)"),
+        Field("points_around", int, minimum=0, maximum=12, unit="points",
+              description="0 = one sphere on the axis; >= 3 = that many on the skin around it"),
+        Field("point_radius_m", float, minimum=0.001, maximum=0.1, unit="m",
+              description="radius of an off-axis contact sphere"),
     )),
     Table("sim.physics", (
         Field("time_step_s", float, minimum=1e-5, maximum=0.02, unit="s"),
@@ -215,6 +248,9 @@ def _build(data: Mapping[str, Any], source: str, robot: RobotDescription | None,
                 for name, table in SIM_TABLES.items()}
     muscle_options = section(data, "muscles", source, "sim", what)
     _check_control_period(sections["physics"], source)
+    if sections["contact"].points_around in (1, 2):
+        raise refusal(source, "sim.contact.points_around", sections["contact"].points_around,
+                      "0 (one sphere on the axis) or 3 to 12 (spheres around the skin)")
     if muscles is None:
         muscles = muscle_parameters_from_options(muscle_options, robot or default_robot(), source, path="sim.muscles")
     return SimConfig(muscles=muscles, source=source, **sections)

@@ -47,8 +47,11 @@ class BodyLayout:
     floor_geom: int
     hinge_qpos: np.ndarray         # (N - 1, 2) qpos addresses of the (x, y) hinges at nodes 1..N-1
     slide_qpos: np.ndarray         # (N,) qpos addresses of the slides at nodes 1..N
-    hinge_actuator: np.ndarray     # (N - 1, 2) actuator ids of the hinge servos
-    slide_actuator: np.ndarray     # (N,) actuator ids of the slide servos
+    hinge_actuator: np.ndarray     # (N - 1, 2) actuator ids of the hinge servos (empty: drive muscle_tendons)
+    slide_actuator: np.ndarray     # (N,) actuator ids of the slide servos (empty: drive muscle_tendons)
+    muscle_actuator: np.ndarray    # (joints * n,) actuators of the muscles' pieces, one per chord (empty: servos)
+    muscle_piece_map: np.ndarray   # (joints * n, 3N - 2): piece lengths = map @ [hinge angles (x, y)..., slides]
+    floor_geom_segment: dict       # geom id -> segment index of every geom that touches the floor
 
 
 def _start_frame(config: SimConfig, robot: RobotDescription) -> tuple[np.ndarray, np.ndarray]:
@@ -87,7 +90,8 @@ class _Chain:
         # Capsules span the chord at half the largest extension: the caps cover the joint gaps at either end.
         geom_chord = rest_chord * (1.0 + 0.5 * config.muscles.max_extension_m / robot.unactuated_length_m)
         # The head cap (an end plate) carries half a segment's share of the mass.
-        return cls(n, count, rest_chord, geom_chord, robot.mass_kg / (count + 0.5), config.body.skin_radius_m)
+        return cls(n, count, rest_chord, geom_chord, config.body.mass_kg(robot) / (count + 0.5),
+                   config.body.skin_radius_m)
 
 
 def build_spec(config: SimConfig, robot: RobotDescription) -> mujoco.MjSpec:
@@ -101,7 +105,9 @@ def build_spec(config: SimConfig, robot: RobotDescription) -> mujoco.MjSpec:
                                     contype=0, conaffinity=0, rgba=[0.6, 0.6, 0.6, 1.0])
     floor.solref = solref
     _add_body(spec, config, robot, chain, solref)
-    _add_contacts(spec, config, chain, solref)
+    _add_contacts(spec, config, robot, chain, solref)
+    if config.servo.drive == "muscle_tendons":
+        _add_muscle_tendons(spec, config, robot, chain)
     return spec
 
 
@@ -152,15 +158,32 @@ def _add_body(spec: mujoco.MjSpec, config: SimConfig, robot: RobotDescription, c
                      smoothing_s=smoothing_s)
 
 
-def _add_contacts(spec: mujoco.MjSpec, config: SimConfig, chain: _Chain, solref: list[float]) -> None:
-    """One floor contact pair per segment (friction along / across it), and self-contact beyond the separation."""
+def _add_contacts(spec: mujoco.MjSpec, config: SimConfig, robot: RobotDescription, chain: _Chain,
+                  solref: list[float]) -> None:
+    """Floor contact pairs (friction along / across the segment), and self-contact beyond the separation.
+
+    ``floor_contact: capsules``: one pair per segment capsule. ``points``: spheres at discrete points of
+    every segment (:func:`_contact_points`), each paired with the floor; the capsules then only touch
+    each other.
+    """
     contact = config.contact
     along, across = contact.along_across
     condim = 6 if contact.rolling_friction_m > 0 else (4 if contact.torsional_friction_m > 0 else 3)
     for k in range(chain.count):
-        spec.add_pair(name=f"floor_{k}", geomname1="floor", geomname2=f"skin_{k}", condim=condim,
-                      friction=[along, across, contact.torsional_friction_m, contact.rolling_friction_m,
-                                contact.rolling_friction_m], solref=solref)
+        names = [f"skin_{k}"]
+        if contact.floor_contact == "points":
+            body = spec.body(f"segment_{k}")
+            names = []
+            for i, (position, radius) in enumerate(_contact_points(config, robot, chain, k)):
+                name = f"point_{k}_{i}"
+                # Massless (the capsule carries the segment's mass); touches only the floor, through its pair.
+                body.add_geom(name=name, type=mujoco.mjtGeom.mjGEOM_SPHERE, pos=position, size=[radius, 0.0, 0.0],
+                              mass=0.0, contype=0, conaffinity=0, group=3, rgba=[0.8, 0.2, 0.2, 1.0])
+                names.append(name)
+        for name in names:
+            spec.add_pair(name=f"floor_{name}", geomname1="floor", geomname2=name, condim=condim,
+                          friction=[along, across, contact.torsional_friction_m, contact.rolling_friction_m,
+                                    contact.rolling_friction_m], solref=solref)
     if contact.self_contact:
         for i in range(chain.count):
             for j in range(i + 1, chain.count):
@@ -168,12 +191,65 @@ def _add_contacts(spec: mujoco.MjSpec, config: SimConfig, chain: _Chain, solref:
                     spec.add_exclude(bodyname1=f"segment_{i}", bodyname2=f"segment_{j}")
 
 
+def _contact_points(config: SimConfig, robot: RobotDescription, chain: _Chain, k: int) -> list:
+    """Centres (segment frame) and radii of segment ``k``'s floor contact spheres (``floor_contact: points``).
+
+    ``points_per_segment`` stations along the rest chord; at each, one sphere of the skin radius on the axis
+    (``points_around`` 0) or ``points_around`` spheres of ``point_radius_m`` touching the skin from inside,
+    the first at actuator 1's angle of the segment's module (twisted by sigma per module), so three of them
+    sit where the muscles are.
+    """
+    contact = config.contact
+    stations = (np.arange(contact.points_per_segment) + 0.5) / contact.points_per_segment * chain.rest_chord_m
+    if contact.points_around == 0:
+        return [([0.0, 0.0, float(z)], chain.radius_m) for z in stations]
+    radius = min(contact.point_radius_m, chain.radius_m)
+    start = float(robot.actuator_angles_rad[0]) + (k // chain.per_module) * robot.module_twist_rad
+    angles = start + 2.0 * math.pi * np.arange(contact.points_around) / contact.points_around
+    ring = chain.radius_m - radius
+    return [([ring * math.cos(a), ring * math.sin(a), float(z)], radius) for z in stations for a in angles]
+
+
+def _add_muscle_tendons(spec: mujoco.MjSpec, config: SimConfig, robot: RobotDescription, chain: _Chain) -> None:
+    """``drive: muscle_tendons``: every muscle is ``n`` springs in series, one per chord, on its lengths.
+
+    The piece of muscle ``j`` of module ``m`` along chord ``k`` is a fixed tendon: the chord's slide plus
+    ``r (sin phi a - cos phi b)`` for half the rotation ``(a, b)`` of each hinge at the chord's ends (paper
+    eq. 1 to first order; ``phi`` is actuator ``j``'s angle plus ``m`` sigma in the chain's frames, as the
+    modules are mounted twisted). A chord at a free end of the body counts its one hinge fully. A position
+    actuator of ``n`` times the muscle's stiffness (``n`` springs in series make the muscle's) pulls each
+    piece toward its length in the kinematic model's shape for the muscles' lengths (the world sets
+    ``ctrl`` through :attr:`BodyLayout.muscle_piece_map`), so the body's bending and axial stiffness come
+    from the muscles' stiffness and geometry (``1.5 k r^2`` per module in bending, ``3 k`` axially), as in
+    the authors' dynamic model, instead of from per-joint servo gains.
+    """
+    servo, r, n = config.servo, robot.actuator_radius_m, chain.per_module
+    for m in range(robot.module_count):
+        for j, theta in enumerate(robot.actuator_angles_rad):
+            phi = float(theta) + m * robot.module_twist_rad
+            for k in range(m * n, (m + 1) * n):
+                name = f"muscle_{m + 1}_{j + 1}_chord_{k}"
+                tendon = spec.add_tendon(name=name)
+                tendon.wrap_joint(f"slide_{k + 1}", 1.0)
+                hinges = [h for h in (k, k + 1) if 0 < h < chain.count]
+                for h in hinges:
+                    share = 1.0 / len(hinges) if len(hinges) == 1 else 0.5
+                    tendon.wrap_joint(f"bend_x_{h}", share * r * math.sin(phi))
+                    tendon.wrap_joint(f"bend_y_{h}", -share * r * math.cos(phi))
+                actuator = spec.add_actuator(name=f"drive_{name}", target=name, trntype=mujoco.mjtTrn.mjTRN_TENDON)
+                actuator.set_to_position(kp=n * servo.muscle_stiffness_n_per_m, kv=n * servo.muscle_damping_ns_per_m,
+                                         timeconst=config.physics.control_period_s)
+
+
 def _add_node_joints(body, k: int, with_hinges: bool, servo, n: int, spec: mujoco.MjSpec, smoothing_s: float) -> None:
     """Slide along the parent chord, then (optionally) hinges about x and y, each with a position servo.
 
     The servo follows its set-point through a first-order filter of ``smoothing_s`` (the control period),
-    so set-points that change once per control period move the joints smoothly, not in steps.
+    so set-points that change once per control period move the joints smoothly, not in steps. With
+    ``drive: muscle_tendons`` the joints have no servo: the damping is the joint's own, the muscles
+    (tendons) move them. ``twist_stiffness_nm_per_rad > 0`` adds a passive twist hinge about the chord.
     """
+    servos = servo.drive == "joint_servos"
     joints = [(f"slide_{k}", mujoco.mjtJoint.mjJNT_SLIDE, [0.0, 0.0, 1.0], servo.slide_armature_kg,
                servo.axial_stiffness_n_per_m * n, servo.axial_damping_ns_per_m * n,
                servo.skin_axial_stiffness_n_per_m * n)]
@@ -184,9 +260,15 @@ def _add_node_joints(body, k: int, with_hinges: bool, servo, n: int, spec: mujoc
                            servo.skin_bend_stiffness_nm_per_rad * n))
     for name, kind, axis, armature, kp, kv, skin in joints:
         # The skin is a passive spring toward the straight, unextended module (spring reference 0).
-        body.add_joint(name=name, type=kind, axis=axis, armature=armature, stiffness=skin)
-        actuator = spec.add_actuator(name=f"servo_{name}", target=name, trntype=mujoco.mjtTrn.mjTRN_JOINT)
-        actuator.set_to_position(kp=kp, kv=kv, timeconst=smoothing_s)
+        body.add_joint(name=name, type=kind, axis=axis, armature=armature, stiffness=skin,
+                       damping=0.0 if servos else kv)
+        if servos:
+            actuator = spec.add_actuator(name=f"servo_{name}", target=name, trntype=mujoco.mjtTrn.mjTRN_JOINT)
+            actuator.set_to_position(kp=kp, kv=kv, timeconst=smoothing_s)
+    if with_hinges and servo.twist_stiffness_nm_per_rad > 0:
+        body.add_joint(name=f"twist_{k}", type=mujoco.mjtJoint.mjJNT_HINGE, axis=[0.0, 0.0, 1.0],
+                       armature=servo.hinge_armature_kg_m2, stiffness=servo.twist_stiffness_nm_per_rad * n,
+                       damping=servo.bend_damping_nms_per_rad * n)
 
 
 def build_model(config: SimConfig, robot: RobotDescription) -> tuple[mujoco.MjModel, BodyLayout]:
@@ -203,24 +285,52 @@ def build_model(config: SimConfig, robot: RobotDescription) -> tuple[mujoco.MjMo
         return int(model.jnt_qposadr[mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, name)])
 
     def actuator(name: str) -> int:
-        return mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_ACTUATOR, f"servo_{name}")
+        return mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_ACTUATOR, name)
+
+    def geom(name: str) -> int:
+        return mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, name)
 
     segments = np.array([body_id(f"segment_{k}") for k in range(count)])
     head = body_id("head")
     hinge_names = [[f"bend_{a}_{k}" for a in "xy"] for k in range(1, count)]
     slide_names = [f"slide_{k}" for k in range(1, count + 1)]
+    servos = config.servo.drive == "joint_servos"
+    pieces = [(m * robot.actuators_per_module + j, f"drive_muscle_{m + 1}_{j + 1}_chord_{k}")
+              for m in range(robot.module_count) for j in range(robot.actuators_per_module)
+              for k in range(m * n, (m + 1) * n)]
+    floor_geoms = {}
+    for k in range(count):
+        names = [f"skin_{k}"] if config.contact.floor_contact == "capsules" else [
+            model.geom(g).name for g in range(model.ngeom) if model.geom(g).name.startswith(f"point_{k}_")]
+        floor_geoms.update({geom(name): k for name in names})
     layout = BodyLayout(
         segment_count=count, segments_per_module=n, rest_chord_m=robot.unactuated_length_m / n,
         node_xi=np.linspace(0.0, robot.body_length_xi, count + 1),
         segment_body=segments, head_body=head, node_body=np.append(segments, head),
-        segment_geom=np.array([mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, f"skin_{k}") for k in range(count)]),
-        floor_geom=mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, "floor"),
+        segment_geom=np.array([geom(f"skin_{k}") for k in range(count)]),
+        floor_geom=geom("floor"),
         hinge_qpos=np.array([[qpos(x) for x in pair] for pair in hinge_names], dtype=int).reshape(-1, 2),
         slide_qpos=np.array([qpos(s) for s in slide_names], dtype=int),
-        hinge_actuator=np.array([[actuator(x) for x in pair] for pair in hinge_names], dtype=int).reshape(-1, 2),
-        slide_actuator=np.array([actuator(s) for s in slide_names], dtype=int),
+        hinge_actuator=np.array([[actuator(f"servo_{x}") for x in pair] for pair in hinge_names] if servos else [],
+                                dtype=int).reshape(-1, 2),
+        slide_actuator=np.array([actuator(f"servo_{s}") for s in slide_names] if servos else [], dtype=int),
+        muscle_actuator=np.array([] if servos else [actuator(a) for _, a in pieces], dtype=int),
+        muscle_piece_map=_piece_map(model, [actuator(a) for _, a in pieces] if not servos else [],
+                                    [qpos(x) for pair in hinge_names for x in pair] + [qpos(s) for s in slide_names]),
+        floor_geom_segment=floor_geoms,
     )
     return model, layout
+
+
+def _piece_map(model: mujoco.MjModel, actuators: list[int], columns: list[int]) -> np.ndarray:
+    """Coefficients of the fixed tendons behind ``actuators`` over the qpos addresses ``columns``."""
+    matrix = np.zeros((len(actuators), len(columns)))
+    where = {address: i for i, address in enumerate(columns)}
+    for row, actuator in enumerate(actuators):
+        tendon = int(model.actuator_trnid[actuator, 0])
+        for w in range(model.tendon_adr[tendon], model.tendon_adr[tendon] + model.tendon_num[tendon]):
+            matrix[row, where[int(model.jnt_qposadr[model.wrap_objid[w]])]] += model.wrap_prm[w]
+    return matrix
 
 
 def _set_roll_damping(model: mujoco.MjModel, damping_nms_per_rad: float) -> None:

@@ -186,10 +186,13 @@ class SimWorld:
 
     def _set_servo_targets(self) -> None:
         _, length_m = self.muscles.state(self.time_s)
+        ctrl, layout = self.data.ctrl, self.layout
         angles, slides = self.shape.joint_targets(length_m)
-        ctrl = self.data.ctrl
-        ctrl[self.layout.hinge_actuator.ravel()] = angles.ravel()
-        ctrl[self.layout.slide_actuator] = slides
+        if layout.muscle_actuator.size:
+            ctrl[layout.muscle_actuator] = layout.muscle_piece_map @ np.concatenate([angles.ravel(), slides])
+            return
+        ctrl[layout.hinge_actuator.ravel()] = angles.ravel()
+        ctrl[layout.slide_actuator] = slides
 
     # ------------------------------------------------------------------ divergence
     def _check_divergence(self) -> None:
@@ -278,6 +281,7 @@ class SimWorld:
         data, layout = self.data, self.layout
         count = data.ncon
         segment_of = {int(g): k for k, g in enumerate(layout.segment_geom)}
+        segment_of.update(layout.floor_geom_segment)
         position = np.empty((count, 3))
         force = np.empty(count)
         segments = np.empty((count, 2), dtype=int)

@@ -46,6 +46,11 @@ def test_the_package_file_loads_with_units_and_shared_muscle_defaults():
     ("camera", "tail_band_bgr", [300, 0, 0], "a list of 3 integers in [0, 255] (B, G, R)"),
     ("camera", "head_band_bgr", [0, 0], "a list of 3 integers in [0, 255] (B, G, R)"),
     ("muscles", "transport_delay_s", -1.0, "a number in [0, 2] (s)"),
+    ("servo", "drive", "pistons", "one of ['joint_servos', 'muscle_tendons']"),
+    ("servo", "twist_stiffness_nm_per_rad", -0.1, "a number in [0, 10000] (N m/rad)"),
+    ("contact", "floor_contact", "grid", "one of ['capsules', 'points']"),
+    ("contact", "points_around", 2, "0 (one sphere on the axis) or 3 to 12 (spheres around the skin)"),
+    ("body", "mass_per_module_kg", -1.0, "a number in [0, 100] (kg)"),
 ])
 def test_a_bad_value_is_refused_naming_the_key_the_value_and_what_is_expected(raw, section, key, value, expected):
     data = copy.deepcopy(raw)
@@ -58,7 +63,8 @@ def test_a_bad_value_is_refused_naming_the_key_the_value_and_what_is_expected(ra
 
 @pytest.mark.parametrize(("change", "message"), [
     (lambda d: d["sim"]["body"].update(segments=5), "sim.body.segments is not a known key; expected one of "
-                                                    r"\[marker_offset_m, segments_per_module, skin_radius_m\]"),
+                                                    r"\[marker_offset_m, mass_per_module_kg, segments_per_module, "
+                                                    r"skin_radius_m\]"),
     (lambda d: d["sim"]["servo"].pop("axial_stiffness_n_per_m"), "sim.servo.axial_stiffness_n_per_m is missing"),
     (lambda d: d["sim"].pop("contact"), "sim.contact is missing"),
     (lambda d: d["sim"].update(extras={}), "sim.extras is not a known key"),

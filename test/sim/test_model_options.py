@@ -1,0 +1,131 @@
+"""The model options of the issue 19 study: tendon muscles, twist joints, point contacts, mass per module.
+
+Each option changes the built model (and only when it is set); the tendon drive reaches the kinematic shape
+with the skin taken away, as the joint servos do.
+"""
+
+import math
+
+import mujoco
+import numpy as np
+import pytest
+
+from srs_ros.core.robot import default_robot
+from srs_ros.sim.config import load_sim_config
+from srs_ros.sim.model import ShapeTargets, build_model
+from srs_ros.sim.world import SimWorld
+
+ROBOT = default_robot()
+CONFIG = load_sim_config()
+TENDONS = CONFIG.replace("servo", drive="muscle_tendons")
+
+
+def test_the_shipped_model_has_none_of_the_options():
+    model, layout = build_model(CONFIG, ROBOT)
+    assert model.ntendon == 0 and layout.muscle_actuator.size == 0
+    assert not any(model.joint(j).name.startswith("twist_") for j in range(model.njnt))
+    assert model.ngeom == 1 + layout.segment_count                    # the floor and one capsule per segment
+    assert set(layout.floor_geom_segment) == set(layout.segment_geom.tolist())
+
+
+def test_muscle_tendons_replace_the_joint_servos_by_the_muscles_springs_one_piece_per_chord():
+    model, layout = build_model(TENDONS, ROBOT)
+    n = CONFIG.body.segments_per_module
+    pieces = ROBOT.joint_count * n
+    assert model.nu == model.ntendon == pieces == layout.muscle_actuator.size
+    assert layout.hinge_actuator.size == 0 and layout.slide_actuator.size == 0
+    assert np.all(model.actuator_trntype == mujoco.mjtTrn.mjTRN_TENDON)
+    # n springs in series of n k each make a muscle of stiffness k.
+    np.testing.assert_allclose(model.actuator_gainprm[:, 0], n * CONFIG.servo.muscle_stiffness_n_per_m)
+    np.testing.assert_allclose(model.actuator_biasprm[:, 2], -n * CONFIG.servo.muscle_damping_ns_per_m)
+    # The joints are passive: the skin's spring and the damping the servos had.
+    hinge = model.joint("bend_x_1")
+    assert model.jnt_stiffness[hinge.id] == pytest.approx(CONFIG.servo.skin_bend_stiffness_nm_per_rad * n)
+    assert model.dof_damping[hinge.dofadr[0]] == pytest.approx(CONFIG.servo.bend_damping_nms_per_rad * n)
+    # A piece's length is its muscle's extension along its chord: the chord's growth and r times its bend.
+    data = mujoco.MjData(model)
+    data.qpos[model.joint("slide_3").qposadr[0]] = 0.01              # chord 2, in module 1
+    data.qpos[model.joint("bend_y_2").qposadr[0]] = 0.1              # between chords 1 and 2
+    mujoco.mj_forward(model, data)
+    lengths = data.ten_length[model.actuator_trnid[:, 0]].reshape(ROBOT.joint_count, n)
+    angles = np.asarray(ROBOT.actuator_angles_rad)
+    np.testing.assert_allclose(lengths[:3, 2], 0.01 - 0.05 * ROBOT.actuator_radius_m * np.cos(angles), atol=1e-12)
+    np.testing.assert_allclose(lengths[:3, 1], -0.05 * ROBOT.actuator_radius_m * np.cos(angles), atol=1e-12)
+    np.testing.assert_allclose(lengths[:3, [0, 3, 4]], 0.0)
+    np.testing.assert_allclose(lengths[3:], 0.0)
+
+
+def _distances(points: np.ndarray) -> np.ndarray:
+    return np.linalg.norm(points[:, None] - points[None], axis=-1)
+
+
+def test_muscle_tendons_without_skin_or_gravity_bend_the_body_into_the_kinematic_shape():
+    config = TENDONS.replace("servo", skin_bend_stiffness_nm_per_rad=0.0, skin_axial_stiffness_n_per_m=0.0)
+    config = config.replace("physics", gravity_m_s2=0.0)
+    world = SimWorld(config, ROBOT)
+    pressure = np.zeros(ROBOT.joint_count)
+    pressure[[0, 4, 8]] = 3.0                              # one muscle per module: three bends, twisted by sigma
+    world.command_pressures(pressure)
+    world.step(2.0)
+    state = world.state()
+    expected = ShapeTargets(world.layout, ROBOT).nodes(state.length_m)
+    # The shape (every distance between two nodes), wherever the body floats: within 1 mm of the kinematic one.
+    error = np.abs(_distances(state.nodes_m) - _distances(expected)).max()
+    assert error < 0.001, error
+    np.testing.assert_allclose(state.body_bend_rad, state.target_bend_rad, rtol=0.01)
+    assert state.target_bend_rad.min() > math.radians(30)  # a real bend, not the straight body
+    # The skin shares the bend: with it, the body bends less than the muscles' lengths say.
+    skinned = SimWorld(TENDONS.replace("physics", gravity_m_s2=0.0), ROBOT)
+    skinned.command_pressures(pressure)
+    skinned.step(2.0)
+    assert np.all(skinned.state().body_bend_rad < 0.5 * state.body_bend_rad)
+
+
+def test_twist_stiffness_adds_a_passive_twist_hinge_at_every_inner_node():
+    model, layout = build_model(CONFIG.replace("servo", twist_stiffness_nm_per_rad=0.02), ROBOT)
+    twists = [model.joint(f"twist_{k}") for k in range(1, layout.segment_count)]
+    n = CONFIG.body.segments_per_module
+    for joint in twists:
+        np.testing.assert_allclose(model.jnt_axis[joint.id], [0.0, 0.0, 1.0])
+        assert model.jnt_stiffness[joint.id] == pytest.approx(0.02 * n)
+    assert model.nu == build_model(CONFIG, ROBOT)[0].nu             # no servo on the twist
+
+
+def test_twist_lets_a_module_turn_about_its_axis_under_a_torque():
+    def twist_after_torque(config) -> float:
+        model, layout = build_model(config.replace("physics", gravity_m_s2=0.0), ROBOT)
+        data = mujoco.MjData(model)
+        head = layout.head_body
+        for _ in range(500):
+            data.xfrc_applied[head, 3:] = data.xmat[head].reshape(3, 3)[:, 2] * 0.005   # 5 mN m about the axis
+            mujoco.mj_step(model, data)
+        tail_up = data.xmat[layout.segment_body[0]].reshape(3, 3)[:, 1]
+        head_up = data.xmat[layout.segment_body[-1]].reshape(3, 3)[:, 1]
+        return math.degrees(math.acos(np.clip(tail_up @ head_up, -1.0, 1.0)))
+    assert twist_after_torque(CONFIG) < 1.0
+    assert twist_after_torque(CONFIG.replace("servo", twist_stiffness_nm_per_rad=0.02)) > 3.0
+
+
+@pytest.mark.parametrize(("per_segment", "around"), [(1, 0), (2, 3)])
+def test_point_contacts_put_the_floor_contact_on_spheres_inside_the_skin(per_segment, around):
+    config = CONFIG.replace("contact", floor_contact="points", points_per_segment=per_segment, points_around=around)
+    model, layout = build_model(config, ROBOT)
+    spheres = np.flatnonzero(model.geom_type == mujoco.mjtGeom.mjGEOM_SPHERE)
+    assert len(spheres) == layout.segment_count * per_segment * max(1, around)
+    assert model.npair == len(spheres)                                # each sphere, not a capsule, meets the floor
+    assert set(model.pair_geom2.tolist()) == set(spheres.tolist()) == set(layout.floor_geom_segment)
+    assert model.body_mass[layout.node_body].sum() == pytest.approx(ROBOT.mass_kg)   # the spheres add no mass
+    reach = np.hypot(model.geom_pos[spheres, 0], model.geom_pos[spheres, 1]) + model.geom_size[spheres, 0]
+    np.testing.assert_allclose(reach, CONFIG.body.skin_radius_m)     # never outside the skin
+    # The body rests on them, and the contacts are reported per segment.
+    world = SimWorld(config, ROBOT)
+    world.step(0.2)
+    contacts = world.state().contacts
+    assert contacts.floor_count >= layout.segment_count
+    assert np.all(contacts.segments[contacts.segments[:, 0] < 0, 1] >= 0)
+    assert np.all(world.state().nodes_m[:, 2] > 0.5 * CONFIG.body.skin_radius_m)
+
+
+def test_mass_per_module_overrides_the_robot_mass():
+    model, layout = build_model(CONFIG.replace("body", mass_per_module_kg=0.2), ROBOT)
+    assert model.body_mass[layout.node_body].sum() == pytest.approx(0.2 * ROBOT.module_count)
