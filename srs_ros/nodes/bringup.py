@@ -12,6 +12,12 @@ robot out of the camera's view (or the camera silent) on ``/diagnostics`` the li
 robot was last seen, and the tracked speed shows ``--``. ``--video FILE`` saves the camera's view.
 ``--rig config/rigs/mock.yaml`` runs the muscle-only mock instead.
 
+``--navigate`` closes the loop: the ``navigator`` (:mod:`srs_ros.nodes.navigator`) drives the gait to the goals
+sent on ``goal_pose`` / ``goal_path`` by the camera's pose, the gait player waits for it, and the status line
+adds the navigator's state, goal, distance to go and heading error. ``--patrol`` also sends it waypoints to
+patrol in a loop (``--waypoint X Y`` ..., by default on the sim rig a rectangle inside the simulated camera's
+view): the main job, ``scripts/run.sh``, does this unless it is given ``--gait`` (open loop).
+
 On a rig with real regulators (``can``, ``daq``) nothing above 0 bar is commanded until the operator
 arms it: ``--arm`` on the command line, or ``ros2 service call /hardware_node/arm std_srvs/srv/Trigger``
 while it runs. A hardware node that cannot start (a bad rig, a missing bus) stops the bringup with
@@ -21,9 +27,10 @@ Executors: the real-time path (gait_player, hardware_node, status) shares one Ev
 by a timed spin_once loop in the main thread (its spin() hangs in this rclpy); the trajectory_server
 keeps its own multi-threaded executor in a second thread so that a fit (~0.1 s) never holds up a
 setpoint or a command; the simulated world, the camera tracker and the video recorder share a third
-executor on a third thread (a MultiThreadedExecutor for everything was measured to drop the 200 Hz streams
-to 10-40 Hz in this rclpy). The GIL switch interval is lowered to 0.5 ms so the real-time thread gets
-the interpreter back quickly while a fit runs.
+executor on a third thread, with the navigator (it only reads poses and calls services); a
+MultiThreadedExecutor for everything was measured to drop the 200 Hz streams to 10-40 Hz in this rclpy. The
+GIL switch interval is lowered to 0.5 ms so the real-time thread gets the interpreter back quickly while a
+fit runs.
 
 Example: ``srs_bringup --gait serpentine --amplitude-bar 3 --frequency-hz 0.5``. ROS arguments
 after ``--ros-args`` are passed on (e.g. remappings) and win over the options above
@@ -47,15 +54,16 @@ import rclpy
 import yaml
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import PoseStamped
+from nav_msgs.msg import Path
 from rclpy.executors import MultiThreadedExecutor, SingleThreadedExecutor
 from rclpy.experimental import EventsExecutor
 from rclpy.node import Node
 from sensor_msgs.msg import Image, JointState
-from std_msgs.msg import Float64MultiArray
+from std_msgs.msg import Float64MultiArray, String
 
 from srs_ros.core import rig as rig_config
 from srs_ros.core.actuation.safety import min_setpoint_rate_hz
-from srs_ros.core.errors import ConfigurationError
+from srs_ros.core.errors import ConfigurationError, SrsError
 from srs_ros.core.gait import request
 from srs_ros.core.gait.library import list_gaits
 from srs_ros.core.rig import load_rig
@@ -65,17 +73,23 @@ from srs_ros.nodes import gait_player
 from srs_ros.nodes.camera_tracker import CameraTrackerNode
 from srs_ros.nodes.gait_player import GaitPlayer
 from srs_ros.nodes.hardware_node import HardwareNode, release_and_report
+from srs_ros.nodes.navigator import Navigator
 from srs_ros.nodes.sim_world import SimWorldNode
 from srs_ros.nodes.trajectory_server import TrajectoryServer
 from srs_ros.ros.interfaces import (
     COMMANDED_PRESSURE_TOPIC,
     DIAGNOSTICS_TOPIC,
+    FLOOR_FRAME,
+    GOAL_PATH_TOPIC,
     GROUND_TRUTH_TOPIC,
     IMAGE_TOPIC,
+    NAVIGATION_PROGRESS_TOPIC,
     POSE_TOPIC,
     SETPOINT_TOPIC,
     diagnostic_values,
     image_msg_to_array,
+    latched_qos,
+    progress_fields,
     setpoint_qos,
     stamp_to_seconds,
 )
@@ -91,7 +105,8 @@ class StatusMonitor(Node):
     """
 
     def __init__(self, player: GaitPlayer, server: TrajectoryServer, hardware: HardwareNode, period_s: float,
-                 simulated: bool = False, tracker_status: tuple[str, str] | None = None, context=None):
+                 simulated: bool = False, tracker_status: tuple[str, str] | None = None, context=None,
+                 navigating: bool = False):
         super().__init__("srs_status", context=context)
         self._player, self._server, self._hardware = player, server, hardware
         self._setpoints = 0
@@ -111,7 +126,16 @@ class StatusMonitor(Node):
             self.create_subscription(PoseStamped, GROUND_TRUTH_TOPIC, self._truth.add, 10)
         if simulated and tracker_status is not None:
             self.create_subscription(DiagnosticArray, DIAGNOSTICS_TOPIC, self._on_diagnostics, 10)
+        self._navigation: dict[str, Any] | None = {} if navigating else None  # the navigator's last progress
+        if navigating:
+            self.create_subscription(String, NAVIGATION_PROGRESS_TOPIC, self._on_progress, latched_qos())
         steady_timer(self, period_s, self._print)
+
+    def _on_progress(self, msg: String) -> None:
+        try:
+            self._navigation = progress_fields(msg)
+        except SrsError as exc:
+            self.get_logger().error(f"navigation progress ignored: {exc}", throttle_duration_sec=5.0)
 
     def _on_setpoint(self, _msg: JointState) -> None:
         self._setpoints += 1
@@ -151,6 +175,8 @@ class StatusMonitor(Node):
                 f"{get('frequency_hz').value:g} Hz | {playback.state.value} cycle {playback.cycles_done:7.2f} | "
                 f"setpoints {self._setpoints / span_s:5.0f} Hz | commands {self._commands / span_s:5.0f} Hz | "
                 f"largest {self._largest_bar:4.2f} bar | hardware {self._hardware.status.reason.value}")
+        if self._navigation is not None:
+            line += " | " + navigation_text(self._navigation)
         if self._truth is not None:
             line += self._speeds(now_s)
         self._setpoints = self._commands = 0
@@ -164,6 +190,69 @@ class StatusMonitor(Node):
             print("\r" + line.ljust(170), end="", flush=True)
         else:
             print(line, flush=True)
+
+
+def navigation_text(fields: dict[str, Any]) -> str:
+    """The navigator's progress for the status line: state, goal, distance to go, heading error (or why stopped).
+
+    E.g. ``nav driving to (0.500, 0.400) m [waypoint 2 of 4, round 1]: 0.31 m to go, heading error 12 deg``.
+    """
+    state = fields.get("state")
+    if state is None:
+        return "nav: no progress from the navigator yet"
+    goal = fields.get("goal_xy_m")
+    if state == "idle" or goal is None:
+        text = f"nav {state}: waiting for a goal"
+    else:
+        where = f"{state} to ({goal[0]:.3f}, {goal[1]:.3f}) m"
+        if fields.get("loop"):
+            where += f" [waypoint {fields['waypoint_index'] + 1} of {fields['waypoint_count']}, round {fields['round']}]"
+        elif fields.get("goal_count", 1) > 1:
+            where += f" [goal {fields['goal_index'] + 1} of {fields['goal_count']}]"
+        to_go = fields.get("distance_to_go_m")
+        text = f"nav {where}: " + ("-- m to go" if to_go is None else f"{to_go:.2f} m to go")
+        if state in ("driving", "stopping"):
+            text += f", heading error {fields.get('heading_error_deg') or 0.0:.0f} deg"
+        else:
+            text += f" ({fields.get('message', '')})"
+    if fields.get("gait_error"):
+        text += f" | gait command not applied: {fields['gait_error']}"
+    if fields.get("refused"):
+        text += f" | goal refused: {fields['refused']}"
+    return text
+
+
+def patrol_path(waypoints_xy_m) -> Path:
+    """The patrol's waypoints as a nav_msgs/Path in the floor frame."""
+    path = Path()
+    path.header.frame_id = FLOOR_FRAME
+    for x_m, y_m in waypoints_xy_m:
+        pose = PoseStamped()
+        pose.header.frame_id = FLOOR_FRAME
+        pose.pose.position.x, pose.pose.position.y = float(x_m), float(y_m)
+        pose.pose.orientation.w = 1.0
+        path.poses.append(pose)
+    return path
+
+
+class Patrol(Node):
+    """``--patrol``: sends the waypoints on ``goal_path`` once the navigator listens (it patrols them in a loop)."""
+
+    def __init__(self, waypoints_xy_m):
+        super().__init__("srs_patrol")
+        self.waypoints_xy_m = [tuple(p) for p in waypoints_xy_m]
+        self.sent = False
+        self._publisher = self.create_publisher(Path, GOAL_PATH_TOPIC, 10)
+        self._timer = steady_timer(self, 0.1, self._send)
+
+    def _send(self) -> None:
+        if self.sent or self._publisher.get_subscription_count() == 0:
+            return
+        self._publisher.publish(patrol_path(self.waypoints_xy_m))
+        self.sent = True
+        self._timer.cancel()
+        self.get_logger().info(f"patrol of {len(self.waypoints_xy_m)} waypoints sent on {self._publisher.topic_name}: "
+                               + ", ".join(f"({x:g}, {y:g})" for x, y in self.waypoints_xy_m))
 
 
 class SpeedMeter:
@@ -217,6 +306,11 @@ class VideoRecorder(Node):
             print(f"srs_bringup: saved {self.frames} camera frames to {self.path}", flush=True)
 
 
+#: The main job's patrol on the sim rig (m, floor frame): a rectangle well inside the simulated camera's view
+#: (2.9 m x 2.3 m around the origin, where the robot starts), kept view_margin_m inside its edge.
+SIM_PATROL_XY_M = ((0.4, 0.4), (-0.4, 0.4), (-0.4, -0.4), (0.4, -0.4))
+
+
 def spec_defaults() -> dict[str, Any]:
     """The defaults of the options that set node parameters, read from the nodes' specs (as the launch file's)."""
     player = {spec.name: spec for spec in gait_player.PARAMETERS}
@@ -253,6 +347,16 @@ def build_parser() -> argparse.ArgumentParser:
                         choices=range(0, 99), metavar="0-98",
                         help="SCHED_FIFO priority of the process, so CPU load cannot delay setpoints (needs an "
                              "rtprio limit or CAP_SYS_NICE; default 0 = the normal scheduler)")
+    parser.add_argument("--navigate", action="store_true",
+                        help="closed loop: start the navigator, which drives the gait to the goals sent on goal_pose "
+                             "(RViz's 2D Goal Pose, frame floor) or goal_path by the camera's pose (the gait player "
+                             "waits for it); docs/navigation.md")
+    parser.add_argument("--patrol", action="store_true",
+                        help="navigate and patrol waypoints in a loop: --waypoint's, or on the sim rig "
+                             f"{' '.join(f'({x:g}, {y:g})' for x, y in SIM_PATROL_XY_M)} m, inside the simulated "
+                             "camera's view (scripts/run.sh does this unless given --gait)")
+    parser.add_argument("--waypoint", nargs=2, type=float, action="append", metavar=("X_M", "Y_M"), default=None,
+                        help="a patrol waypoint (floor frame, m); repeat for each, in order")
     parser.add_argument("--duration-s", type=float, default=0.0, help="stop after this long; 0 = until Ctrl-C")
     parser.add_argument("--status-period-s", type=float, default=1.0, help="status line period, s (default 1)")
     return parser
@@ -269,11 +373,14 @@ def _params_file(args: argparse.Namespace, ros_args: list[str]) -> str:
     params = {
         "trajectory_server": {"gait": args.gait, "amplitude_bar": args.amplitude_bar,
                               "frequency_hz": args.frequency_hz, "samples": args.samples},
-        "gait_player": {"autostart": True, "rate_hz": args.rate_hz, "realtime_priority": args.realtime_priority},
+        "gait_player": {"autostart": not _navigating(args), "rate_hz": args.rate_hz,
+                        "realtime_priority": args.realtime_priority},
         "hardware_node": {"autostart": True, "rig_file": args.rig, "backend": args.backend,
                           "realtime_priority": args.realtime_priority},
         "sim_world": {"sim_config_file": args.sim_config},
         "camera_tracker": {"color_preset": "sim_bands"},
+        "navigator": {"calibration_preset": "sim_bands" if _simulated(args) else "",
+                      "loop_path": bool(args.patrol)},
     }
     params = {node: {k: v for k, v in values.items() if k not in given} for node, values in params.items()}
     with tempfile.NamedTemporaryFile("w", prefix="srs_bringup_", suffix=".yaml", delete=False) as stream:
@@ -307,7 +414,28 @@ def _parse_arguments(argv: list[str] | None) -> tuple[argparse.Namespace, list[s
     """The bringup's own options, and the ROS arguments from ``--ros-args`` on (passed on to rclpy)."""
     argv = list(sys.argv[1:] if argv is None else argv)
     ros_args = argv[argv.index("--ros-args"):] if "--ros-args" in argv else []
-    return build_parser().parse_args(argv[:len(argv) - len(ros_args)]), ros_args
+    parser = build_parser()
+    args = parser.parse_args(argv[:len(argv) - len(ros_args)])
+    if args.waypoint and not args.patrol:
+        parser.error("--waypoint X_M Y_M is a patrol waypoint: add --patrol (or send goals on goal_path)")
+    if args.patrol and not args.waypoint:
+        if not _simulated(args):
+            parser.error("--patrol on a rig other than the simulated robot needs its waypoints (--waypoint X_M Y_M, "
+                         "inside your camera's calibrated floor area)")
+        args.waypoint = [list(p) for p in SIM_PATROL_XY_M]
+    return args, ros_args
+
+
+def _navigating(args: argparse.Namespace) -> bool:
+    return bool(args.navigate or args.patrol)
+
+
+def _simulated(args: argparse.Namespace) -> bool:
+    """True for the sim rig; False also for a rig file that cannot be read (the hardware node says why)."""
+    try:
+        return _rig_backend(args) == "sim"
+    except SrsError:
+        return False
 
 
 def _init_ros(args: argparse.Namespace, ros_args: list[str], outcome: CleanExit) -> None:
@@ -336,6 +464,7 @@ class System:
         self.player: GaitPlayer | None = None
         self.hardware: HardwareNode | None = None
         self.status: StatusMonitor | None = None
+        self.navigator: Navigator | None = None
         self.recorder: VideoRecorder | None = None
         self.world_nodes: list[Node] = []
         self.nodes: list[Node] = []
@@ -352,10 +481,16 @@ class System:
         self.server = self._keep(TrajectoryServer())
         self.player = self._keep(GaitPlayer())
         self.hardware = self._keep(HardwareNode())
+        if _navigating(args):  # on the world's executor: it only calls the gait nodes' services
+            self.navigator = self._keep(Navigator())
+            self.world_nodes.append(self.navigator)
+            if args.patrol:
+                self.world_nodes.append(self._keep(Patrol(args.waypoint)))
         tracker = next((n for n in self.world_nodes if isinstance(n, CameraTrackerNode)), None)
         self.status = self._keep(StatusMonitor(self.player, self.server, self.hardware, args.status_period_s,
                                                simulated, None if tracker is None
-                                               else (tracker.status_name, tracker.hardware_id)))
+                                               else (tracker.status_name, tracker.hardware_id),
+                                               navigating=_navigating(args)))
         for node in self.nodes:
             guard_parameter_services(node)
 

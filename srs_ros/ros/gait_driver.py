@@ -1,0 +1,203 @@
+"""Plays the navigator's gait commands through the existing gait interfaces, never around them.
+
+A :class:`GaitDriver` turns each new :class:`~srs_ros.core.navigation.GaitCommand` into the calls an operator
+would make (relative names, resolved in the navigator's namespace)::
+
+    trajectory_server/set_parameters_atomically   gait, amplitude_bar, <gait>.turn_phase_rad (one call)
+    trajectory_server/regenerate                  the new cycle is fitted and latched; gait_player cross-fades
+    gait_player/set_parameters                    frequency_hz (live, phase-integrated)
+    gait_player/start                             ramp in (only when the robot was stopped)
+    gait_player/stop                              ramp out to 0 (all lengths 0 = every muscle vented)
+
+So every pressure still goes through gait_player's ramps and the hardware node's one clamp; the driver never
+arms, never touches the e-stop and never publishes a setpoint. Calls are asynchronous (a callback never
+blocks the node), one at a time in that order, the newest command wins; a stop goes out at once, even while
+another call is pending. A refused or unanswered call is retried after :data:`RETRY_S` and said in
+:attr:`GaitDriver.error` (the navigator publishes it).
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from typing import Any
+
+from rcl_interfaces.srv import SetParameters, SetParametersAtomically
+from rclpy.node import Node
+from rclpy.parameter import Parameter
+from std_srvs.srv import Trigger
+
+#: Wait before a failed call is made again (s).
+RETRY_S = 1.0
+#: A call without an answer for this long is given up (and retried), s.
+CALL_TIMEOUT_S = 5.0
+
+
+class GaitDriver:
+    """Drives ``trajectory_server`` and ``gait_player`` (node names, relative) from gait commands.
+
+    :meth:`drive` takes a new command; :meth:`pump` (from the navigator's timer and after every answer) makes
+    the next call. ``_playing`` is True from a ``~/start`` sent until a ``~/stop`` answered: a start and a stop
+    in flight together (two services, no order between them) end with another stop.
+    """
+
+    def __init__(self, node: Node, trajectory_server: str, gait_player: str,
+                 clock: Callable[[], float] = time.monotonic):
+        self._node = node
+        self._clock = clock
+        self._clients = {
+            "set_gait": node.create_client(SetParametersAtomically, f"{trajectory_server}/set_parameters_atomically"),
+            "regenerate": node.create_client(Trigger, f"{trajectory_server}/regenerate"),
+            "set_frequency": node.create_client(SetParameters, f"{gait_player}/set_parameters"),
+            "start": node.create_client(Trigger, f"{gait_player}/start"),
+            "stop": node.create_client(Trigger, f"{gait_player}/stop"),
+        }
+        self.wanted = None  # the newest GaitCommand
+        self._cycle_key: tuple | None = None  # latched by trajectory_server (its regenerate answered success)
+        self._sent_key: tuple | None = None  # parameters set, regenerate not yet answered
+        self._frequency_hz: float | None = None  # gait_player's frequency_hz as we set it
+        self._playing = False
+        self._pending: dict[str, tuple[Any, float]] = {}  # what -> (future, sent at)
+        self._retry_at = 0.0
+        self.error = ""  # the last failure ('' once a call succeeds again)
+        self.calls: dict[str, int] = {name: 0 for name in self._clients}  # calls made, by kind
+
+    # ------------------------------------------------------------- the interface
+    def drive(self, command) -> None:
+        """Take ``command`` (a GaitCommand); a stop is sent at once, anything else by :meth:`pump`."""
+        if command != self.wanted:
+            self._retry_at = 0.0  # a new command is tried at once; the same one after RETRY_S
+        self.wanted = command
+        self.pump()
+
+    def stop(self, command):
+        """Take the stop ``command`` and call ``gait_player/stop`` whether or not this driver started it.
+
+        Returns the call's future (None when the service is not available).
+        """
+        self.wanted = command
+        self._playing = False
+        self._call("stop", Trigger.Request(), self._on_stop)
+        return self._pending.get("stop", (None,))[0]
+
+    @property
+    def playing(self) -> bool:
+        """True while the player was started by this driver and no stop has been answered since."""
+        return self._playing
+
+    @property
+    def busy(self) -> bool:
+        """True while a call is waiting for its answer."""
+        return bool(self._pending)
+
+    def services(self) -> list[str]:
+        """The full names of the services the driver calls."""
+        return [self._node.resolve_service_name(client.srv_name) for client in self._clients.values()]
+
+    def missing_services(self) -> list[str]:
+        """The services not (yet) available."""
+        return [client.srv_name for client in self._clients.values() if not client.service_is_ready()]
+
+    def pump(self) -> None:
+        """Give up unanswered calls, then make the next call the newest command needs (if none is pending)."""
+        now = self._clock()
+        for what, (future, sent_s) in list(self._pending.items()):
+            if now - sent_s > CALL_TIMEOUT_S:
+                self._clients[what].remove_pending_request(future)
+                del self._pending[what]
+                self._failed(what, f"no answer for {CALL_TIMEOUT_S:g} s (is the node running?)")
+        command = self.wanted
+        if command is None:
+            return
+        if not command.moving:
+            if self._playing and "stop" not in self._pending:
+                self._call("stop", Trigger.Request(), self._on_stop)
+            return
+        if self._pending or now < self._retry_at:
+            return
+        if command.cycle_key != self._cycle_key:
+            self._set_gait(command)
+        elif self._frequency_hz is None or abs(command.frequency_hz - self._frequency_hz) > 1e-9:
+            self._set_frequency(command.frequency_hz)
+        elif not self._playing:
+            self._playing = True
+            self._call("start", Trigger.Request(), self._on_start)
+
+    # ------------------------------------------------------------- the calls
+    def _set_gait(self, command) -> None:
+        values = {"gait": command.gait, "amplitude_bar": float(command.amplitude_bar),
+                  f"{command.gait}.turn_phase_rad": float(command.turn_phase_rad)}
+        request = SetParametersAtomically.Request(
+            parameters=[Parameter(name, value=value).to_parameter_msg() for name, value in values.items()])
+        self._sent_key = command.cycle_key
+        self._call("set_gait", request, self._on_set_gait)
+
+    def _set_frequency(self, frequency_hz: float) -> None:
+        request = SetParameters.Request(
+            parameters=[Parameter("frequency_hz", value=float(frequency_hz)).to_parameter_msg()])
+        self._call("set_frequency", request, lambda response: self._on_set_frequency(response, frequency_hz))
+
+    def _call(self, what: str, request, on_answer: Callable[[Any], None]) -> None:
+        client = self._clients[what]
+        if not client.service_is_ready():
+            self._failed(what, f"service {client.srv_name} is not available (is the node running?)")
+            if what == "start":
+                self._playing = False
+            return
+        future = client.call_async(request)
+        self._pending[what] = (future, self._clock())
+        self.calls[what] += 1
+
+        def answered(done) -> None:
+            if self._pending.get(what, (None,))[0] is not done:
+                return  # given up meanwhile
+            del self._pending[what]
+            try:
+                response = done.result()
+            except Exception as exc:  # the client was destroyed at shutdown, or rclpy raised
+                self._failed(what, f"{type(exc).__name__}: {exc}")
+                return
+            on_answer(response)
+            self.pump()
+
+        future.add_done_callback(answered)
+
+    # ------------------------------------------------------------- the answers
+    def _on_set_gait(self, response) -> None:
+        if not response.result.successful:
+            self._failed("set_gait", f"trajectory_server refused the parameters: {response.result.reason}")
+            return
+        self._call("regenerate", Trigger.Request(), self._on_regenerate)
+
+    def _on_regenerate(self, response) -> None:
+        if not response.success:
+            self._failed("regenerate", f"trajectory_server could not regenerate: {response.message}")
+            return
+        self._cycle_key, self.error = self._sent_key, ""
+
+    def _on_set_frequency(self, response, frequency_hz: float) -> None:
+        result = response.results[0] if response.results else None
+        if result is None or not result.successful:
+            self._failed("set_frequency", f"gait_player refused frequency_hz {frequency_hz:g}: "
+                                          f"{result.reason if result else 'no result'}")
+            return
+        self._frequency_hz, self.error = frequency_hz, ""
+
+    def _on_start(self, response) -> None:
+        if not response.success:
+            self._playing = False
+            self._failed("start", f"gait_player did not start: {response.message}")
+            return
+        self._playing, self.error = True, ""  # also when a stop was sent meanwhile: pump stops it again
+
+    def _on_stop(self, response) -> None:
+        if not response.success:
+            self._failed("stop", f"gait_player did not stop: {response.message}")
+            return
+        self._playing = "start" in self._pending  # a start still in flight may arrive after this stop
+
+    def _failed(self, what: str, reason: str) -> None:
+        self.error = f"{what}: {reason}"
+        self._retry_at = self._clock() + RETRY_S
+        self._node.get_logger().error(f"gait command not applied, retrying in {RETRY_S:g} s: {self.error}",
+                                      throttle_duration_sec=2.0)
