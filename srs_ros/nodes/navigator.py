@@ -2,7 +2,8 @@
 
 Interface (relative names)::
 
-    subscribes  goal_pose            geometry_msgs/PoseStamped  frame 'floor' (RViz's "2D Goal Pose"); orientation ignored
+    subscribes  goal_pose            geometry_msgs/PoseStamped  frame 'floor' (RViz's "2D Goal Pose"), orientation
+                                                                ignored
                 goal_path            nav_msgs/Path              waypoints followed in order
                 robot_pose           geometry_msgs/PoseStamped  camera_tracker's pose (never the simulator's truth)
     publishes   navigation_progress  std_msgs/String (JSON)     reliable + transient_local, every update period
@@ -172,7 +173,8 @@ class Navigator(Node):
         steady_timer(self, self._param("diagnostics_period_s"), self._publish_diagnostics)
         self._publish_progress()
         self.get_logger().info(
-            f"waiting for goals on {self.resolve_topic_name(GOAL_POSE_TOPIC)} / {self.resolve_topic_name(GOAL_PATH_TOPIC)} "
+            f"waiting for goals on {self.resolve_topic_name(GOAL_POSE_TOPIC)} and "
+            f"{self.resolve_topic_name(GOAL_PATH_TOPIC)} "
             f"(frame '{FLOOR_FRAME}', inside {self._nav.area.extent_text} less {self._nav.area.margin_m:g} m, from "
             f"{self._nav.area.source}); pose from {self.resolve_topic_name(POSE_TOPIC)}; gait through "
             + ", ".join(self._driver.services()))
@@ -329,8 +331,8 @@ class Navigator(Node):
         future = self._driver.stop(self._nav.cancel(time.monotonic(), "navigator shutting down"))
         if future is not None:
             rclpy.spin_until_future_complete(self, future, timeout_sec=timeout_s)
-        print(f"navigator: stopping, gait_player told to stop ({'answered' if future and future.done() else 'no answer'})",
-              flush=True)
+        answered = "answered" if future is not None and future.done() else "no answer"
+        print(f"navigator: shutting down, gait_player told to stop ({answered})", flush=True)
 
 
 def main(args: list[str] | None = None) -> int:

@@ -18,10 +18,9 @@ Nodes, backends, experiments, tests and benchmarks take names and profiles from 
 
 from __future__ import annotations
 
+import json
 from collections.abc import Mapping, Sequence
 from typing import Any
-
-import json
 
 import cv2
 import numpy as np
