@@ -324,16 +324,84 @@ def helix_curves(phase, s_m, radius_m: float, pitch_m: float, turns_per_cycle: f
                      np.broadcast_to(along, psi.shape[:1] + along.shape)], axis=-1)
 
 
+def _bend_rotations(direction_rad: np.ndarray, bend_rad: np.ndarray) -> np.ndarray:
+    """Rotations (N, 3, 3) of a constant-curvature bend by ``bend_rad`` toward ``direction_rad`` (no twist about +Z).
+
+    Rodrigues about the axis ``(-sin d, cos d, 0)``, the rotation of :mod:`srs_ros.core.kinematics`'s modules.
+    """
+    axis = np.stack([-np.sin(direction_rad), np.cos(direction_rad), np.zeros_like(direction_rad)], axis=-1)
+    k = np.zeros(axis.shape[:-1] + (3, 3))
+    k[..., 0, 2], k[..., 1, 2] = axis[..., 1], -axis[..., 0]
+    k[..., 2, 0], k[..., 2, 1] = -axis[..., 1], axis[..., 0]
+    sin, cos = np.sin(bend_rad)[..., None, None], np.cos(bend_rad)[..., None, None]
+    return np.eye(3) + sin * k + (1.0 - cos) * (k @ k)
+
+
+def rolling_module_bends(phase, radius_m: float, robot: RobotDescription, turns_per_cycle: float = 1.0,
+                         turn_phase_rad: float = 0.0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Each module's ``(plane in its actuator frame, reach m, bend phi)`` (N, M) of the rolling arc at ``phase``.
+
+    Module ``i`` (0-based) bends toward ``psi + i turn_phase_rad`` in the chain's untwisted frame, i.e.
+    ``psi + i (turn_phase_rad - sigma)`` in its own frame (``sigma`` the inter-module twist), with
+    ``psi = 2 pi turns_per_cycle phase``; every module is an arc of radius ``radius_m``; with the
+    least-extension lengths ``phi = L0 / (radius - r m)``, ``m = max_j cos(theta_j - plane)``.
+    """
+    phase = np.atleast_1d(np.asarray(phase, dtype=np.float64))
+    psi = 2.0 * math.pi * turns_per_cycle * phase
+    planes = psi[:, None] + np.arange(robot.module_count) * (turn_phase_rad - robot.module_twist_rad)   # (N, M)
+    reach = np.cos(robot.actuator_angles_rad - planes[..., None]).max(axis=-1)
+    bend = robot.unactuated_length_m / (radius_m - robot.actuator_radius_m * reach)
+    return planes, reach, bend
+
+
+def rolling_curves(phase, s_m, radius_m: float, robot: RobotDescription, turns_per_cycle: float = 1.0,
+                   turn_phase_rad: float = 0.0) -> np.ndarray:
+    """The rolling gait's target curves (N, M, 3): one arc of radius ``radius_m`` per module, chained.
+
+    Module ``i`` spans its exact arc length ``phi_i radius`` and bends toward ``psi + i turn_phase_rad``
+    (:func:`rolling_module_bends`); the last arc continues to the curve's end. With ``turn_phase_rad = 0``
+    every module bends in one plane and the curve is the circle of :func:`helix_curves` (pitch 0); otherwise
+    each module's plane leads the previous one's and the body is a twisted chain of arcs.
+    """
+    phase = np.atleast_1d(np.asarray(phase, dtype=np.float64))
+    _, _, bend = rolling_module_bends(phase, radius_m, robot, turns_per_cycle, turn_phase_rad)
+    psi = 2.0 * math.pi * turns_per_cycle * phase
+    rotation = np.broadcast_to(np.eye(3), (len(phase), 3, 3))
+    origin = np.zeros((len(phase), 3))
+    start = np.zeros(len(phase))
+    curves = np.empty((len(phase), len(s_m), 3))
+    for i in range(robot.module_count):
+        direction = psi + i * turn_phase_rad
+        u = s_m[None, :] - start[:, None]                                    # arc length into module i
+        angle = u / radius_m
+        local = np.stack([radius_m * (1.0 - np.cos(angle)) * np.cos(direction)[:, None],
+                          radius_m * (1.0 - np.cos(angle)) * np.sin(direction)[:, None],
+                          radius_m * np.sin(angle)], axis=-1)
+        points = origin[:, None, :] + np.einsum("nij,nsj->nsi", rotation, local)
+        inside = u >= 0.0
+        curves[inside] = points[inside]
+        end = bend[:, i] * radius_m
+        tip = radius_m * np.stack([(1.0 - np.cos(bend[:, i])) * np.cos(direction),
+                                   (1.0 - np.cos(bend[:, i])) * np.sin(direction), np.sin(bend[:, i])], axis=-1)
+        origin = origin + np.einsum("nij,nj->ni", rotation, tip)
+        rotation = rotation @ _bend_rotations(direction, bend[:, i])
+        start = start + end
+    return curves
+
+
 @gait("inward_rolling")
 def inward_rolling(phase, s_m, params, robot):
-    """Circular arc of radius ``r_R`` turning one revolution about +Z per cycle, positive sense (Sec. III)."""
-    return helix_curves(phase, s_m, params["radius_m"], 0.0, 1.0), {}
+    """Arcs of radius ``r_R`` turning one revolution about +Z per cycle, positive sense (Sec. III).
+
+    Module planes are chained ``turn_phase_rad`` apart (0: the paper's planar arc).
+    """
+    return rolling_curves(phase, s_m, params["radius_m"], robot, 1.0, params["turn_phase_rad"]), {}
 
 
 @gait("outward_rolling")
 def outward_rolling(phase, s_m, params, robot):
     """The inward-rolling cycle reversed in time: its shape at phase p is the inward shape at -p."""
-    return helix_curves(phase, s_m, params["radius_m"], 0.0, -1.0), {}
+    return rolling_curves(phase, s_m, params["radius_m"], robot, -1.0, params["turn_phase_rad"]), {}
 
 
 @gait("helical_rolling")
@@ -342,23 +410,20 @@ def helical_rolling(phase, s_m, params, robot):
     return helix_curves(phase, s_m, params["helix_radius_m"], params["helix_pitch_m"], 1.0), {}
 
 
-def rolling_arc_lengths(phase, radius_m: float, robot: RobotDescription, turns_per_cycle: float = 1.0) -> np.ndarray:
-    """Exact joint-space solution (N, 9) of the rolling arc of radius ``radius_m`` at ``phase`` (N,).
+def rolling_arc_lengths(phase, radius_m: float, robot: RobotDescription, turns_per_cycle: float = 1.0,
+                        turn_phase_rad: float = 0.0) -> np.ndarray:
+    """Exact joint-space solution (N, 9) of the rolling arcs of radius ``radius_m`` at ``phase`` (N,).
 
-    Every module is one piece of the arc (constant curvature ``1 / radius_m``) bent in the arc's
-    plane; module ``i`` (0-based) sees that plane at ``psi - i * sigma`` (the inter-module twist), with
-    ``psi = 2 pi turns_per_cycle phase``. With the least-extension lengths of docs/conventions.md,
-    ``l_j = r phi (m - cos(theta_j - plane))``, ``m = max_j cos(theta_j - plane)``, and the bend
-    ``phi = L / radius`` of the arc length ``L = L0 + r phi m``: ``phi = L0 / (radius - r m)``.
+    Every module is one arc of constant curvature ``1 / radius_m`` bent in its plane
+    (:func:`rolling_module_bends`: module ``i`` sees the arc's plane at ``psi + i (turn_phase_rad - sigma)``,
+    ``sigma`` the inter-module twist, ``psi = 2 pi turns_per_cycle phase``). With the least-extension
+    lengths of docs/conventions.md, ``l_j = r phi (m - cos(theta_j - plane))``, ``m = max_j cos(theta_j - plane)``,
+    and the bend ``phi = L / radius`` of the arc length ``L = L0 + r phi m``: ``phi = L0 / (radius - r m)``.
     """
-    phase = np.atleast_1d(np.asarray(phase, dtype=np.float64))
-    psi = 2.0 * math.pi * turns_per_cycle * phase
-    planes = psi[:, None] - np.arange(robot.module_count) * robot.module_twist_rad          # (N, M)
-    reach = np.cos(robot.actuator_angles_rad - planes[..., None]).max(axis=-1)              # m, (N, M)
-    bend = robot.unactuated_length_m / (radius_m - robot.actuator_radius_m * reach)
+    planes, reach, bend = rolling_module_bends(phase, radius_m, robot, turns_per_cycle, turn_phase_rad)
     varying = robot.actuator_radius_m * bend[..., None] * (
         reach[..., None] - np.cos(robot.actuator_angles_rad - planes[..., None]))
-    return varying.reshape(len(phase), robot.joint_count)
+    return varying.reshape(len(planes), robot.joint_count)
 
 
 #: Rolling gaits, whose every shape is one constant-curvature arc: turns of its bending plane per cycle.
@@ -366,7 +431,7 @@ ROLLING_TURNS = {"inward_rolling": 1.0, "outward_rolling": -1.0}
 
 
 def rolling_radius_for_peak(peak_length_m: float, phase, robot: RobotDescription,
-                            turns_per_cycle: float = 1.0) -> float:
+                            turns_per_cycle: float = 1.0, turn_phase_rad: float = 0.0) -> float:
     """The rolling arc radius (m) whose exact cycle (:func:`rolling_arc_lengths` at ``phase``) peaks at the length.
 
     The peak falls monotonically as the radius grows (less bending), so a bracketing root search finds it
@@ -375,7 +440,7 @@ def rolling_radius_for_peak(peak_length_m: float, phase, robot: RobotDescription
     from scipy.optimize import brentq
 
     def excess(radius_m: float) -> float:
-        return float(rolling_arc_lengths(phase, radius_m, robot, turns_per_cycle).max()) - peak_length_m
+        return float(rolling_arc_lengths(phase, radius_m, robot, turns_per_cycle, turn_phase_rad).max()) - peak_length_m
 
     if not peak_length_m > 0.0:
         raise InvalidInputError(f"peak length {peak_length_m!r} m; a rolling arc needs a positive extension.")

@@ -133,6 +133,7 @@ class GaitPlayback:
         self._frequency = SmoothTransition(0.0)
         self._trajectory_frequency_hz = 0.0
         self._frequency_override_hz = 0.0
+        self._direction = 1.0
         self._phase = 0.0
         self._cycles_done = 0.0
         self._stop_after_cycles: float | None = None
@@ -211,6 +212,22 @@ class GaitPlayback:
         self._frequency_override_hz = self._positive("frequency_hz", frequency_hz, allow_zero=True)
         self._retarget_frequency(self.ramp_time_s)
 
+    def set_reverse(self, reverse: bool) -> None:
+        """Play the cycle backward in time (True) or forward; the signed frequency passes smoothly through 0.
+
+        Reversed, a rolling cycle is the opposite rolling gait (outward rolling is inward rolling reversed
+        in time), so this turns the robot's travel round without a jump of any setpoint.
+        """
+        direction = -1.0 if reverse else 1.0
+        if direction != self._direction:
+            self._direction = direction
+            self._retarget_frequency(self.ramp_time_s)
+
+    @property
+    def reverse(self) -> bool:
+        """True while the cycle is played (or ramping to being played) backward."""
+        return self._direction < 0.0
+
     def set_ramp_time(self, ramp_time_s: float) -> None:
         """Duration of the soft start/stop and of amplitude/frequency changes (takes effect at the next change)."""
         self.ramp_time_s = self._positive("ramp_time_s", ramp_time_s, allow_zero=True)
@@ -220,7 +237,7 @@ class GaitPlayback:
         self.blend_time_s = self._positive("blend_time_s", blend_time_s, allow_zero=True)
 
     def _retarget_frequency(self, duration_s: float) -> None:
-        target = self._frequency_override_hz or self._trajectory_frequency_hz
+        target = self._direction * (self._frequency_override_hz or self._trajectory_frequency_hz)
         if self.state is PlaybackState.IDLE:
             duration_s = 0.0
         self._frequency.set_target(target, duration_s)
@@ -238,7 +255,7 @@ class GaitPlayback:
 
     @property
     def frequency_hz(self) -> float:
-        """Frequency currently played (moving to its target after a change)."""
+        """Frequency currently played (moving to its target after a change; negative while reversed)."""
         return self._frequency.value
 
     def _shape(self, phase: float) -> tuple[np.ndarray, np.ndarray]:
@@ -266,7 +283,7 @@ class GaitPlayback:
         frequency_hz = self._frequency.step(dt_s)
         advance = frequency_hz * dt_s
         self._phase = (self._phase + advance) % 1.0
-        self._cycles_done += advance
+        self._cycles_done += abs(advance)
         self._amplitude.step(dt_s)
         self._envelope.step(dt_s)
         self._blend.step(dt_s)

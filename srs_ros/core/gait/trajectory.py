@@ -286,11 +286,11 @@ MAX_SHAPE_FITS = 4
 def _solve_rolling(spec: GaitSpec, given: dict, phase: np.ndarray, peak_m: float, robot: RobotDescription,
                    settings: FitSettings):
     """The exact rolling cycle that peaks at ``peak_m``: (lengths, error mm, shape, parameters, fits, retried)."""
-    turns = ROLLING_TURNS[spec.name]
-    shape = {**given, "radius_m": rolling_radius_for_peak(peak_m, phase, robot, turns)}
+    turns, turn_phase = ROLLING_TURNS[spec.name], given["turn_phase_rad"]
+    shape = {**given, "radius_m": rolling_radius_for_peak(peak_m, phase, robot, turns, turn_phase)}
     # A dense polyline: at 4 bar the arc nearly closes a circle and the fitter's 201 points would add 0.2 mm.
     curves, _, used = shape_curves(spec.name, phase, robot, shape, 10 * settings.curve_points)
-    lengths = rolling_arc_lengths(phase, shape["radius_m"], robot, turns)
+    lengths = rolling_arc_lengths(phase, shape["radius_m"], robot, turns, turn_phase)
     return lengths, fit_error_mm(lengths, curves, robot), shape, used, 0, 0
 
 

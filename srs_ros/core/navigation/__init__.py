@@ -1,0 +1,20 @@
+"""Closed-loop navigation by camera, without ROS: goals, the camera pose in, rolling-gait commands out.
+
+``settings`` (the navigator's settings, one schema, and the identified turn map of config/turning_map.yaml),
+``area`` (the camera's calibrated floor area where goals may lie), ``motion`` (poses, and the turn rates and
+travel directions learned online from them), ``controller`` (:class:`NavigationController`: goals, waypoints,
+cancel, lost pose, progress; it chooses the rolling direction, the turn level and the frequency).
+A ROS node wires it to topics (docs/navigation.md); ``srs_ros.sim.navigation`` runs it on the simulated robot.
+"""
+
+from srs_ros.core import lazy_exports
+
+_EXPORTS = {
+    "NavigationController": "controller", "NavigationState": "controller", "NavigationProgress": "controller",
+    "GaitCommand": "controller", "GoalDecision": "controller",
+    "Pose2D": "motion", "FloorArea": "area",
+    "NavigationSettings": "settings", "load_navigation_settings": "settings", "TurningMap": "settings",
+    "load_turning_map": "settings", "NAVIGATION_TABLE": "settings", "DIRECTIONS": "settings",
+}
+__all__ = sorted(_EXPORTS)
+__getattr__ = lazy_exports(__name__, _EXPORTS)

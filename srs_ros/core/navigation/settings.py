@@ -1,0 +1,187 @@
+"""The navigator's settings and the identified turn map, each checked by the one schema.
+
+:data:`NAVIGATION_TABLE` holds every setting with its default, range and unit (the one place they live: a
+ROS node declares its parameters from these fields, :func:`load_navigation_settings` overlays a caller's
+values). :class:`TurningMap` is what ``srs_turning --write-map`` measured on the simulated robot
+(``config/turning_map.yaml``): for each rolling direction, the turn rate per cycle at each ``turn_phase_rad``.
+It is only the controller's first guess; the controller corrects it online from the camera.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, fields
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from srs_ros.core.errors import ConfigurationError
+from srs_ros.core.robot import config_file, read_yaml
+from srs_ros.core.schema import Field, Table, check_known, refusal, section
+
+#: The two rolling directions the navigator drives (the robot rolls roughly across its body axis).
+DIRECTIONS = ("inward_rolling", "outward_rolling")
+#: Default turning map file (``config/``).
+DEFAULT_TURNING_MAP_FILE = "turning_map.yaml"
+
+NAVIGATION_TABLE = Table("navigation", (
+    Field("goal_tolerance_m", float, 0.05, 0.005, 1.0, "m",
+          "a goal is reached when the tracked point rests this close to it"),
+    Field("pose_timeout_s", float, 1.0, 0.05, 60.0, "s",
+          "no pose from the camera this long: stop, state pose_lost"),
+    Field("view_margin_m", float, 0.25, 0.0, 2.0, "m",
+          "goals must lie this far inside the camera's calibrated floor area (the 0.45 m body stays in view)"),
+    Field("amplitude_bar", float, 4.0, 0.5, 4.0, "bar", "pressure amplitude of the rolling gaits"),
+    Field("cruise_frequency_hz", float, 1.0, 0.1, 2.0, "Hz", "cycle frequency away from the goal"),
+    Field("approach_frequency_hz", float, 1.0, 0.1, 2.0, "Hz", "cycle frequency within approach_distance_m"),
+    Field("approach_distance_m", float, 0.2, 0.0, 5.0, "m", "closer than this the gait slows down"),
+    Field("heading_gain", float, 0.6, 0.05, 2.0, "per cycle",
+          "turn rate asked per cycle = this x the heading error"),
+    Field("max_turn_rate_deg_per_cycle", float, 30.0, 1.0, 180.0, "deg per cycle", "largest turn rate asked"),
+    Field("turn_levels_rad", list, (-0.5, -0.35, -0.2, -0.1, 0.0, 0.1, 0.2, 0.35, 0.5), -0.6, 0.6, "rad",
+          "the turn_phase_rad values the controller chooses from", item=float, nonempty=True),
+    Field("min_hold_cycles", float, 1.0, 0.0, 10.0, "cycles",
+          "a gait direction or turn level is kept at least this long"),
+    Field("pivot_enter_rad", float, 1.05, 0.2, 3.2, "rad",
+          "a heading error beyond this in both directions (a goal along the body axis): turn in place"),
+    Field("pivot_exit_rad", float, 0.6, 0.0, 3.2, "rad", "the turn in place ends below this heading error"),
+    Field("pivot_stroke_cycles", float, 1.0, 0.25, 10.0, "cycles",
+          "turning in place alternates the two rolling directions after this many cycles each"),
+    Field("direction_hysteresis_rad", float, 0.35, 0.0, 1.5, "rad",
+          "the other rolling direction is taken when its heading error is smaller by this much"),
+    Field("learning_rate", float, 0.5, 0.0, 1.0, "",
+          "weight of a new per-cycle measurement in the online turn-rate and travel-direction estimates"),
+    Field("stop_lead_m", float, 0.02, 0.0, 0.5, "m",
+          "first guess of how far the robot rolls on after a stop (learned from each stop)"),
+    Field("settle_s", float, 1.5, 0.0, 30.0, "s",
+          "after a stop near the goal, wait this long for the robot to rest before checking the tolerance"),
+    Field("stall_timeout_s", float, 60.0, 1.0, 3600.0, "s",
+          "the distance to go has not shrunk by stall_distance_m for this long: stop, state failed"),
+    Field("stall_distance_m", float, 0.03, 0.001, 1.0, "m", "progress that resets the stall timer"),
+    Field("turning_map_file", str, DEFAULT_TURNING_MAP_FILE,
+          description="the identified turn rates (srs_turning --write-map); relative: the working directory, "
+                      "then the package's config/"),
+), description="a mapping of navigation setting: value")
+
+
+@dataclass(frozen=True)
+class DirectionMap:
+    """Turn rate (deg per cycle, counter-clockwise positive, seen from above) and travel per cycle vs turn_phase_rad."""
+
+    turn_phase_rad: np.ndarray
+    turn_rate_deg_per_cycle: np.ndarray
+    travel_m_per_cycle: np.ndarray
+
+    def rate_at(self, turn_phase_rad) -> np.ndarray:
+        """The mapped turn rate (deg per cycle) at ``turn_phase_rad`` (linear between points, flat outside)."""
+        return np.interp(turn_phase_rad, self.turn_phase_rad, self.turn_rate_deg_per_cycle)
+
+    def travel_at(self, turn_phase_rad) -> np.ndarray:
+        """The mapped travel per cycle (m) at ``turn_phase_rad``."""
+        return np.interp(turn_phase_rad, self.turn_phase_rad, self.travel_m_per_cycle)
+
+
+@dataclass(frozen=True)
+class TurningMap:
+    """Per rolling direction, what ``turn_phase_rad`` did on the robot (``config/turning_map.yaml``)."""
+
+    amplitude_bar: float
+    frequency_hz: float
+    conditions: str
+    directions: dict[str, DirectionMap]
+    source: str = "<memory>"
+
+    def __getitem__(self, direction: str) -> DirectionMap:
+        return self.directions[direction]
+
+
+_MAP_TABLE = Table("turning_map", (
+    Field("amplitude_bar", float, minimum=0.0, maximum=10.0, unit="bar"),
+    Field("frequency_hz", float, minimum=0.0, maximum=10.0, unit="Hz"),
+    Field("conditions", str, "", description="where it was measured (physics, friction, command)"),
+))
+_DIRECTION_TABLE = Table("turning_map.<direction>", (
+    Field("turn_phase_rad", list, item=float, minimum=-math.pi, maximum=math.pi, unit="rad", nonempty=True),
+    Field("turn_rate_deg_per_cycle", list, item=float, minimum=-360.0, maximum=360.0, unit="deg per cycle",
+          nonempty=True),
+    Field("travel_m_per_cycle", list, item=float, minimum=0.0, maximum=10.0, unit="m", nonempty=True),
+))
+
+
+def turning_map_from_dict(data: Any, source: str = "<dict>") -> TurningMap:
+    """Validate a parsed turning map (its top-level ``turning_map:`` key) into a :class:`TurningMap`."""
+    block = section(data, "turning_map", source, what="a mapping with amplitude_bar, frequency_hz and one block "
+                                                      f"per direction {list(DIRECTIONS)}")
+    check_known(block, (*_MAP_TABLE.names, *DIRECTIONS), source, "turning_map")
+    head = _MAP_TABLE.read({k: v for k, v in block.items() if k in _MAP_TABLE}, source)
+    directions = {}
+    for direction in DIRECTIONS:
+        table = _DIRECTION_TABLE.at(f"turning_map.{direction}")
+        values = table.read(section(block, direction, source, "turning_map"), source)
+        phases = np.asarray(values["turn_phase_rad"], dtype=np.float64)
+        if np.any(np.diff(phases) <= 0.0):
+            raise refusal(source, table.key("turn_phase_rad"), values["turn_phase_rad"], "increasing values")
+        for name in ("turn_rate_deg_per_cycle", "travel_m_per_cycle"):
+            if len(values[name]) != len(phases):
+                raise refusal(source, table.key(name), values[name], f"{len(phases)} values, one per turn_phase_rad")
+        directions[direction] = DirectionMap(phases, np.asarray(values["turn_rate_deg_per_cycle"], dtype=np.float64),
+                                             np.asarray(values["travel_m_per_cycle"], dtype=np.float64))
+    return TurningMap(head["amplitude_bar"], head["frequency_hz"], head["conditions"], directions, source)
+
+
+def load_turning_map(path: str | Path | None = None) -> TurningMap:
+    """Read ``config/turning_map.yaml`` (or ``path``: the working directory, then the package's config/)."""
+    resolved = config_file(path or DEFAULT_TURNING_MAP_FILE)
+    return turning_map_from_dict(read_yaml(resolved), str(resolved))
+
+
+@dataclass(frozen=True)
+class NavigationSettings:
+    """Every setting of :data:`NAVIGATION_TABLE` (see its fields for units and meaning) and the turn map."""
+
+    goal_tolerance_m: float
+    pose_timeout_s: float
+    view_margin_m: float
+    amplitude_bar: float
+    cruise_frequency_hz: float
+    approach_frequency_hz: float
+    approach_distance_m: float
+    heading_gain: float
+    max_turn_rate_deg_per_cycle: float
+    turn_levels_rad: tuple[float, ...]
+    min_hold_cycles: float
+    pivot_enter_rad: float
+    pivot_exit_rad: float
+    pivot_stroke_cycles: float
+    direction_hysteresis_rad: float
+    learning_rate: float
+    stop_lead_m: float
+    settle_s: float
+    stall_timeout_s: float
+    stall_distance_m: float
+    turning_map_file: str
+    turning_map: TurningMap
+
+    def values(self) -> dict[str, Any]:
+        """The settings of :data:`NAVIGATION_TABLE` as a plain mapping (the turn map left out)."""
+        return {f.name: getattr(self, f.name) for f in fields(self) if f.name != "turning_map"}
+
+
+def load_navigation_settings(overrides: Mapping[str, Any] | None = None, where: str = "navigation settings",
+                             turning_map: TurningMap | None = None) -> NavigationSettings:
+    """The defaults of :data:`NAVIGATION_TABLE` overlaid with ``overrides``, checked; the turn map loaded.
+
+    Raises :class:`ConfigurationError` naming ``where``, the key, the value and what is expected.
+    """
+    values = NAVIGATION_TABLE.read(dict(overrides or {}), where)
+    levels = values["turn_levels_rad"]
+    if list(levels) != sorted(set(levels)):
+        raise refusal(where, NAVIGATION_TABLE.key("turn_levels_rad"), list(levels), "increasing values")
+    try:
+        mapped = turning_map or load_turning_map(values["turning_map_file"])
+    except ConfigurationError as exc:
+        raise ConfigurationError(f"{exc} Write one with `python -m srs_ros.tools.turning_cli --write-map FILE`.") \
+            from None
+    return NavigationSettings(**values, turning_map=mapped)

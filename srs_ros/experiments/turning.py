@@ -1,0 +1,165 @@
+"""How the simulated robot turns: turn rate and travel per cycle against a steering parameter (issue 20).
+
+Every run starts a fresh :class:`~srs_ros.sim.world.SimWorld` at rest and plays the cycle through
+:class:`~srs_ros.core.gait.playback.GaitPlayback` with its soft start, exactly as the navigator does
+(:class:`srs_ros.sim.navigation.GaitDriver`); outward rolling is the inward cycle played backward. The
+yaw (tail -> head, what the camera reports) is read at every cycle boundary; the first ``skip_cycles``
+(the soft start and the body settling) are left out. A rolling body's yaw wobbles within a cycle, so
+boundaries at the same phase give its turn per cycle. Re-run after any physics change:
+``python -m srs_ros.tools.turning_cli`` prints the tables and writes the navigator's turn map.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from srs_ros.core.actuation.pressure import lengths_to_pressures_bar
+from srs_ros.core.gait.playback import GaitPlayback
+from srs_ros.core.gait.trajectory import GaitCycle, generate_cycle
+from srs_ros.core.navigation.controller import GaitCommand
+from srs_ros.core.rig import load_rig
+from srs_ros.core.robot import RobotDescription, default_robot
+from srs_ros.sim.config import SimConfig, load_sim_config
+from srs_ros.sim.navigation import GaitDriver
+from srs_ros.sim.world import SimWorld
+
+#: Cycles played and measured by default, and the first ones left out.
+DEFAULT_CYCLES = 8
+DEFAULT_SKIP_CYCLES = 2
+#: Start headings (rad) of the repeated runs: the turn must not depend on where the robot points.
+DEFAULT_START_YAWS_RAD = (0.0, 2.0)
+
+
+@dataclass(frozen=True)
+class TurnMeasurement:
+    """One run: turn per cycle (deg, counter-clockwise positive; mean and spread over cycles), travel per cycle."""
+
+    label: str
+    amplitude_bar: float
+    frequency_hz: float
+    value: float
+    start_yaw_rad: float
+    turn_deg_per_cycle: float
+    turn_sd_deg: float
+    travel_m_per_cycle: float
+
+    @property
+    def speed_m_s(self) -> float:
+        """Travel per second."""
+        return self.travel_m_per_cycle * self.frequency_hz
+
+
+def play_cycle(cycle: GaitCycle, duration_s: float, config: SimConfig, robot: RobotDescription,
+               reverse_at_s: Callable[[float], bool] | None = None, sample_every_s: float = 0.05) -> np.ndarray:
+    """Play ``cycle`` from rest with the gait player's soft start; rows ``(t, x_m, y_m, yaw_rad)`` every sample.
+
+    ``reverse_at_s(t)`` says whether the cycle runs backward at ``t`` (default: never).
+    """
+    world = SimWorld(config, robot)
+    playback = GaitPlayback(max_length_m=robot.max_extension_m)
+    playback.load(cycle.lengths_m, cycle.frequency_hz)
+    playback.set_reverse(bool(reverse_at_s and reverse_at_s(0.0)))
+    playback.start()
+    dt = 1.0 / load_rig(robot=robot).command_rate_hz
+    every = max(1, int(round(sample_every_s / dt)))
+    rows = []
+    for k in range(int(round(duration_s / dt)) + 1):
+        t = k * dt
+        if reverse_at_s is not None:
+            playback.set_reverse(reverse_at_s(t))
+        world.advance_to(t)
+        world.command_pressures(lengths_to_pressures_bar(playback.step(dt).positions_m, robot))
+        if k % every == 0:
+            rows.append((t, *world.state(with_contacts=False).pose))
+    rows = np.array(rows)
+    rows[:, 3] = np.unwrap(rows[:, 3])
+    return rows
+
+
+def per_cycle(rows: np.ndarray, period_s: float, skip_cycles: int) -> tuple[np.ndarray, np.ndarray]:
+    """Turn (deg) and travel (m) of every whole cycle after the first ``skip_cycles``."""
+    count = int(math.floor(rows[-1, 0] / period_s + 1e-9))
+    index = [int(np.argmin(np.abs(rows[:, 0] - k * period_s))) for k in range(skip_cycles, count + 1)]
+    turns = np.degrees(np.diff(rows[index, 3]))
+    travel = np.linalg.norm(np.diff(rows[index, 1:3], axis=0), axis=1)
+    return turns, travel
+
+
+def measure(label: str, cycle: GaitCycle, value: float, config: SimConfig | None = None,
+            robot: RobotDescription | None = None, reverse: bool = False, cycles: int = DEFAULT_CYCLES,
+            skip_cycles: int = DEFAULT_SKIP_CYCLES, start_yaw_rad: float = 0.0) -> TurnMeasurement:
+    """Play ``cycle`` (backward if ``reverse``) for ``cycles`` cycles from rest and measure its turn and travel."""
+    robot = robot or default_robot()
+    config = (config or load_sim_config(robot=robot)).replace("start", yaw_rad=float(start_yaw_rad))
+    period = 1.0 / cycle.frequency_hz
+    rows = play_cycle(cycle, cycles * period, config, robot, (lambda t: True) if reverse else None)
+    turns, travel = per_cycle(rows, period, skip_cycles)
+    return TurnMeasurement(label, cycle.amplitude_bar, cycle.frequency_hz, float(value), float(start_yaw_rad),
+                           float(np.mean(turns)), float(np.std(turns)), float(np.mean(travel)))
+
+
+def rolling_cycle(amplitude_bar: float, frequency_hz: float, turn_phase_rad: float,
+                  robot: RobotDescription | None = None) -> GaitCycle:
+    """The navigator's cycle: inward rolling with ``turn_phase_rad`` (outward = played backward)."""
+    return generate_cycle("inward_rolling", amplitude_bar, frequency_hz, robot=robot,
+                          params={"turn_phase_rad": float(turn_phase_rad)})
+
+
+def measure_turn_phase(direction: str, amplitude_bar: float, frequency_hz: float, turn_phase_rad: float,
+                       config: SimConfig | None = None, robot: RobotDescription | None = None,
+                       start_yaws_rad: Sequence[float] = DEFAULT_START_YAWS_RAD, **kwargs) -> list[TurnMeasurement]:
+    """The rolling gait ``direction`` with ``turn_phase_rad``, one run per start heading."""
+    cycle = rolling_cycle(amplitude_bar, frequency_hz, turn_phase_rad, robot)
+    return [measure(direction, cycle, turn_phase_rad, config, robot, direction == "outward_rolling",
+                    start_yaw_rad=yaw, **kwargs) for yaw in start_yaws_rad]
+
+
+def scaled_module_cycle(cycle: GaitCycle, scales: Sequence[float]) -> GaitCycle:
+    """``cycle`` with each module's lengths scaled (a bend growing or shrinking along the body); a candidate only."""
+    modules = len(scales)
+    lengths = (cycle.lengths_m.reshape(len(cycle.lengths_m), modules, -1) *
+               np.asarray(scales, dtype=np.float64)[None, :, None]).reshape(cycle.lengths_m.shape)
+    return GaitCycle(cycle.gait, cycle.amplitude_bar, cycle.frequency_hz, lengths, cycle.fit_error_mm,
+                     cycle.poor_samples, dict(cycle.parameters), cycle.joint_names, cycle.robot)
+
+
+def cone_scales(taper: float, modules: int = 3) -> tuple[float, ...]:
+    """Module bend scales growing linearly tail -> head by ``taper`` (negative: shrinking), the largest 1."""
+    xi = np.linspace(-1.0, 1.0, modules)
+    scales = 1.0 + 0.5 * taper * xi
+    return tuple(float(v) for v in scales / scales.max())
+
+
+def measure_pivot(turn_phase_inward_rad: float, turn_phase_outward_rad: float, amplitude_bar: float,
+                  frequency_hz: float, stroke_cycles: float = 1.0, pairs: int = 5, config: SimConfig | None = None,
+                  robot: RobotDescription | None = None) -> tuple[float, float, float]:
+    """Alternate inward and outward strokes (a turn in place) as the navigator commands them.
+
+    Returns (turn deg per stroke pair: mean, spread over pairs; drift m per pair). The first pair is left out.
+    """
+    robot = robot or default_robot()
+    config = config or load_sim_config(robot=robot)
+    world, driver = SimWorld(config, robot), GaitDriver(robot)
+    stroke_s = stroke_cycles / frequency_hz
+    levels = {"inward_rolling": turn_phase_inward_rad, "outward_rolling": turn_phase_outward_rad}
+    dt = 1.0 / load_rig(robot=robot).command_rate_hz
+    rows, last = [], None
+    for k in range(int(round((pairs + 1) * 2.0 * stroke_s / dt)) + 1):
+        t = k * dt
+        direction = ("inward_rolling", "outward_rolling")[int(t / stroke_s + 1e-9) % 2]
+        command = GaitCommand(direction, levels[direction], amplitude_bar, frequency_hz)
+        if command != last:
+            driver.apply(command)
+            last = command
+        world.advance_to(t)
+        world.command_pressures(driver.pressures_bar(dt))
+        if k % 10 == 0:
+            rows.append((t, *world.state(with_contacts=False).pose))
+    rows = np.array(rows)
+    rows[:, 3] = np.unwrap(rows[:, 3])
+    turns, travel = per_cycle(rows, 2.0 * stroke_s, 1)
+    return float(np.mean(turns)), float(np.std(turns)), float(np.mean(travel))

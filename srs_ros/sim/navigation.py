@@ -1,0 +1,253 @@
+"""Closed-loop navigation on the simulated robot, offline and without ROS: the navigator's own controller.
+
+:func:`run_navigation` puts :class:`~srs_ros.core.navigation.NavigationController` in the loop of a fresh
+:class:`~srs_ros.sim.world.SimWorld`, as the ROS nodes would: the controller's :class:`GaitCommand` becomes a
+rolling cycle (:func:`~srs_ros.core.gait.trajectory.generate_cycle`, the trajectory_server's fit) played by
+:class:`~srs_ros.core.gait.playback.GaitPlayback` (the gait_player's logic: soft start and stop, cross-fade,
+live frequency) at the rig's command rate; lengths become pressures through the one clamp. The pose comes
+from the simulator's reference point (what the tracker reports) or, with ``camera=True``, from the simulated
+overhead camera's image through the real tracker (:class:`~srs_ros.core.vision.tracking.Tracker`).
+Goals are driven one after the other, each to a stop; a path (``as_path=True``) is followed as waypoints.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from functools import lru_cache
+
+import numpy as np
+
+from srs_ros.core.actuation.pressure import lengths_to_pressures_bar
+from srs_ros.core.errors import InvalidInputError
+from srs_ros.core.gait.playback import GaitPlayback, PlaybackState
+from srs_ros.core.gait.request import SAMPLES_FIELD
+from srs_ros.core.gait.trajectory import GaitCycle, generate_cycle
+from srs_ros.core.navigation.area import FloorArea
+from srs_ros.core.navigation.controller import GaitCommand, NavigationController, NavigationState
+from srs_ros.core.navigation.motion import Pose2D
+from srs_ros.core.navigation.settings import NavigationSettings, load_navigation_settings
+from srs_ros.core.rig import load_rig
+from srs_ros.core.robot import RobotDescription, default_robot
+from srs_ros.sim.camera import OverheadCamera, band_tracker_config
+from srs_ros.sim.config import SimConfig, load_sim_config
+from srs_ros.sim.world import SimState, SimWorld
+
+#: Camera frame rate of the loop (Hz), as the simulated overhead camera's.
+CAMERA_RATE_HZ = 30.0
+#: Longest a goal may take before the run gives it up (s, simulated).
+DEFAULT_GOAL_TIMEOUT_S = 90.0
+#: Columns of :attr:`NavigationResult.rows`.
+COLUMNS = ("time_s", "x_m", "y_m", "yaw_rad", "seen_x_m", "seen_y_m", "seen_yaw_rad", "goal_index", "state",
+           "direction", "turn_phase_rad", "frequency_hz", "distance_to_go_m", "heading_error_rad")
+#: Codes of the ``state`` and ``direction`` columns.
+STATE_CODES = {state: i for i, state in enumerate(NavigationState)}
+DIRECTION_CODES = {None: 0, "inward_rolling": 1, "outward_rolling": -1}
+
+
+@dataclass(frozen=True)
+class GoalOutcome:
+    """How one goal went: reached or not, when, how far from it the robot rested, how long its path was."""
+
+    goal_xy_m: tuple[float, float]
+    start_xy_m: tuple[float, float]
+    state: NavigationState
+    message: str
+    time_s: float
+    final_error_m: float
+    path_length_m: float
+
+    @property
+    def reached(self) -> bool:
+        """True when the controller reported the goal reached."""
+        return self.state is NavigationState.REACHED
+
+    @property
+    def straight_m(self) -> float:
+        """Straight-line distance from where the goal was given to the goal."""
+        return math.dist(self.goal_xy_m, self.start_xy_m)
+
+    def summary(self) -> str:
+        """One line for people."""
+        return (f"goal ({self.goal_xy_m[0]:+.3f}, {self.goal_xy_m[1]:+.3f}) m: {self.state.value} after "
+                f"{self.time_s:.1f} s, resting {100 * self.final_error_m:.1f} cm from it, path "
+                f"{self.path_length_m:.2f} m for {self.straight_m:.2f} m straight; {self.message}")
+
+
+@dataclass(frozen=True)
+class NavigationResult:
+    """A run: one row per camera frame (:data:`COLUMNS`), the outcome of each goal, the run's wall time."""
+
+    rows: np.ndarray
+    outcomes: tuple[GoalOutcome, ...]
+    wall_time_s: float
+    camera: bool
+
+
+class GaitDriver:
+    """What the trajectory_server and the gait_player do with a :class:`GaitCommand`, offline."""
+
+    def __init__(self, robot: RobotDescription, samples: int = SAMPLES_FIELD.default):
+        self.robot, self.samples = robot, samples
+        self.playback = GaitPlayback(max_length_m=robot.max_extension_m)
+        self._key: tuple | None = None
+        self._frequency_hz = 0.0
+
+    def apply(self, command: GaitCommand) -> None:
+        """New cycle when the gait or turn level changes (cross-faded), live frequency, start, stop."""
+        if not command.moving:
+            self.playback.stop()
+            return
+        if command.cycle_key != self._key:
+            cycle = _cycle(command.gait, command.amplitude_bar, command.turn_phase_rad, self.samples, self.robot)
+            self.playback.load(cycle.lengths_m, cycle.frequency_hz)
+            self._key = command.cycle_key
+        if command.frequency_hz != self._frequency_hz:
+            self.playback.set_frequency_override(command.frequency_hz)
+            self._frequency_hz = command.frequency_hz
+        self.playback.set_reverse(command.reverse)
+        if self.playback.state in (PlaybackState.IDLE, PlaybackState.STOPPING):
+            self.playback.start()
+
+    def pressures_bar(self, dt_s: float) -> np.ndarray:
+        """Advance the playback by ``dt_s`` and return the commanded pressures (bar, through the clamp)."""
+        if not self.playback.has_cycle:
+            return np.zeros(self.robot.joint_count)
+        return lengths_to_pressures_bar(self.playback.step(dt_s).positions_m, self.robot)
+
+
+@lru_cache(maxsize=64)
+def _cycle(gait: str, amplitude_bar: float, turn_phase_rad: float, samples: int,
+           robot: RobotDescription) -> GaitCycle:
+    return generate_cycle(gait, amplitude_bar, 1.0, samples, robot, {"turn_phase_rad": turn_phase_rad})
+
+
+class _Eyes:
+    """The pose source: the simulator's reference point, or the camera image through the tracker."""
+
+    def __init__(self, config: SimConfig, use_camera: bool, render: bool):
+        from srs_ros.core.vision.tracking import Tracker
+
+        self.use_camera = use_camera
+        self.camera = OverheadCamera(config) if (use_camera or render) else None
+        self.tracker = None
+        if use_camera:
+            band_plane = self.camera.calibration_at_height(config.body.skin_radius_m)
+            self.tracker = Tracker(band_plane, band_tracker_config(config.camera))
+        self.frame: np.ndarray | None = None
+
+    def see(self, state: SimState) -> Pose2D | None:
+        self.frame = self.camera.render(state.nodes_m) if self.camera is not None else None
+        if not self.use_camera:
+            x, y, yaw = state.pose
+            return Pose2D(float(x), float(y), float(yaw), state.time_s)
+        result = self.tracker.process(self.frame, state.time_s)
+        if result.pose is None:
+            return None
+        return Pose2D(float(result.pose[0]), float(result.pose[1]), float(result.pose[2]), state.time_s)
+
+
+def default_area(config: SimConfig, settings: NavigationSettings) -> FloorArea:
+    """The simulated camera's calibrated floor area with the settings' margin."""
+    return FloorArea.from_calibration(OverheadCamera(config).calibration, settings.view_margin_m)
+
+
+def run_navigation(goals: Sequence[Sequence[float]], config: SimConfig | None = None,
+                   settings: NavigationSettings | None = None, robot: RobotDescription | None = None,
+                   camera: bool = False, as_path: bool = False, goal_timeout_s: float = DEFAULT_GOAL_TIMEOUT_S,
+                   on_frame: Callable[[SimState, np.ndarray | None, NavigationController], None] | None = None,
+                   render: bool = False, progress: Callable[[str], None] | None = None,
+                   events: Callable[[float, NavigationController], None] | None = None) -> NavigationResult:
+    """Drive the simulated robot to ``goals`` [(x_m, y_m), ...] with the navigation controller; see the module doc.
+
+    ``on_frame(state, image, controller)`` at every camera frame (``image`` when ``camera`` or ``render``);
+    ``events(time_s, controller)`` before the controller sees each frame (a test replaces a goal or cancels
+    there); ``progress(line)`` once per goal. A goal the controller refuses is recorded as refused and skipped.
+    Raises :class:`InvalidInputError` for bad arguments, :class:`~srs_ros.core.errors.SimulationError` if the
+    physics diverges.
+    """
+    goals = [tuple(float(v) for v in g) for g in goals]
+    if not goals or any(len(g) != 2 for g in goals):
+        raise InvalidInputError(f"goals: expected one or more (x_m, y_m) pairs, got {goals!r}.")
+    robot = robot or default_robot()
+    config = config or load_sim_config(robot=robot)
+    settings = settings or load_navigation_settings()
+    controller = NavigationController(settings, default_area(config, settings))
+    loop = _Loop(SimWorld(config, robot), GaitDriver(robot), _Eyes(config, camera, render), controller,
+                 load_rig(robot=robot).command_rate_hz)
+    started = time.perf_counter()
+    outcomes = []
+    batches = [goals] if as_path else [[g] for g in goals]
+    for batch in batches:
+        outcome = loop.drive(batch, goal_timeout_s * len(batch), on_frame, events)
+        outcomes.append(outcome)
+        if progress is not None:
+            progress(outcome.summary())
+    return NavigationResult(np.array(loop.rows), tuple(outcomes), time.perf_counter() - started, camera)
+
+
+class _Loop:
+    """The world, the driver, the pose source and the controller, stepped together."""
+
+    def __init__(self, world: SimWorld, driver: GaitDriver, eyes: _Eyes, controller: NavigationController,
+                 command_rate_hz: float):
+        self.world, self.driver, self.eyes, self.controller = world, driver, eyes, controller
+        self.command_dt_s = 1.0 / command_rate_hz
+        self.rows: list[list[float]] = []
+        self._next_command_s = 0.0
+        self._next_frame_s = 0.0
+
+    def drive(self, goals, timeout_s, on_frame, events) -> GoalOutcome:
+        start = self.world.state(with_contacts=False)
+        start_xy, t0 = (float(start.reference_xy_m[0]), float(start.reference_xy_m[1])), start.time_s
+        decision = self.controller.set_path(goals, t0)
+        if not decision.accepted:
+            return GoalOutcome(goals[-1], start_xy, NavigationState.IDLE, f"refused: {decision.reason}", 0.0,
+                               math.nan, 0.0)
+        length, last_xy = 0.0, np.array(start_xy)
+        while True:
+            state = self._frame(on_frame, events)
+            length += float(np.linalg.norm(state.reference_xy_m - last_xy))
+            last_xy = state.reference_xy_m.copy()
+            nav = self.controller
+            if not nav.state.active and self.driver.playback.state is PlaybackState.IDLE:
+                break
+            if state.time_s - t0 > timeout_s and nav.state.active:
+                nav.cancel(state.time_s, f"gave up after {timeout_s:g} s (simulated)")
+        error = float(math.dist(goals[-1], state.reference_xy_m))
+        return GoalOutcome(goals[-1], start_xy, nav.state, nav.progress(state.time_s).message,
+                           state.time_s - t0, error, length)
+
+    def _frame(self, on_frame, events) -> SimState:
+        """Run the commands up to the next camera frame, then let the controller see it."""
+        frame_s = self._next_frame_s
+        while self._next_command_s <= frame_s + 1e-12:
+            self.world.advance_to(self._next_command_s)
+            self.world.command_pressures(self.driver.pressures_bar(self.command_dt_s))
+            self._next_command_s += self.command_dt_s
+        self.world.advance_to(frame_s)
+        self._next_frame_s += 1.0 / CAMERA_RATE_HZ
+        state = self.world.state(with_contacts=False)
+        nav = self.controller
+        if events is not None:
+            events(state.time_s, nav)
+        pose = self.eyes.see(state)
+        command = nav.update_pose(pose) if pose is not None else nav.command
+        command = nav.tick(state.time_s)
+        self.driver.apply(command)
+        self._record(state, pose)
+        if on_frame is not None:
+            on_frame(state, self.eyes.frame, nav)
+        return state
+
+    def _record(self, state: SimState, pose: Pose2D | None) -> None:
+        nav = self.controller
+        progress = nav.progress(state.time_s)
+        seen = (pose.x_m, pose.y_m, pose.yaw_rad) if pose is not None else (math.nan,) * 3
+        command = nav.command
+        self.rows.append([state.time_s, *state.pose, *seen, progress.goal_index, STATE_CODES[nav.state],
+                          DIRECTION_CODES[command.direction], command.turn_phase_rad,
+                          command.frequency_hz if command.moving else 0.0, progress.distance_to_go_m,
+                          progress.heading_error_rad])
