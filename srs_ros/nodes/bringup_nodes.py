@@ -148,7 +148,8 @@ class StatusMonitor(Node):
 def navigation_text(fields: dict[str, Any]) -> str:
     """The navigator's progress for the status line: state, goal, distance to go, heading error (or why stopped).
 
-    E.g. ``nav driving to (0.500, 0.400) m [waypoint 2 of 4, round 1]: 0.31 m to go, heading error 12 deg``.
+    E.g. ``nav driving to (0.500, 0.400) m [waypoint 2 of 4, round 1]: 0.31 m to go, heading error 12 deg,
+    inward_rolling turn +0.20 rad``.
     """
     state = fields.get("state")
     if state is None:
@@ -167,6 +168,8 @@ def navigation_text(fields: dict[str, Any]) -> str:
         text = f"nav {where}: " + ("-- m to go" if to_go is None else f"{to_go:.2f} m to go")
         if state in ("driving", "stopping"):
             text += f", heading error {fields.get('heading_error_deg') or 0.0:.0f} deg"
+            if fields.get("direction"):
+                text += f", {fields['direction']} turn {fields.get('turn_phase_rad') or 0.0:+.2f} rad"
         else:
             text += f" ({fields.get('message', '')})"
     if fields.get("gait_error"):

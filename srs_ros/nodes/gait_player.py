@@ -6,7 +6,7 @@ Interface (relative names)::
     publishes   joint_setpoints   sensor_msgs/JointState            best effort; names m1_pma1..m3_pma3,
                                                                     position (m), velocity (m/s), stamp = now
     services    ~/start, ~/stop   std_srvs/Trigger
-    parameters  rate_hz, cycles, amplitude_scale, frequency_hz, ramp_time_s, blend_time_s, autostart,
+    parameters  rate_hz, cycles, amplitude_scale, frequency_hz, reverse, ramp_time_s, blend_time_s, autostart,
                 zero_hold_s, robot_description_file and realtime_priority (read-only)
 
 Behaviour, as a robotics user expects it:
@@ -17,7 +17,9 @@ Behaviour, as a robotics user expects it:
   cycle keeps moving; then zero lengths are published for ``zero_hold_s`` so the hardware sees a
   clean 0, and then the stream ends (the hardware node vents when setpoints go stale anyway).
 - ``amplitude_scale`` and ``frequency_hz`` (0 = the trajectory's own) change live, each over
-  ``ramp_time_s``; the phase is integrated, so neither makes a setpoint jump. ``cycles`` is read at
+  ``ramp_time_s``; the phase is integrated, so neither makes a setpoint jump. ``reverse`` plays the cycle
+  backward in time (live: the signed frequency ramps through 0 over ``ramp_time_s``); a rolling cycle
+  played backward rolls the other way (outward rolling is inward rolling reversed), which the navigator uses. ``cycles`` is read at
   ``~/start``. ``rate_hz`` changes live (the timer is re-created).
 - A new trajectory cross-fades from the old one over ``blend_time_s`` at the same phase.
 - The phase follows the monotonic clock, or with ``use_sim_time`` the ROS clock (the simulated world's
@@ -69,6 +71,8 @@ PARAMETERS = (
     ParameterSpec("amplitude_scale", 1.0, "scale of every length, 0..1 (live, reached over ramp_time_s)", 0.0, 1.0),
     ParameterSpec("frequency_hz", 0.0, "playback frequency in Hz, 0 = the trajectory's own (live)",
                   0.0, CYCLE_FREQUENCY_RANGE_HZ[1]),
+    ParameterSpec("reverse", False, "play the cycle backward in time (live; the signed frequency ramps through 0 "
+                  "over ramp_time_s): a rolling gait rolls the other way"),
     ParameterSpec("ramp_time_s", DEFAULT_RAMP_TIME_S, "soft start/stop and live-change duration in s", 0.05, 60.0),
     ParameterSpec("blend_time_s", 0.5, "cross-fade duration in s when a new trajectory takes over", 0.05, 10.0),
     ParameterSpec("autostart", False, "start as soon as the first trajectory arrives"),
@@ -91,6 +95,7 @@ class GaitPlayer(Node):
                                       max_length_m=self._robot.max_extension_m)
         self._playback.set_amplitude_scale(self._param("amplitude_scale"))
         self._playback.set_frequency_override(self._param("frequency_hz"))
+        self._playback.set_reverse(self._param("reverse"))
         self._zeros_until = 0.0
         self._sim_time = bool(self.get_parameter("use_sim_time").value)
         self._last_tick = self._phase_time_s()
@@ -122,6 +127,8 @@ class GaitPlayer(Node):
                 self._playback.set_amplitude_scale(param.value)
             elif param.name == "frequency_hz":
                 self._playback.set_frequency_override(param.value)
+            elif param.name == "reverse":
+                self._playback.set_reverse(param.value)
             elif param.name == "ramp_time_s":
                 self._playback.set_ramp_time(param.value)
             elif param.name == "blend_time_s":

@@ -5,7 +5,8 @@ would make (relative names, resolved in the navigator's namespace)::
 
     trajectory_server/set_parameters_atomically   gait, amplitude_bar, <gait>.turn_phase_rad (one call)
     trajectory_server/regenerate                  the new cycle is fitted and latched; gait_player cross-fades
-    gait_player/set_parameters                    frequency_hz (live, phase-integrated)
+    gait_player/set_parameters                    frequency_hz and reverse (live; the signed frequency ramps,
+                                                  through 0 for a reversal: outward rolling = inward backward)
     gait_player/start                             ramp in (only when the robot was stopped)
     gait_player/stop                              ramp out to 0 (all lengths 0 = every muscle vented)
 
@@ -48,14 +49,14 @@ class GaitDriver:
         self._clients = {
             "set_gait": node.create_client(SetParametersAtomically, f"{trajectory_server}/set_parameters_atomically"),
             "regenerate": node.create_client(Trigger, f"{trajectory_server}/regenerate"),
-            "set_frequency": node.create_client(SetParameters, f"{gait_player}/set_parameters"),
+            "set_player": node.create_client(SetParameters, f"{gait_player}/set_parameters"),
             "start": node.create_client(Trigger, f"{gait_player}/start"),
             "stop": node.create_client(Trigger, f"{gait_player}/stop"),
         }
         self.wanted = None  # the newest GaitCommand
         self._cycle_key: tuple | None = None  # latched by trajectory_server (its regenerate answered success)
         self._sent_key: tuple | None = None  # parameters set, regenerate not yet answered
-        self._frequency_hz: float | None = None  # gait_player's frequency_hz as we set it
+        self._player_key: tuple[float, bool] | None = None  # gait_player's (frequency_hz, reverse) as we set them
         self._playing = False
         self._pending: dict[str, tuple[Any, float]] = {}  # what -> (future, sent at)
         self._retry_at = 0.0
@@ -117,8 +118,8 @@ class GaitDriver:
             return
         if command.cycle_key != self._cycle_key:
             self._set_gait(command)
-        elif self._frequency_hz is None or abs(command.frequency_hz - self._frequency_hz) > 1e-9:
-            self._set_frequency(command.frequency_hz)
+        elif self._player_key != (command.frequency_hz, command.reverse):
+            self._set_player(command.frequency_hz, command.reverse)
         elif not self._playing:
             self._playing = True
             self._call("start", Trigger.Request(), self._on_start)
@@ -132,10 +133,11 @@ class GaitDriver:
         self._sent_key = command.cycle_key
         self._call("set_gait", request, self._on_set_gait)
 
-    def _set_frequency(self, frequency_hz: float) -> None:
+    def _set_player(self, frequency_hz: float, reverse: bool) -> None:
+        values = {"frequency_hz": float(frequency_hz), "reverse": bool(reverse)}
         request = SetParameters.Request(
-            parameters=[Parameter("frequency_hz", value=float(frequency_hz)).to_parameter_msg()])
-        self._call("set_frequency", request, lambda response: self._on_set_frequency(response, frequency_hz))
+            parameters=[Parameter(name, value=value).to_parameter_msg() for name, value in values.items()])
+        self._call("set_player", request, lambda response: self._on_set_player(response, values))
 
     def _call(self, what: str, request, on_answer: Callable[[Any], None]) -> None:
         client = self._clients[what]
@@ -175,13 +177,13 @@ class GaitDriver:
             return
         self._cycle_key, self.error = self._sent_key, ""
 
-    def _on_set_frequency(self, response, frequency_hz: float) -> None:
-        result = response.results[0] if response.results else None
-        if result is None or not result.successful:
-            self._failed("set_frequency", f"gait_player refused frequency_hz {frequency_hz:g}: "
-                                          f"{result.reason if result else 'no result'}")
+    def _on_set_player(self, response, values: dict[str, Any]) -> None:
+        refused = [f"{name} {value}: {result.reason}" for (name, value), result in zip(values.items(), response.results)
+                   if not result.successful]
+        if refused or len(response.results) != len(values):
+            self._failed("set_player", "gait_player refused " + ("; ".join(refused) or "the parameters (no result)"))
             return
-        self._frequency_hz, self.error = frequency_hz, ""
+        self._player_key, self.error = (values["frequency_hz"], values["reverse"]), ""
 
     def _on_start(self, response) -> None:
         if not response.success:

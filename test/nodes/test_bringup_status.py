@@ -133,8 +133,8 @@ def test_with_the_navigator_the_status_line_shows_its_state_goal_distance_to_go_
         ros_client.spin_until(shown(progress(NavigationState.DRIVING, goal_index=5), "| nav driving"), 10.0,
                               "the navigator's progress on the line")
         line = monitor.status_line()
-        assert ("| nav driving to (0.400, -0.400) m [waypoint 2 of 4, round 2]: 0.31 m to go, heading error 12 deg"
-                in line), line
+        assert ("| nav driving to (0.400, -0.400) m [waypoint 2 of 4, round 2]: 0.31 m to go, heading error 12 deg, "
+                "inward_rolling turn +0.20 rad" in line), line
         lost = progress(NavigationState.POSE_LOST, distance_m=float("nan"), message="no pose from the camera for 1.2 s",
                         refused="goal (3.000, 0.000) m is 1.57 m outside the camera's calibrated floor area")
         ros_client.spin_until(shown(lost, "nav pose_lost"), 10.0, "pose lost on the line")

@@ -32,6 +32,15 @@ def largest_excess_step_m(msgs, speed_m_per_s):
     return float(np.max(steps - speed_m_per_s * np.diff(stamps_s(msgs))))
 
 
+def phase_rate_hz(msgs, samples, scale: float) -> float:
+    """How fast (cycles/s, signed) the setpoints move along the cycle ``samples`` scaled by ``scale``."""
+    cycle, grid = PeriodicTrajectory(samples), np.linspace(0.0, 1.0, 2000, endpoint=False)
+    shapes = scale * cycle.values(grid)
+    phases = np.unwrap(2 * np.pi * np.array([grid[np.argmin(np.sum((shapes - p) ** 2, axis=1))]
+                                             for p in positions(msgs)])) / (2 * np.pi)
+    return float(np.polyfit(stamps_s(msgs), phases, 1)[0])
+
+
 @pytest.fixture
 def player(launch_node, ros_client):
     """A gait_player process, a latched trajectory publisher and a setpoint subscriber."""
@@ -108,6 +117,16 @@ def test_live_changes_and_takeover_never_jump_and_bad_parameters_are_rejected(pl
 
     ros_client.spin_until(settled_on_new_cycle, 10.0, "the new cycle at amplitude_scale 0.4")
     assert largest_excess_step_m(setpoints, 2 * np.pi * 0.0325 * 2.0 * 1.3) < 0.001, "a setpoint jumped"
+
+    # reverse: the same cycle played backward (the signed frequency ramps through 0 over ramp_time_s)
+    ros_client.spin_for(0.5)  # past the cross-fade
+    forward = phase_rate_hz(setpoints[-100:], rolling_cycle(shift=0.5, amplitude_m=0.05), 0.4)
+    assert ros_client.set_parameters("gait_player", {"reverse": True})[0].successful
+    count = len(setpoints)
+    ros_client.spin_until(lambda: len(setpoints) > count + 200, 10.0, "a second of reversed setpoints")
+    backward = phase_rate_hz(setpoints[-100:], rolling_cycle(shift=0.5, amplitude_m=0.05), 0.4)
+    assert forward == pytest.approx(2.0, abs=0.3) and backward == pytest.approx(-2.0, abs=0.3), (forward, backward)
+    assert largest_excess_step_m(setpoints[count - 1:], 2 * np.pi * 0.0325 * 2.0 * 1.3) < 0.001, "reversal jumped"
 
     bad = [("amplitude_scale", 1.5), ("rate_hz", 5000.0), ("ramp_time_s", 0.0), ("frequency_hz", -1.0),
            ("rate_hz", 5.0)]  # 5 Hz cannot keep a 0.2 s setpoint watchdog fed: the valves would pulse
