@@ -19,8 +19,9 @@ Behaviour, as a robotics user expects it:
 - ``amplitude_scale`` and ``frequency_hz`` (0 = the trajectory's own) change live, each over
   ``ramp_time_s``; the phase is integrated, so neither makes a setpoint jump. ``reverse`` plays the cycle
   backward in time (live: the signed frequency ramps through 0 over ``ramp_time_s``); a rolling cycle
-  played backward rolls the other way (outward rolling is inward rolling reversed), which the navigator uses. ``cycles`` is read at
-  ``~/start``. ``rate_hz`` changes live (the timer is re-created).
+  played backward rolls the other way (outward rolling is inward rolling reversed), which the navigator uses.
+  ``cycles`` is read at ``~/start``: a ``~/start`` while running only sets the end ``cycles`` from now (the
+  navigator's dead man's handle). ``rate_hz`` changes live (the timer is re-created).
 - A new trajectory cross-fades from the old one over ``blend_time_s`` at the same phase.
 - The phase follows the monotonic clock, or with ``use_sim_time`` the ROS clock (the simulated world's
   ``/clock``, so a simulation that runs slower than real time still sees the gait's own frequency); after

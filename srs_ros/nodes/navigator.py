@@ -12,8 +12,8 @@ Interface (relative names)::
     calls       trajectory_server/set_parameters_atomically, trajectory_server/regenerate,
                 gait_player/set_parameters, gait_player/start, gait_player/stop  (srs_ros.ros.gait_driver)
     parameters  every navigation setting (srs_ros.core.navigation.NAVIGATION_TABLE: goal_tolerance_m 0.05 m,
-                pose_timeout_s 1 s, ...), loop_path (live), calibration_file, calibration_preset,
-                trajectory_server, gait_player, update_rate_hz, diagnostics_period_s
+                pose_timeout_s 1 s, ...), loop_path, calibration_file, calibration_preset, trajectory_server,
+                gait_player, gait_keepalive_s, update_rate_hz, diagnostics_period_s
 
 The controller (:class:`~srs_ros.core.navigation.NavigationController`, the same code the offline
 ``srs_navigate`` runs) decides; this node only feeds it goals, camera poses and time, and plays its gait
@@ -22,8 +22,9 @@ pressure clamp and the stale-setpoint vent all stay in place; the navigator neve
 outside the camera's calibrated floor area is refused with the reason (log, progress, diagnostics) and the
 current goal goes on; a new goal replaces the current one; no pose for ``pose_timeout_s`` (robot out of
 view, tracker silent) stops the gait, state ``pose_lost``; arrival stops the gait (gait_player ramps every
-length to 0: the muscles vent), state ``reached``. States: idle, driving, stopping, reached, cancelled,
-pose_lost, failed (docs/navigation.md).
+length to 0: the muscles vent), state ``reached``. A navigator that dies or hangs stops renewing gait_player's
+run (``gait_keepalive_s``, a dead man's handle): the gait ramps out by itself. States: idle, driving,
+stopping, reached, cancelled, pose_lost, failed (docs/navigation.md).
 """
 
 from __future__ import annotations
@@ -101,6 +102,10 @@ NODE_PARAMETERS = (
                   "navigator's namespace)", read_only=True),
     ParameterSpec("gait_player", "gait_player", "name of the gait player node (relative: in the navigator's "
                   "namespace)", read_only=True),
+    ParameterSpec("gait_keepalive_s", 2.0, "dead man's handle: gait_player's cycles are set so that it plays this "
+                  "long after each ~/start, which the navigator repeats every quarter of it while driving; a navigator "
+                  "that dies or hangs lets the gait ramp out by itself after this plus one cycle; 0 = off (the gait "
+                  "plays until stopped)", 0.0, 60.0, read_only=True),
     ParameterSpec("update_rate_hz", 10.0, "rate of the lost-pose check, the gait calls and navigation_progress, Hz",
                   1.0, 100.0, read_only=True),
     ParameterSpec("diagnostics_period_s", 1.0, "period of the /diagnostics report, s (and at every state change)",
@@ -153,7 +158,8 @@ class Navigator(Node):
         super().__init__(NODE_NAME, **kwargs)
         self._specs = declare_parameters(self, PARAMETERS)
         self._nav = NavigationController(self._settings(), self._floor_area())
-        self._driver = GaitDriver(self, self._param("trajectory_server"), self._param("gait_player"))
+        self._driver = GaitDriver(self, self._param("trajectory_server"), self._param("gait_player"),
+                                  self._param("gait_keepalive_s"))
         self._stamps = StampClock()
         self._path: list[tuple[float, float]] = []  # the goal or path as sent
         self._loop = False  # the path is patrolled

@@ -7,8 +7,14 @@ would make (relative names, resolved in the navigator's namespace)::
     trajectory_server/regenerate                  the new cycle is fitted and latched; gait_player cross-fades
     gait_player/set_parameters                    frequency_hz and reverse (live; the signed frequency ramps,
                                                   through 0 for a reversal: outward rolling = inward backward)
-    gait_player/start                             ramp in (only when the robot was stopped)
+    gait_player/start                             ramp in when the robot was stopped; then again every quarter
+                                                  of ``keepalive_s`` (a dead man's handle, below)
     gait_player/stop                              ramp out to 0 (all lengths 0 = every muscle vented)
+
+A dead man's handle made of the player's own interface: the driver sets gait_player's ``cycles`` so that a
+``~/start`` lets it play ``keepalive_s`` (2 s by default) more, and calls ``~/start`` again every quarter of
+that while the robot is to move ("already running" only pushes the end on). A navigator that dies or hangs
+stops calling: the player ramps out by itself after at most ``keepalive_s`` plus one cycle.
 
 So every pressure still goes through gait_player's ramps and the hardware node's one clamp; the driver never
 arms, never touches the e-stop and never publishes a setpoint. Calls are asynchronous (a callback never
@@ -19,6 +25,7 @@ another call is pending. A refused or unanswered call is retried after :data:`RE
 
 from __future__ import annotations
 
+import math
 import time
 from collections.abc import Callable
 from typing import Any
@@ -42,10 +49,12 @@ class GaitDriver:
     in flight together (two services, no order between them) end with another stop.
     """
 
-    def __init__(self, node: Node, trajectory_server: str, gait_player: str,
+    def __init__(self, node: Node, trajectory_server: str, gait_player: str, keepalive_s: float = 2.0,
                  clock: Callable[[], float] = time.monotonic):
         self._node = node
         self._clock = clock
+        self.keepalive_s = float(keepalive_s)  # 0: no dead man's handle (the gait plays until stopped)
+        self._started_s = -math.inf  # when the last ~/start was sent
         self._clients = {
             "set_gait": node.create_client(SetParametersAtomically, f"{trajectory_server}/set_parameters_atomically"),
             "regenerate": node.create_client(Trigger, f"{trajectory_server}/regenerate"),
@@ -56,7 +65,7 @@ class GaitDriver:
         self.wanted = None  # the newest GaitCommand
         self._cycle_key: tuple | None = None  # latched by trajectory_server (its regenerate answered success)
         self._sent_key: tuple | None = None  # parameters set, regenerate not yet answered
-        self._player_key: tuple[float, bool] | None = None  # gait_player's (frequency_hz, reverse) as we set them
+        self._player_key: tuple | None = None  # gait_player's (frequency_hz, reverse, cycles) as we set them
         self._playing = False
         self._pending: dict[str, tuple[Any, float]] = {}  # what -> (future, sent at)
         self._retry_at = 0.0
@@ -114,15 +123,23 @@ class GaitDriver:
             if self._playing and "stop" not in self._pending:
                 self._call("stop", Trigger.Request(), self._on_stop)
             return
+        keepalive = self.keepalive_s > 0 and now - self._started_s >= self.keepalive_s / 4
+        if self._playing and keepalive and "start" not in self._pending:
+            self._start(now)  # the dead man's handle, whatever else is pending
         if self._pending or now < self._retry_at:
             return
         if command.cycle_key != self._cycle_key:
             self._set_gait(command)
-        elif self._player_key != (command.frequency_hz, command.reverse):
-            self._set_player(command.frequency_hz, command.reverse)
+        elif self._player_key != self._player_values(command):
+            self._set_player(self._player_values(command))
         elif not self._playing:
             self._playing = True
-            self._call("start", Trigger.Request(), self._on_start)
+            self._start(now)
+
+    def _player_values(self, command) -> tuple[float, bool, int]:
+        """gait_player's (frequency_hz, reverse, cycles) for ``command`` (cycles: keepalive_s of them, 0 = none)."""
+        cycles = max(1, math.ceil(self.keepalive_s * command.frequency_hz)) if self.keepalive_s > 0 else 0
+        return (float(command.frequency_hz), bool(command.reverse), cycles)
 
     # ------------------------------------------------------------- the calls
     def _set_gait(self, command) -> None:
@@ -133,8 +150,12 @@ class GaitDriver:
         self._sent_key = command.cycle_key
         self._call("set_gait", request, self._on_set_gait)
 
-    def _set_player(self, frequency_hz: float, reverse: bool) -> None:
-        values = {"frequency_hz": float(frequency_hz), "reverse": bool(reverse)}
+    def _start(self, now: float) -> None:
+        self._started_s = now
+        self._call("start", Trigger.Request(), self._on_start)
+
+    def _set_player(self, key: tuple[float, bool, int]) -> None:
+        values = dict(zip(("frequency_hz", "reverse", "cycles"), key))
         request = SetParameters.Request(
             parameters=[Parameter(name, value=value).to_parameter_msg() for name, value in values.items()])
         self._call("set_player", request, lambda response: self._on_set_player(response, values))
@@ -183,7 +204,7 @@ class GaitDriver:
         if refused or len(response.results) != len(values):
             self._failed("set_player", "gait_player refused " + ("; ".join(refused) or "the parameters (no result)"))
             return
-        self._player_key, self.error = (values["frequency_hz"], values["reverse"]), ""
+        self._player_key, self.error = tuple(values.values()), ""
 
     def _on_start(self, response) -> None:
         if not response.success:

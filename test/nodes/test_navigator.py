@@ -140,3 +140,22 @@ def test_a_silent_tracker_is_a_lost_pose_the_gait_stops_and_vents_and_waits_for_
     robot.client.spin_for(1.0)
     assert robot.state()["state"] == "pose_lost" and robot.vented()  # no restart without a new goal
     assert math.isfinite(robot.state()["pose_age_s"]) and robot.state()["pose_age_s"] < 1.5
+
+
+def test_a_dead_navigator_lets_the_gait_ramp_out_by_itself(robot):
+    """The dead man's handle (gait_keepalive_s 2 s): the last test of the module, it kills the navigator."""
+    start = robot.at_rest_at_start()
+    robot.goal(*(start + [0.0, 0.6]))
+    robot.wait_state({"driving"}, 10.0, "driving")
+    robot.wait(lambda: robot.commanding(2.0), 10.0, "the gait commanded")
+    robot.client.spin_for(1.0)  # past the ramp-in
+    robot.navigator.kill()  # SIGKILL: no goodbye, no ~/stop
+    killed_s = time.monotonic()
+    robot.wait(robot.vented, 10.0, "every muscle vented with the navigator dead")
+    vent_s = time.monotonic() - killed_s
+    print(f"navigator SIGKILLed while driving: every muscle vented after {vent_s:.2f} s "
+          "(gait_keepalive_s 2 s, then gait_player's 1 s ramp-out)")
+    assert vent_s < 4.5  # keepalive_s 2 s + the ramp-out 1 s + margin (the last renewal was up to 0.5 s before)
+    count = len(robot.pressures)
+    robot.client.spin_for(1.0)
+    assert all(max(m.data) == 0.0 for m in robot.pressures[count:])
