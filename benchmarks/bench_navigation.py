@@ -159,9 +159,10 @@ def summary(outcomes: list[Outcome], speed_m_per_s: float, tolerance_m: float) -
     errors = np.array([o.final_error_m for o in outcomes]) * 100
     ratios = [o.time_s / (o.straight_m / speed_m_per_s) for o in reached]
     paths = [o.path_m / o.straight_m for o in reached]
+    times = [o.time_s for o in reached]
     return (f"success (reached, resting within {tolerance_m * 100:g} cm by the ground truth): {len(within)}/"
             f"{len(outcomes)}; final error: median {np.median(errors):.1f} cm, worst "
-            f"{np.max(errors):.1f} cm; time of the reached: median {np.median([o.time_s for o in reached] or [math.nan]):.1f} s, "
+            f"{np.max(errors):.1f} cm; time of the reached: median {np.median(times or [math.nan]):.1f} s, "
             f"median {np.median(ratios or [math.nan]):.2f}x the straight time at {speed_m_per_s * 100:.1f} cm/s "
             f"(goal <= 2); path over straight distance: median {np.median(paths or [math.nan]):.2f}")
 

@@ -3,10 +3,10 @@
 The parameter files of ``hardware_node``, ``gait_player``, ``trajectory_server``, ``camera_tracker`` and
 ``navigator`` in ``config/`` list every parameter of the node with its default, range and description.
 They are generated from the node's parameter specs (:class:`~srs_ros.ros.parameters.ParameterSpec`, the
-one place a default is written), and ``test/tools/test_node_config.py`` keeps them equal, so they cannot drift from the nodes.
-Generated rather than cut down to a lab's overrides because the launch file passes them and a newcomer
-reads them: each lists what its node takes, which ``ros2 param describe`` shows only with the node
-running. A lab's own values go in a params file of its own, passed after these.
+one place a default is written), and ``test/tools/test_node_config.py`` keeps them equal, so they cannot
+drift from the nodes. Generated rather than cut down to a lab's overrides because the launch file passes
+them and a newcomer reads them: each lists what its node takes, which ``ros2 param describe`` shows only
+with the node running. A lab's own values go in a params file of its own, passed after these.
 
 Examples: ``python -m srs_ros.tools.node_config`` (rewrite the files after changing a spec),
 ``python -m srs_ros.tools.node_config --check`` (compare only: exit 1 naming each file that differs).
