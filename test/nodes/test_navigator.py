@@ -107,6 +107,8 @@ def test_a_goal_outside_the_cameras_view_is_refused_with_the_reason_and_nothing_
     assert refused["state"] == before and not refused["gait_playing"]
     robot.path([(0.1, 0.1), (0.2, -2.5)])
     robot.wait(lambda: robot.state()["refused"].startswith("waypoint 2 of 2"), 5.0, "the path refused, naming it")
+    robot.goal(math.nan, 0.1)
+    robot.wait(lambda: "not a finite floor position" in robot.state()["refused"], 5.0, "a NaN goal refused")
     robot.goal(0.1, 0.1, frame_id="map")
     robot.wait(lambda: "frame 'map'" in robot.state()["refused"], 5.0, "a goal in another frame refused")
     robot.client.spin_for(1.0)
