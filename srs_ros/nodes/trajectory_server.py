@@ -212,6 +212,8 @@ class TrajectoryServer(Node):
             self.get_logger().error(text)
         elif "WARNING" in text:
             self.get_logger().warning(text)
+        elif "kept from before" in text:  # a repeat (the navigator's turn levels): said once a minute at most
+            self.get_logger().info(text, throttle_duration_sec=60.0)
         else:
             self.get_logger().info(text)
 
