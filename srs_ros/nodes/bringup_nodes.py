@@ -193,22 +193,59 @@ def patrol_path(waypoints_xy_m) -> Path:
 
 
 class Patrol(Node):
-    """``--patrol``: sends the waypoints on ``goal_path`` once the navigator listens (it patrols them in a loop)."""
+    """``--patrol``: sends the waypoints on ``goal_path`` (the navigator patrols them in a loop) and resumes it.
 
-    def __init__(self, waypoints_xy_m):
-        super().__init__("srs_patrol")
+    The path goes out once the navigator listens and the camera tracks the robot (a goal sent before the
+    first pose would be lost at once). When the navigator stopped for a lost pose or no progress (states
+    ``pose_lost``, ``failed``: a loaded machine's tracker can fall silent for a second) the patrol is sent
+    again once the robot has been tracked for :attr:`RESUME_AFTER_S`; never after a ``~/cancel``.
+    """
+
+    #: Tracked this long again after a stop for a lost pose or no progress: the patrol goes on.
+    RESUME_AFTER_S = 2.0
+
+    def __init__(self, waypoints_xy_m, context=None):
+        super().__init__("srs_patrol", context=context)
         self.waypoints_xy_m = [tuple(p) for p in waypoints_xy_m]
-        self.sent = False
+        self.sent = 0  # times the path was sent
+        self._state = ""  # the navigator's last state
+        self._tracked_since: float | None = None  # steady s since poses arrive without a gap, None: none now
+        self._last_pose_s = self._sent_s = -math.inf
         self._publisher = self.create_publisher(Path, GOAL_PATH_TOPIC, 10)
-        self._timer = steady_timer(self, 0.1, self._send)
+        self.create_subscription(PoseStamped, POSE_TOPIC, self._on_pose, 10)
+        self.create_subscription(String, NAVIGATION_PROGRESS_TOPIC, self._on_progress, latched_qos())
+        steady_timer(self, 0.1, self._check)
 
-    def _send(self) -> None:
-        if self.sent or self._publisher.get_subscription_count() == 0:
+    def _on_pose(self, _msg: PoseStamped) -> None:
+        now = time.monotonic()
+        if now - self._last_pose_s > 0.5:
+            self._tracked_since = now
+        self._last_pose_s = now
+
+    def _on_progress(self, msg: String) -> None:
+        try:
+            self._state = progress_fields(msg).get("state", "")
+        except SrsError:
+            pass
+
+    def _check(self) -> None:
+        now = time.monotonic()
+        tracked = self._tracked_since is not None and now - self._last_pose_s < 0.5
+        if not tracked or self._publisher.get_subscription_count() == 0:
             return
+        if self.sent == 0:
+            self._send("sent")
+        elif (self._state in ("pose_lost", "failed") and now - self._tracked_since >= self.RESUME_AFTER_S
+              and now - self._sent_s >= self.RESUME_AFTER_S):
+            self._send(f"sent again (the navigator had stopped: {self._state}; the robot is tracked again)")
+
+    def _send(self, what: str) -> None:
         self._publisher.publish(patrol_path(self.waypoints_xy_m))
-        self.sent = True
-        self._timer.cancel()
-        self.get_logger().info(f"patrol of {len(self.waypoints_xy_m)} waypoints sent on {self._publisher.topic_name}: "
+        self.sent += 1
+        self._state = "sent"  # until the navigator's progress says otherwise
+        self._sent_s = time.monotonic()
+        self.get_logger().info(f"patrol of {len(self.waypoints_xy_m)} waypoints {what} on "
+                               f"{self._publisher.topic_name}: "
                                + ", ".join(f"({x:g}, {y:g})" for x, y in self.waypoints_xy_m))
 
 
