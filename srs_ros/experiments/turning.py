@@ -20,7 +20,8 @@ import numpy as np
 from srs_ros.core.actuation.pressure import lengths_to_pressures_bar
 from srs_ros.core.gait.playback import GaitPlayback
 from srs_ros.core.gait.trajectory import GaitCycle, generate_cycle
-from srs_ros.core.navigation.controller import GaitCommand
+from srs_ros.core.navigation.commands import GaitCommand
+from srs_ros.core.navigation.settings import STOP_PHASES
 from srs_ros.core.rig import load_rig
 from srs_ros.core.robot import RobotDescription, default_robot
 from srs_ros.sim.config import SimConfig, load_sim_config
@@ -54,10 +55,12 @@ class TurnMeasurement:
 
 
 def play_cycle(cycle: GaitCycle, duration_s: float, config: SimConfig, robot: RobotDescription,
-               reverse_at_s: Callable[[float], bool] | None = None, sample_every_s: float = 0.05) -> np.ndarray:
+               reverse_at_s: Callable[[float], bool] | None = None, sample_every_s: float = 0.05,
+               stop_at_s: float = math.inf) -> np.ndarray:
     """Play ``cycle`` from rest with the gait player's soft start; rows ``(t, x_m, y_m, yaw_rad)`` every sample.
 
-    ``reverse_at_s(t)`` says whether the cycle runs backward at ``t`` (default: never).
+    ``reverse_at_s(t)`` says whether the cycle runs backward at ``t`` (default: never); at ``stop_at_s`` the
+    player ramps out.
     """
     world = SimWorld(config, robot)
     playback = GaitPlayback(max_length_m=robot.max_extension_m)
@@ -71,6 +74,8 @@ def play_cycle(cycle: GaitCycle, duration_s: float, config: SimConfig, robot: Ro
         t = k * dt
         if reverse_at_s is not None:
             playback.set_reverse(reverse_at_s(t))
+        if t >= stop_at_s - 1e-9 and playback.state.value in ("starting", "running"):
+            playback.stop()
         world.advance_to(t)
         world.command_pressures(lengths_to_pressures_bar(playback.step(dt).positions_m, robot))
         if k % every == 0:
@@ -163,3 +168,29 @@ def measure_pivot(turn_phase_inward_rad: float, turn_phase_outward_rad: float, a
     rows[:, 3] = np.unwrap(rows[:, 3])
     turns, travel = per_cycle(rows, 2.0 * stroke_s, 1)
     return float(np.mean(turns)), float(np.std(turns)), float(np.mean(travel))
+
+
+def measure_stop_offsets(direction: str, amplitude_bar: float, frequency_hz: float, turn_phase_rad: float = 0.0,
+                         run_cycles: int = 4, settle_s: float = 2.5, config: SimConfig | None = None,
+                         robot: RobotDescription | None = None) -> np.ndarray:
+    """Where the robot rests after a stop at each of STOP_PHASES: rows (along, across) its travel (m).
+
+    The travel direction is that of the last whole cycle before the stop, as the navigator learns it.
+    """
+    robot = robot or default_robot()
+    config = config or load_sim_config(robot=robot)
+    cycle = rolling_cycle(amplitude_bar, frequency_hz, turn_phase_rad, robot)
+    period = 1.0 / frequency_hz
+    offsets = []
+    for phase in STOP_PHASES:
+        stop_s = (run_cycles + (phase if direction == "inward_rolling" else (1.0 - phase) % 1.0)) * period
+        rows = play_cycle(cycle, stop_s + settle_s, config, robot, (lambda t: True) if direction != "inward_rolling"
+                          else None, sample_every_s=0.01, stop_at_s=stop_s)
+        at = int(np.argmin(np.abs(rows[:, 0] - stop_s)))
+        before = int(np.argmin(np.abs(rows[:, 0] - (stop_s - period))))
+        travel = rows[at, 1:3] - rows[before, 1:3]
+        heading = math.atan2(travel[1], travel[0])
+        moved = rows[-1, 1:3] - rows[at, 1:3]
+        offsets.append((moved[0] * math.cos(heading) + moved[1] * math.sin(heading),
+                        -moved[0] * math.sin(heading) + moved[1] * math.cos(heading)))
+    return np.array(offsets)

@@ -26,7 +26,8 @@ from srs_ros.core.gait.playback import GaitPlayback, PlaybackState
 from srs_ros.core.gait.request import SAMPLES_FIELD
 from srs_ros.core.gait.trajectory import GaitCycle, generate_cycle
 from srs_ros.core.navigation.area import FloorArea
-from srs_ros.core.navigation.controller import GaitCommand, NavigationController, NavigationState
+from srs_ros.core.navigation.commands import GaitCommand, NavigationState
+from srs_ros.core.navigation.controller import NavigationController
 from srs_ros.core.navigation.motion import Pose2D
 from srs_ros.core.navigation.settings import NavigationSettings, load_navigation_settings
 from srs_ros.core.rig import load_rig
@@ -39,6 +40,11 @@ from srs_ros.sim.world import SimState, SimWorld
 CAMERA_RATE_HZ = 30.0
 #: Longest a goal may take before the run gives it up (s, simulated).
 DEFAULT_GOAL_TIMEOUT_S = 90.0
+#: The path length is summed over the reference point sampled this often (s): the rolling body's reference
+#: point wobbles within a cycle, which is not distance travelled.
+PATH_SAMPLE_S = 0.5
+#: Seconds the controller's clock skips between two fresh worlds (its pose history does not mix them).
+FRESH_WORLD_GAP_S = 20.0
 #: Columns of :attr:`NavigationResult.rows`.
 COLUMNS = ("time_s", "x_m", "y_m", "yaw_rad", "seen_x_m", "seen_y_m", "seen_yaw_rad", "goal_index", "state",
            "direction", "turn_phase_rad", "frequency_hz", "distance_to_go_m", "heading_error_rad")
@@ -138,15 +144,16 @@ class _Eyes:
             self.tracker = Tracker(band_plane, band_tracker_config(config.camera))
         self.frame: np.ndarray | None = None
 
-    def see(self, state: SimState) -> Pose2D | None:
+    def see(self, state: SimState, now_s: float) -> Pose2D | None:
+        """The pose at ``now_s`` (the controller's clock), None when the camera does not see the robot."""
         self.frame = self.camera.render(state.nodes_m) if self.camera is not None else None
         if not self.use_camera:
             x, y, yaw = state.pose
-            return Pose2D(float(x), float(y), float(yaw), state.time_s)
-        result = self.tracker.process(self.frame, state.time_s)
+            return Pose2D(float(x), float(y), float(yaw), now_s)
+        result = self.tracker.process(self.frame, now_s)
         if result.pose is None:
             return None
-        return Pose2D(float(result.pose[0]), float(result.pose[1]), float(result.pose[2]), state.time_s)
+        return Pose2D(float(result.pose[0]), float(result.pose[1]), float(result.pose[2]), now_s)
 
 
 def default_area(config: SimConfig, settings: NavigationSettings) -> FloorArea:
@@ -159,12 +166,15 @@ def run_navigation(goals: Sequence[Sequence[float]], config: SimConfig | None = 
                    camera: bool = False, as_path: bool = False, goal_timeout_s: float = DEFAULT_GOAL_TIMEOUT_S,
                    on_frame: Callable[[SimState, np.ndarray | None, NavigationController], None] | None = None,
                    render: bool = False, progress: Callable[[str], None] | None = None,
-                   events: Callable[[float, NavigationController], None] | None = None) -> NavigationResult:
+                   events: Callable[[float, NavigationController], None] | None = None,
+                   from_start: bool = False, controller: NavigationController | None = None) -> NavigationResult:
     """Drive the simulated robot to ``goals`` [(x_m, y_m), ...] with the navigation controller; see the module doc.
 
     ``on_frame(state, image, controller)`` at every camera frame (``image`` when ``camera`` or ``render``);
     ``events(time_s, controller)`` before the controller sees each frame (a test replaces a goal or cancels
     there); ``progress(line)`` once per goal. A goal the controller refuses is recorded as refused and skipped.
+    ``from_start``: every goal from the start on a fresh world (the controller, and what it learned, is kept,
+    as a running navigator keeps it); ``controller``: one to use (and keep learning) instead of a new one.
     Raises :class:`InvalidInputError` for bad arguments, :class:`~srs_ros.core.errors.SimulationError` if the
     physics diverges.
     """
@@ -174,51 +184,64 @@ def run_navigation(goals: Sequence[Sequence[float]], config: SimConfig | None = 
     robot = robot or default_robot()
     config = config or load_sim_config(robot=robot)
     settings = settings or load_navigation_settings()
-    controller = NavigationController(settings, default_area(config, settings))
-    loop = _Loop(SimWorld(config, robot), GaitDriver(robot), _Eyes(config, camera, render), controller,
-                 load_rig(robot=robot).command_rate_hz)
+    controller = controller or NavigationController(settings, default_area(config, settings))
+    rate_hz = load_rig(robot=robot).command_rate_hz
+    eyes = _Eyes(config, camera, render)
+    loop = _Loop(SimWorld(config, robot), GaitDriver(robot), eyes, controller, rate_hz)
     started = time.perf_counter()
-    outcomes = []
+    outcomes, rows = [], []
     batches = [goals] if as_path else [[g] for g in goals]
-    for batch in batches:
+    for i, batch in enumerate(batches):
+        if from_start and i > 0:
+            rows += loop.rows
+            clock_s = loop.clock_offset_s + loop.world.time_s + FRESH_WORLD_GAP_S
+            loop = _Loop(SimWorld(config, robot), GaitDriver(robot), eyes, controller, rate_hz, clock_s)
         outcome = loop.drive(batch, goal_timeout_s * len(batch), on_frame, events)
         outcomes.append(outcome)
         if progress is not None:
             progress(outcome.summary())
-    return NavigationResult(np.array(loop.rows), tuple(outcomes), time.perf_counter() - started, camera)
+    return NavigationResult(np.array(rows + loop.rows), tuple(outcomes), time.perf_counter() - started, camera)
 
 
 class _Loop:
     """The world, the driver, the pose source and the controller, stepped together."""
 
     def __init__(self, world: SimWorld, driver: GaitDriver, eyes: _Eyes, controller: NavigationController,
-                 command_rate_hz: float):
+                 command_rate_hz: float, clock_offset_s: float = 0.0):
+        """``clock_offset_s``: the controller's clock at the world's time 0 (a fresh world for a kept controller)."""
         self.world, self.driver, self.eyes, self.controller = world, driver, eyes, controller
+        self.clock_offset_s = clock_offset_s
         self.command_dt_s = 1.0 / command_rate_hz
         self.rows: list[list[float]] = []
         self._next_command_s = 0.0
         self._next_frame_s = 0.0
 
     def drive(self, goals, timeout_s, on_frame, events) -> GoalOutcome:
+        """Drive to ``goals`` (a path), until the controller stops and the gait has ramped out, or time is up."""
         start = self.world.state(with_contacts=False)
-        start_xy, t0 = (float(start.reference_xy_m[0]), float(start.reference_xy_m[1])), start.time_s
+        start_xy, t0 = (float(start.reference_xy_m[0]), float(start.reference_xy_m[1])), self._clock(start)
         decision = self.controller.set_path(goals, t0)
         if not decision.accepted:
             return GoalOutcome(goals[-1], start_xy, NavigationState.IDLE, f"refused: {decision.reason}", 0.0,
                                math.nan, 0.0)
-        length, last_xy = 0.0, np.array(start_xy)
+        length, last_xy, next_sample_s = 0.0, np.array(start_xy), t0 + PATH_SAMPLE_S
+        nav = self.controller
         while True:
             state = self._frame(on_frame, events)
-            length += float(np.linalg.norm(state.reference_xy_m - last_xy))
-            last_xy = state.reference_xy_m.copy()
-            nav = self.controller
+            now = self._clock(state)
+            if now >= next_sample_s:
+                length += float(np.linalg.norm(state.reference_xy_m - last_xy))
+                last_xy, next_sample_s = state.reference_xy_m.copy(), next_sample_s + PATH_SAMPLE_S
             if not nav.state.active and self.driver.playback.state is PlaybackState.IDLE:
                 break
-            if state.time_s - t0 > timeout_s and nav.state.active:
-                nav.cancel(state.time_s, f"gave up after {timeout_s:g} s (simulated)")
+            if now - t0 > timeout_s and nav.state.active:
+                nav.cancel(now, f"gave up after {timeout_s:g} s (simulated)")
+        length += float(np.linalg.norm(state.reference_xy_m - last_xy))
         error = float(math.dist(goals[-1], state.reference_xy_m))
-        return GoalOutcome(goals[-1], start_xy, nav.state, nav.progress(state.time_s).message,
-                           state.time_s - t0, error, length)
+        return GoalOutcome(goals[-1], start_xy, nav.state, nav.progress(now).message, now - t0, error, length)
+
+    def _clock(self, state: SimState) -> float:
+        return state.time_s + self.clock_offset_s
 
     def _frame(self, on_frame, events) -> SimState:
         """Run the commands up to the next camera frame, then let the controller see it."""
@@ -230,24 +253,25 @@ class _Loop:
         self.world.advance_to(frame_s)
         self._next_frame_s += 1.0 / CAMERA_RATE_HZ
         state = self.world.state(with_contacts=False)
-        nav = self.controller
+        now, nav = self._clock(state), self.controller
         if events is not None:
-            events(state.time_s, nav)
-        pose = self.eyes.see(state)
-        command = nav.update_pose(pose) if pose is not None else nav.command
-        command = nav.tick(state.time_s)
-        self.driver.apply(command)
-        self._record(state, pose)
+            events(now, nav)
+        pose = self.eyes.see(state, now)
+        nav.update_gait_phase(self.driver.playback.phase)
+        if pose is not None:
+            nav.update_pose(pose)
+        self.driver.apply(nav.tick(now))
+        self._record(state, pose, now)
         if on_frame is not None:
             on_frame(state, self.eyes.frame, nav)
         return state
 
-    def _record(self, state: SimState, pose: Pose2D | None) -> None:
+    def _record(self, state: SimState, pose: Pose2D | None, now_s: float) -> None:
         nav = self.controller
-        progress = nav.progress(state.time_s)
+        progress = nav.progress(now_s)
         seen = (pose.x_m, pose.y_m, pose.yaw_rad) if pose is not None else (math.nan,) * 3
         command = nav.command
-        self.rows.append([state.time_s, *state.pose, *seen, progress.goal_index, STATE_CODES[nav.state],
+        self.rows.append([now_s, *state.pose, *seen, progress.goal_index, STATE_CODES[nav.state],
                           DIRECTION_CODES[command.direction], command.turn_phase_rad,
                           command.frequency_hz if command.moving else 0.0, progress.distance_to_go_m,
                           progress.heading_error_rad])

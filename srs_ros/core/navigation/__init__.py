@@ -1,7 +1,8 @@
 """Closed-loop navigation by camera, without ROS: goals, the camera pose in, rolling-gait commands out.
 
 ``settings`` (the navigator's settings, one schema, and the identified turn map of config/turning_map.yaml),
-``area`` (the camera's calibrated floor area where goals may lie), ``motion`` (poses, and the turn rates and
+``area`` (the camera's calibrated floor area where goals may lie), ``commands`` (the state, the gait command
+for the nodes, the answer to a goal, the progress), ``motion`` (poses, and the turn rates and
 travel directions learned online from them), ``controller`` (:class:`NavigationController`: goals, waypoints,
 cancel, lost pose, progress; it chooses the rolling direction, the turn level and the frequency).
 A ROS node wires it to topics (docs/navigation.md); ``srs_ros.sim.navigation`` runs it on the simulated robot.
@@ -10,8 +11,8 @@ A ROS node wires it to topics (docs/navigation.md); ``srs_ros.sim.navigation`` r
 from srs_ros.core import lazy_exports
 
 _EXPORTS = {
-    "NavigationController": "controller", "NavigationState": "controller", "NavigationProgress": "controller",
-    "GaitCommand": "controller", "GoalDecision": "controller",
+    "NavigationController": "controller", "NavigationState": "commands", "NavigationProgress": "commands",
+    "GaitCommand": "commands", "GoalDecision": "commands", "GAIT": "commands",
     "Pose2D": "motion", "FloorArea": "area",
     "NavigationSettings": "settings", "load_navigation_settings": "settings", "TurningMap": "settings",
     "load_turning_map": "settings", "NAVIGATION_TABLE": "settings", "DIRECTIONS": "settings",

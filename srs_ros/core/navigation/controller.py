@@ -1,126 +1,47 @@
-"""The navigator's controller: camera poses in, a rolling gait, its turn level and its frequency out.
+"""The navigator's controller: camera poses in, a rolling direction, its turn level and its frequency out.
 
 The robot rolls roughly across its body axis, inward rolling to one side and outward rolling to the other.
-On every pose the controller compares the goal's bearing with both travel directions (body yaw + the
-learned offset of each), takes the nearer one (with hysteresis: a goal behind is reached by rolling the
-other way, never by turning round), and asks for a turn rate proportional to the heading error; the turn
-level (the gait's ``turn_phase_rad``) whose learned rate is nearest is played. Every whole cycle played at
-one level is measured by the camera and corrects that level's rate (:mod:`srs_ros.core.navigation.motion`),
-so the controller needs no exact turn-rate model. Near the goal it slows down; it stops where it predicts
-the robot will come to rest within the tolerance, waits for the robot to rest, and checks: within the
-tolerance the goal is reached, otherwise it drives on. No pose for ``pose_timeout_s`` stops it.
+On every pose the controller compares the goal's bearing with both travel directions (the smoothed body yaw
+plus the learned offset of each), takes the nearer one (with hysteresis: a goal behind is reached by rolling
+the other way, never by turning round) and asks for the turn rate of the arc through the goal (pure
+pursuit); the turn level (the gait's ``turn_phase_rad``) whose learned rate is nearest is played. Every
+whole cycle played at one level is measured by the camera and corrects that level's turn rate, travel and
+travel direction (:mod:`srs_ros.core.navigation.motion`), so the controller needs no exact turn-rate model.
+A goal so close to the side that even the tightest turn cannot reach it is first backed away from: the robot
+rolls the other way while its body turns toward the goal (a three-point turn). The controller stops where it
+predicts the robot comes to rest (the learned stop offset: the body rolls on and straightens), waits for the
+robot to rest, and checks: within the tolerance the goal is reached, otherwise it drives on. No pose for
+``pose_timeout_s`` stops it; so do a cancel and a stall.
 """
 
 from __future__ import annotations
 
-import enum
 import math
 from collections.abc import Iterable, Sequence
-from dataclasses import dataclass
 
+import numpy as np
+
+from srs_ros.core.errors import InvalidInputError
 from srs_ros.core.navigation.area import FloorArea
+from srs_ros.core.navigation.commands import GaitCommand, GoalDecision, NavigationProgress, NavigationState
 from srs_ros.core.navigation.motion import Pose2D, PoseHistory, TravelModel, TurnModel, measure_cycle, wrap_rad
 from srs_ros.core.navigation.settings import DIRECTIONS, NavigationSettings
+from srs_ros.core.navigation.stopping import StopModel, crossed_phase
 
-#: The gait whose cycle the navigator plays (forward: inward rolling, backward: outward rolling).
-GAIT = "inward_rolling"
 #: Cycles after a gait change before the camera's cycle measurements count (the cross-fade and the body settle).
 SETTLE_CYCLES = 0.5
 #: The same after a start from rest (the soft start and the body's first roll are not the steady gait).
 START_SETTLE_CYCLES = 1.5
+#: A predicted resting point this close to the goal (times the tolerance) triggers the stop.
+STOP_WITHIN = 0.8
+#: Cycles a direction must have been played before a stop counts on its learned resting point.
+STOP_AFTER_CYCLES = 1.0
+#: A straight line passing this close to the goal (times the tolerance) needs no three-point turn.
+STRAIGHT_WITHIN = 0.7
 
 
-class NavigationState(enum.Enum):
-    """Where the navigator is. REACHED, CANCELLED, POSE_LOST and FAILED are stopped until a new goal."""
-
-    IDLE = "idle"
-    DRIVING = "driving"
-    STOPPING = "stopping"
-    REACHED = "reached"
-    CANCELLED = "cancelled"
-    POSE_LOST = "pose_lost"
-    FAILED = "failed"
-
-    @property
-    def active(self) -> bool:
-        """True while the navigator is working toward a goal."""
-        return self in (NavigationState.DRIVING, NavigationState.STOPPING)
-
-
-@dataclass(frozen=True)
-class GaitCommand:
-    """What the gait should do now. ``direction`` None: stop (ramp out, all pressures to 0 bar).
-
-    ``direction`` is ``inward_rolling`` or ``outward_rolling``. Both are played as the one cycle of :data:`GAIT`
-    (its ``turn_phase_rad`` set), outward rolling by playing it backward in time (:attr:`reverse`): outward
-    rolling is inward rolling reversed in time, and a reversal then ramps the signed frequency through 0
-    instead of cross-fading two different shapes (which makes the body flop over).
-    """
-
-    direction: str | None
-    turn_phase_rad: float
-    amplitude_bar: float
-    frequency_hz: float
-    reason: str = ""
-
-    @property
-    def moving(self) -> bool:
-        """True when a gait is to be played."""
-        return self.direction is not None
-
-    @property
-    def gait(self) -> str:
-        """The gait whose cycle is played (the trajectory_server's ``gait``)."""
-        return GAIT
-
-    @property
-    def reverse(self) -> bool:
-        """True when the cycle is played backward (outward rolling)."""
-        return self.direction == "outward_rolling"
-
-    @property
-    def cycle_key(self) -> tuple[str, float, float]:
-        """What needs a new cycle when it changes: ``(gait, amplitude_bar, turn_phase_rad)``."""
-        return (GAIT, self.amplitude_bar, self.turn_phase_rad)
-
-
-@dataclass(frozen=True)
-class GoalDecision:
-    """The answer to a goal: accepted, or refused with the reason."""
-
-    accepted: bool
-    reason: str
-
-
-@dataclass(frozen=True)
-class NavigationProgress:
-    """The navigator's progress, for a topic and ``/diagnostics``."""
-
-    state: NavigationState
-    goal_xy_m: tuple[float, float] | None
-    goal_index: int
-    goal_count: int
-    distance_to_go_m: float
-    heading_error_rad: float
-    direction: str
-    turn_phase_rad: float
-    elapsed_s: float
-    message: str
-
-    @property
-    def level(self) -> str:
-        """``OK``, ``WARN`` (failed, cancelled) or ``ERROR`` (pose lost) for ``/diagnostics``."""
-        if self.state is NavigationState.POSE_LOST:
-            return "ERROR"
-        return "WARN" if self.state in (NavigationState.FAILED, NavigationState.CANCELLED) else "OK"
-
-    def values(self) -> dict[str, str]:
-        """Key/values of a ``/diagnostics`` status (all text)."""
-        goal = "none" if self.goal_xy_m is None else f"{self.goal_xy_m[0]:.3f}, {self.goal_xy_m[1]:.3f}"
-        return {"state": self.state.value, "goal_m": goal, "goal": f"{self.goal_index + 1} of {self.goal_count}",
-                "distance_to_go_m": f"{self.distance_to_go_m:.3f}",
-                "heading_error_deg": f"{math.degrees(self.heading_error_rad):.1f}", "direction": self.direction,
-                "turn_phase_rad": f"{self.turn_phase_rad:.3f}", "elapsed_s": f"{self.elapsed_s:.1f}"}
+def _other(direction: str) -> str:
+    return DIRECTIONS[1 - DIRECTIONS.index(direction)]
 
 
 class NavigationController:
@@ -132,8 +53,8 @@ class NavigationController:
         self.area = area
         self.history = PoseHistory()
         self.turns = TurnModel(settings.turning_map, settings.turn_levels_rad, settings.learning_rate)
-        self.travel = TravelModel(settings.turn_levels_rad, settings.learning_rate)
-        self.stop_lead_m = settings.stop_lead_m
+        self.travel = TravelModel(settings.turn_levels_rad, settings.learning_rate, settings.turning_map)
+        self.stops = StopModel(settings.turning_map, settings.learning_rate)
         self.state = NavigationState.IDLE
         self._goals: list[tuple[float, float]] = []
         self._index = 0
@@ -142,10 +63,12 @@ class NavigationController:
         self._level: int | None = None
         self._changed_s = self._measured_s = self._started_s = self._last_pose_s = 0.0
         self._heading_error_rad = 0.0
-        self._pivot_sign = 0
+        self._backing_from: str | None = None
         self._settle_cycles = START_SETTLE_CYCLES
-        self._stop_pose: Pose2D | None = None
-        self._stop_direction = ""
+        self._stop: tuple[Pose2D, str, float, int] | None = None
+        self._phase: float | None = None
+        self._phase_seen: float | None = None
+        self._direction_since_s = 0.0
         self._best = (math.inf, 0.0)
 
     # ------------------------------------------------------------------ goals
@@ -159,21 +82,29 @@ class NavigationController:
         """The goals of the current path (a single goal is a path of one)."""
         return tuple(self._goals)
 
+    @property
+    def goal(self) -> tuple[float, float] | None:
+        """The goal now driven to, None when there is none."""
+        return self._goals[self._index] if self._goals else None
+
     def set_goal(self, x_m: float, y_m: float, now_s: float) -> GoalDecision:
         """Replace the current goal (and path) with one goal; refused (the current one kept) outside the area."""
         return self.set_path([(x_m, y_m)], now_s)
 
     def set_path(self, waypoints: Iterable[Sequence[float]], now_s: float) -> GoalDecision:
         """Replace the current goal with waypoints followed in order; refused whole if one is outside the area."""
-        points = [tuple(float(v) for v in point) for point in waypoints]
-        if not points or any(len(p) != 2 for p in points):
-            return self._refuse("a path needs at least one waypoint, each (x_m, y_m)")
+        try:
+            points = [(float(x), float(y)) for x, y in waypoints]
+        except (TypeError, ValueError):
+            return self._refuse("a path is a list of waypoints, each (x_m, y_m)")
+        if not points:
+            return self._refuse("a path needs at least one waypoint")
         for i, (x, y) in enumerate(points):
             reason = self.area.refusal(x, y) if self.area is not None else (
-                "" if math.isfinite(x) and math.isfinite(y) else f"goal ({x}, {y}) is not a finite floor position")
+                "" if math.isfinite(x) and math.isfinite(y) else f"goal ({x}, {y}) is not a finite floor position (m)")
             if reason:
                 return self._refuse(reason if len(points) == 1 else f"waypoint {i + 1} of {len(points)}: {reason}")
-        self._goals, self._index, self._pivot_sign = points, 0, 0
+        self._goals, self._index, self._backing_from = points, 0, None
         self.state, self._started_s = NavigationState.DRIVING, float(now_s)
         self._best = (math.inf, float(now_s))
         self._last_pose_s = max(self._last_pose_s, float(now_s))
@@ -214,12 +145,14 @@ class NavigationController:
                          "the camera's view or the tracker silent; send a new goal once it is tracked again")
         return self._command
 
-    # ------------------------------------------------------------------ driving
-    @property
-    def goal(self) -> tuple[float, float] | None:
-        """The goal now driven to, None when there is none."""
-        return self._goals[self._index] if self._goals else None
+    def update_gait_phase(self, phase: float) -> None:
+        """The gait player's phase in [0, 1) now (feed it with every pose: the robot is stopped at set phases)."""
+        phase = float(phase)
+        if not math.isfinite(phase):
+            raise InvalidInputError(f"phase: {phase!r}; expected a finite gait phase in [0, 1).")
+        self._phase = phase % 1.0
 
+    # ------------------------------------------------------------------ driving
     def _drive(self, pose: Pose2D) -> None:
         distance = self._distance(pose)
         if self._stalled(pose.time_s, distance):
@@ -230,43 +163,18 @@ class NavigationController:
             self._message = f"waypoint reached; driving to goal {self._index + 1} of {len(self._goals)}"
             distance = self._distance(pose)
         self._learn(pose.time_s)
-        errors = self._errors(pose)
-        best = min(DIRECTIONS, key=lambda d: abs(errors[d]))
-        if self._index == len(self._goals) - 1 and self._should_stop(pose, best, distance):
-            self._begin_stop(pose, best)
+        errors, distances = self._aims(pose)
+        crossed = self._crossed_stop_phase(pose.time_s)
+        if self._backing_from is None and self._index == len(self._goals) - 1 and crossed is not None \
+                and self._rest_error_m(pose, crossed) <= STOP_WITHIN * self.settings.goal_tolerance_m:
+            self._begin_stop(pose, crossed)
             return
-        direction, wanted_deg = self._steer(pose.time_s, errors, best)
+        direction, wanted_deg = self._steer(pose.time_s, errors, distances)
         frequency = (self.settings.approach_frequency_hz if distance < self.settings.approach_distance_m
                      else self.settings.cruise_frequency_hz)
         level = self._choose_level(pose.time_s, direction, wanted_deg)
         self._set_command(pose.time_s, GaitCommand(direction, float(self.settings.turn_levels_rad[level]),
                                                    self.settings.amplitude_bar, frequency, self._message), level)
-
-    def _steer(self, now_s: float, errors: dict[str, float], best: str) -> tuple[str, float]:
-        """The direction to roll and the turn rate to ask (deg per cycle, counter-clockwise positive).
-
-        A goal far off both travel directions (along the body axis) is turned to in place: strokes of the two
-        directions alternate, each turning the same way (a pivot), until one direction faces the goal.
-        """
-        settings, current = self.settings, self._command.direction
-        limit = settings.max_turn_rate_deg_per_cycle
-        self._heading_error_rad = errors[best]
-        if self._pivot_sign and abs(errors[best]) < settings.pivot_exit_rad:
-            self._pivot_sign = 0
-        elif not self._pivot_sign and abs(errors[best]) > settings.pivot_enter_rad:
-            self._pivot_sign = 1 if errors[best] > 0 else -1
-        if self._pivot_sign:
-            direction = best if current not in DIRECTIONS else current
-            if current in DIRECTIONS and now_s - self._changed_s >= self._hold_s(settings.pivot_stroke_cycles):
-                direction = DIRECTIONS[1 - DIRECTIONS.index(current)]
-            return direction, self._pivot_sign * limit
-        direction = best
-        if current in errors and best != current:
-            held = now_s - self._changed_s >= self._hold_s(settings.min_hold_cycles)
-            if not held or abs(errors[best]) + settings.direction_hysteresis_rad > abs(errors[current]):
-                direction = current
-        self._heading_error_rad = errors[direction]
-        return direction, max(-limit, min(limit, settings.heading_gain * math.degrees(errors[direction])))
 
     def _distance(self, pose: Pose2D) -> float:
         gx, gy = self.goal
@@ -288,13 +196,69 @@ class NavigationController:
         level = self._level if direction == self._command.direction else None
         return self.history.smoothed_yaw_rad(period) + self.travel.offset(direction, level)
 
-    def _errors(self, pose: Pose2D) -> dict[str, float]:
-        gx, gy = self.goal
-        bearing = math.atan2(gy - pose.y_m, gx - pose.x_m)
-        return {d: wrap_rad(bearing - self._travel_heading_rad(d)) for d in DIRECTIONS}
+    def _aims(self, pose: Pose2D) -> tuple[dict[str, float], dict[str, float]]:
+        """Per direction: heading error (rad) and distance (m) to its aim point.
+
+        The aim point is the goal; for the last goal, the goal less where the robot rolls on after a stop
+        (the pose must pass there for the robot to rest on the goal).
+        """
+        errors, distances = {}, {}
+        final = self._index == len(self._goals) - 1
+        for direction in DIRECTIONS:
+            heading = self._travel_heading_rad(direction)
+            aim = np.asarray(self.goal) - (self.stops.mean_rest_offset(direction, heading) if final else 0.0)
+            dx, dy = aim[0] - pose.x_m, aim[1] - pose.y_m
+            errors[direction] = wrap_rad(math.atan2(dy, dx) - heading)
+            distances[direction] = math.hypot(dx, dy)
+        return errors, distances
 
     def _hold_s(self, cycles: float) -> float:
         return cycles / max(self._command.frequency_hz, 1e-3)
+
+    def _steer(self, now_s: float, errors: dict[str, float], distances: dict[str, float]) -> tuple[str, float]:
+        """The direction to roll and the turn rate to ask (deg per cycle, counter-clockwise positive)."""
+        settings, limit = self.settings, self.settings.max_turn_rate_deg_per_cycle
+        if self._backing_from is not None:
+            toward = self._backing_from
+            error, distance_m = errors[toward], distances[toward]
+            self._heading_error_rad = error
+            held = now_s - self._changed_s >= self._hold_s(settings.min_hold_cycles)
+            if not held or self._out_of_reach(toward, error, distance_m, 1.2):
+                return _other(toward), math.copysign(limit, error)
+            self._backing_from = None
+        direction = self._choose_direction(now_s, errors)
+        error, distance_m = errors[direction], distances[direction]
+        self._heading_error_rad = error
+        if self._out_of_reach(direction, error, distance_m, 1.0):
+            self._backing_from = direction
+            self._message = "the goal is too close to the side to turn to: backing away while turning"
+            return _other(direction), math.copysign(limit, error)
+        level = self._level if direction == self._command.direction and self._level is not None else None
+        travel = self.travel.travel_m[direction][len(self.travel.levels_rad) // 2 if level is None else level]
+        arc_deg = math.degrees(2.0 * math.sin(error) * float(travel) / max(distance_m, 1e-3))
+        return direction, max(-limit, min(limit, settings.pursuit_gain * arc_deg))
+
+    def _choose_direction(self, now_s: float, errors: dict[str, float]) -> str:
+        """The direction nearer the goal's bearing; the current one kept unless the other is clearly nearer."""
+        best = min(DIRECTIONS, key=lambda d: abs(errors[d]))
+        current = self._command.direction
+        if current in errors and best != current:
+            held = now_s - self._changed_s >= self._hold_s(self.settings.min_hold_cycles)
+            if not held or abs(errors[best]) + self.settings.direction_hysteresis_rad > abs(errors[current]):
+                return current
+        return best
+
+    def _out_of_reach(self, direction: str, error: float, distance_m: float, margin: float) -> bool:
+        """True when the goal lies inside the tightest turn toward it and a straight line would miss it."""
+        if abs(error) >= 0.5 * math.pi or distance_m * abs(math.sin(error)) <= \
+                STRAIGHT_WITHIN * self.settings.goal_tolerance_m:
+            return False
+        sign = 1 if error >= 0.0 else -1
+        index, rate_deg = self.turns.fastest_deg(direction, sign)
+        if rate_deg * sign <= 1.0:
+            return True
+        diameter = 2.0 * float(self.travel.travel_m[direction][index]) / math.radians(abs(rate_deg))
+        return distance_m < margin * self.settings.reach_margin * diameter * abs(math.sin(error))
 
     def _choose_level(self, now_s: float, direction: str, wanted_deg: float) -> int:
         same = self._command.direction == direction and self._level is not None
@@ -304,9 +268,11 @@ class NavigationController:
 
     def _set_command(self, now_s: float, command: GaitCommand, level: int | None) -> None:
         old = self._command
+        if command.direction != old.direction:
+            self._direction_since_s = now_s
         if (command.direction, command.turn_phase_rad) != (old.direction, old.turn_phase_rad):
             self._changed_s = self._measured_s = now_s
-            self._settle_cycles = START_SETTLE_CYCLES if not old.moving else SETTLE_CYCLES
+            self._settle_cycles = START_SETTLE_CYCLES if command.direction != old.direction else SETTLE_CYCLES
         elif command.frequency_hz != old.frequency_hz:
             self._measured_s = now_s
         self._level = level
@@ -323,42 +289,43 @@ class NavigationController:
             return
         cycle = measure_cycle(self.history, period)
         self._measured_s = now_s
-        if cycle is None:
-            return
-        scale = command.frequency_hz / self.settings.cruise_frequency_hz
-        if abs(scale - 1.0) < 1e-9:   # the map and the levels' estimates are for the cruise frequency
-            self.turns.learn(command.direction, self._level, cycle.turn_deg)
+        if cycle is None or abs(command.frequency_hz - self.settings.cruise_frequency_hz) > 1e-9:
+            return                       # the map and the estimates are per cycle at the cruise frequency
+        self.turns.learn(command.direction, self._level, cycle.turn_deg)
         self.travel.learn(command.direction, self._level, cycle)
 
     # ------------------------------------------------------------------ stopping
-    def _should_stop(self, pose: Pose2D, direction: str, distance: float) -> bool:
-        """Stop where the robot will rest within the tolerance, or at the closest pass inside it."""
-        tolerance = self.settings.goal_tolerance_m
-        heading = self._travel_heading_rad(direction)
-        gx, gy = self.goal
-        rest_x = pose.x_m + self.stop_lead_m * math.cos(heading)
-        rest_y = pose.y_m + self.stop_lead_m * math.sin(heading)
-        if math.hypot(gx - rest_x, gy - rest_y) <= 0.6 * tolerance:
-            return True
-        ahead = (gx - pose.x_m) * math.cos(heading) + (gy - pose.y_m) * math.sin(heading)
-        return distance <= tolerance and ahead <= self.stop_lead_m
+    def _crossed_stop_phase(self, now_s: float) -> int | None:
+        """The stop phase the gait passed since the last pose, once the direction has played long enough."""
+        before, self._phase_seen = self._phase_seen, self._phase
+        command = self._command
+        if not command.moving or before is None or self._phase is None:
+            return None
+        if now_s - self._direction_since_s < STOP_AFTER_CYCLES / command.frequency_hz:
+            return None
+        return crossed_phase(before, self._phase, command.reverse)
 
-    def _begin_stop(self, pose: Pose2D, direction: str) -> None:
+    def _rest_error_m(self, pose: Pose2D, phase_index: int) -> float:
+        """How far from the goal the robot would rest if stopped now."""
+        direction = self._command.direction
+        offset = self.stops.rest_offset(direction, phase_index, self._travel_heading_rad(direction))
+        gx, gy = self.goal
+        return math.hypot(gx - pose.x_m - offset[0], gy - pose.y_m - offset[1])
+
+    def _begin_stop(self, pose: Pose2D, phase_index: int) -> None:
+        direction = self._command.direction
         self.state = NavigationState.STOPPING
-        self._stop_pose, self._stop_direction = pose, direction
+        self._stop = (pose, direction, self._travel_heading_rad(direction), phase_index)
         self._message = f"stopping at {self._distance(pose):.3f} m from the goal; waiting for the robot to rest"
         self._command = self._stop_command(self._message)
-        self._changed_s = pose.time_s
         self._level = None
 
     def _settle(self, pose: Pose2D) -> None:
-        start = self._stop_pose
+        """After ``settle_s`` at rest: learn where the robot came to rest, then reached or drive on."""
+        start, direction, heading, phase_index = self._stop
         if pose.time_s - start.time_s < self.settings.settle_s:
             return
-        heading = self._travel_heading_rad(self._stop_direction)
-        coast = (pose.x_m - start.x_m) * math.cos(heading) + (pose.y_m - start.y_m) * math.sin(heading)
-        rate = self.settings.learning_rate
-        self.stop_lead_m = max(0.0, (1.0 - rate) * self.stop_lead_m + rate * coast)
+        self.stops.learn(direction, phase_index, heading, np.array([pose.x_m - start.x_m, pose.y_m - start.y_m]))
         distance = self._distance(pose)
         if distance <= self.settings.goal_tolerance_m:
             self._finish(NavigationState.REACHED, f"goal reached: resting {distance:.3f} m from it "
@@ -371,6 +338,7 @@ class NavigationController:
         self.state, self._message = state, message
         self._command = self._stop_command(message)
         self._level = None
+        self._backing_from = None
 
     def _stop_command(self, reason: str) -> GaitCommand:
         return GaitCommand(None, 0.0, self.settings.amplitude_bar, self.settings.cruise_frequency_hz, reason)
@@ -384,5 +352,6 @@ class NavigationController:
         if goal is not None and len(last):
             distance = math.hypot(goal[0] - last[-1, 1], goal[1] - last[-1, 2])
         return NavigationProgress(self.state, goal, self._index, len(self._goals), distance,
-                                  self._heading_error_rad if self.state.active else 0.0, self._command.direction or "",
-                                  self._command.turn_phase_rad, float(now_s) - self._started_s, self._message)
+                                  self._heading_error_rad if self.state.active else 0.0,
+                                  self._command.direction or "", self._command.turn_phase_rad,
+                                  float(now_s) - self._started_s, self._message)

@@ -18,6 +18,9 @@ from srs_ros.core.navigation.settings import DIRECTIONS, TurningMap
 
 #: Spread of one level's correction to its neighbours (rad of turn_phase): a measured bias is shared.
 NEIGHBOUR_SPREAD_RAD = 0.2
+#: The travel direction learned stays within this of square to the body (rad): a rolling body travels roughly
+#: across its axis; a cycle measured beyond it (a reversal, a flop of the body) is not taken.
+MAX_TRAVEL_SKEW_RAD = math.radians(60.0)
 #: A level is kept unless another one comes this much closer to the asked rate (deg per cycle).
 LEVEL_HYSTERESIS_DEG = 2.0
 
@@ -134,9 +137,11 @@ class TurnModel:
             return current_index
         return best
 
-    def span_deg(self, direction: str) -> tuple[float, float]:
-        """The lowest and highest turn rate (deg per cycle) the direction is believed to reach."""
-        return float(self.rates[direction].min()), float(self.rates[direction].max())
+    def fastest_deg(self, direction: str, sign: int) -> tuple[int, float]:
+        """The level turning fastest in the sense ``sign`` (+1 counter-clockwise) and its rate (deg per cycle)."""
+        rates = self.rates[direction] * sign
+        index = int(np.argmax(rates))
+        return index, float(self.rates[direction][index])
 
 
 class TravelModel:
@@ -146,11 +151,12 @@ class TravelModel:
     turn), so each level has its own estimate; a measured level shares its correction with unmeasured ones.
     """
 
-    def __init__(self, levels_rad, learning_rate: float):
+    def __init__(self, levels_rad, learning_rate: float, turning_map: TurningMap):
         self.levels_rad = np.asarray(levels_rad, dtype=np.float64)
         self.learning_rate = float(learning_rate)
         self.offset_rad = {d: np.full(len(self.levels_rad), sign * math.pi / 2)
                            for d, sign in zip(DIRECTIONS, (1.0, -1.0))}
+        self.travel_m = {d: turning_map[d].travel_at(self.levels_rad).astype(np.float64) for d in DIRECTIONS}
         self.measured = {d: np.zeros(len(self.levels_rad), dtype=int) for d in DIRECTIONS}
 
     def offset(self, direction: str, level_index: int | None) -> float:
@@ -166,10 +172,14 @@ class TravelModel:
         if math.hypot(dx, dy) < min_travel_m:
             return
         measured = wrap_rad(math.atan2(dy, dx) - cycle.mean_yaw_rad)
+        square = math.pi / 2 if direction == DIRECTIONS[0] else -math.pi / 2
+        if abs(wrap_rad(measured - square)) > MAX_TRAVEL_SKEW_RAD:
+            return
         error = wrap_rad(measured - self.offset_rad[direction][level_index])
         spread = np.exp(-np.abs(self.levels_rad - self.levels_rad[level_index]) / NEIGHBOUR_SPREAD_RAD)
         weight = np.where(self.measured[direction] == 0, spread, 0.0)
         weight[level_index] = 1.0
         offsets = self.offset_rad[direction] + self.learning_rate * error * weight
         self.offset_rad[direction] = (offsets + math.pi) % (2.0 * math.pi) - math.pi
+        self.travel_m[direction] += self.learning_rate * (math.hypot(dx, dy) - self.travel_m[direction]) * weight
         self.measured[direction][level_index] += 1

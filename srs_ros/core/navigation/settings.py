@@ -9,6 +9,7 @@ It is only the controller's first guess; the controller corrects it online from 
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, fields
@@ -23,6 +24,12 @@ from srs_ros.core.schema import Field, Table, check_known, refusal, section
 
 #: The two rolling directions the navigator drives (the robot rolls roughly across its body axis).
 DIRECTIONS = ("inward_rolling", "outward_rolling")
+#: Gait phases at which the navigator stops the robot: stopped at one phase, it comes to rest at the same
+#: place relative to its pose every time (within millimetres); stopped anywhere, within +-10 cm.
+STOP_PHASES = (0.0, 0.25, 0.5, 0.75)
+#: Where a stopped robot is first assumed to rest, (along, across) its travel from the stop (m), at each stop
+#: phase: it rolls on while the gait ramps out and its reference point moves as the curled body straightens.
+DEFAULT_STOP_OFFSET_M = (0.1, 0.0) * len(STOP_PHASES)
 #: Default turning map file (``config/``).
 DEFAULT_TURNING_MAP_FILE = "turning_map.yaml"
 
@@ -37,24 +44,19 @@ NAVIGATION_TABLE = Table("navigation", (
     Field("cruise_frequency_hz", float, 1.0, 0.1, 2.0, "Hz", "cycle frequency away from the goal"),
     Field("approach_frequency_hz", float, 1.0, 0.1, 2.0, "Hz", "cycle frequency within approach_distance_m"),
     Field("approach_distance_m", float, 0.2, 0.0, 5.0, "m", "closer than this the gait slows down"),
-    Field("heading_gain", float, 0.6, 0.05, 2.0, "per cycle",
-          "turn rate asked per cycle = this x the heading error"),
+    Field("pursuit_gain", float, 1.5, 0.2, 5.0, "",
+          "turn rate asked = this x the rate of the arc through the goal (pure pursuit)"),
     Field("max_turn_rate_deg_per_cycle", float, 30.0, 1.0, 180.0, "deg per cycle", "largest turn rate asked"),
-    Field("turn_levels_rad", list, (-0.5, -0.35, -0.2, -0.1, 0.0, 0.1, 0.2, 0.35, 0.5), -0.6, 0.6, "rad",
+    Field("turn_levels_rad", list, (-0.5, -0.35, -0.2, 0.0, 0.2, 0.35, 0.5), -0.6, 0.6, "rad",
           "the turn_phase_rad values the controller chooses from", item=float, nonempty=True),
     Field("min_hold_cycles", float, 1.0, 0.0, 10.0, "cycles",
           "a gait direction or turn level is kept at least this long"),
-    Field("pivot_enter_rad", float, 1.05, 0.2, 3.2, "rad",
-          "a heading error beyond this in both directions (a goal along the body axis): turn in place"),
-    Field("pivot_exit_rad", float, 0.6, 0.0, 3.2, "rad", "the turn in place ends below this heading error"),
-    Field("pivot_stroke_cycles", float, 1.0, 0.25, 10.0, "cycles",
-          "turning in place alternates the two rolling directions after this many cycles each"),
+    Field("reach_margin", float, 1.3, 1.0, 5.0, "",
+          "a goal closer to the side than the tightest turn can reach (times this) is first backed away from"),
     Field("direction_hysteresis_rad", float, 0.35, 0.0, 1.5, "rad",
           "the other rolling direction is taken when its heading error is smaller by this much"),
     Field("learning_rate", float, 0.5, 0.0, 1.0, "",
           "weight of a new per-cycle measurement in the online turn-rate and travel-direction estimates"),
-    Field("stop_lead_m", float, 0.02, 0.0, 0.5, "m",
-          "first guess of how far the robot rolls on after a stop (learned from each stop)"),
     Field("settle_s", float, 1.5, 0.0, 30.0, "s",
           "after a stop near the goal, wait this long for the robot to rest before checking the tolerance"),
     Field("stall_timeout_s", float, 60.0, 1.0, 3600.0, "s",
@@ -73,6 +75,10 @@ class DirectionMap:
     turn_phase_rad: np.ndarray
     turn_rate_deg_per_cycle: np.ndarray
     travel_m_per_cycle: np.ndarray
+    #: Where the robot rests after a stop at each of :data:`STOP_PHASES` (rows), from where the stop was
+    #: commanded: (along, across) its travel (m).
+    stop_offset_m: np.ndarray = dataclasses.field(
+        default_factory=lambda: np.reshape(DEFAULT_STOP_OFFSET_M, (len(STOP_PHASES), 2)))
 
     def rate_at(self, turn_phase_rad) -> np.ndarray:
         """The mapped turn rate (deg per cycle) at ``turn_phase_rad`` (linear between points, flat outside)."""
@@ -107,6 +113,9 @@ _DIRECTION_TABLE = Table("turning_map.<direction>", (
     Field("turn_rate_deg_per_cycle", list, item=float, minimum=-360.0, maximum=360.0, unit="deg per cycle",
           nonempty=True),
     Field("travel_m_per_cycle", list, item=float, minimum=0.0, maximum=10.0, unit="m", nonempty=True),
+    Field("stop_offset_m", list, DEFAULT_STOP_OFFSET_M, -1.0, 1.0, "m",
+          f"rest point after a stop at each gait phase {list(STOP_PHASES)}: along, across the travel, in turn",
+          item=float, length=2 * len(STOP_PHASES)),
 ))
 
 
@@ -127,7 +136,8 @@ def turning_map_from_dict(data: Any, source: str = "<dict>") -> TurningMap:
             if len(values[name]) != len(phases):
                 raise refusal(source, table.key(name), values[name], f"{len(phases)} values, one per turn_phase_rad")
         directions[direction] = DirectionMap(phases, np.asarray(values["turn_rate_deg_per_cycle"], dtype=np.float64),
-                                             np.asarray(values["travel_m_per_cycle"], dtype=np.float64))
+                                             np.asarray(values["travel_m_per_cycle"], dtype=np.float64),
+                                             np.reshape(values["stop_offset_m"], (len(STOP_PHASES), 2)))
     return TurningMap(head["amplitude_bar"], head["frequency_hz"], head["conditions"], directions, source)
 
 
@@ -148,16 +158,13 @@ class NavigationSettings:
     cruise_frequency_hz: float
     approach_frequency_hz: float
     approach_distance_m: float
-    heading_gain: float
+    pursuit_gain: float
     max_turn_rate_deg_per_cycle: float
     turn_levels_rad: tuple[float, ...]
     min_hold_cycles: float
-    pivot_enter_rad: float
-    pivot_exit_rad: float
-    pivot_stroke_cycles: float
+    reach_margin: float
     direction_hysteresis_rad: float
     learning_rate: float
-    stop_lead_m: float
     settle_s: float
     stall_timeout_s: float
     stall_distance_m: float

@@ -1,0 +1,103 @@
+"""What the navigator says: its state, the gait command for the nodes, the answer to a goal, its progress."""
+
+from __future__ import annotations
+
+import enum
+import math
+from dataclasses import dataclass
+
+#: The gait whose cycle the navigator plays (forward: inward rolling, backward: outward rolling).
+GAIT = "inward_rolling"
+
+
+class NavigationState(enum.Enum):
+    """Where the navigator is. REACHED, CANCELLED, POSE_LOST and FAILED are stopped until a new goal."""
+
+    IDLE = "idle"
+    DRIVING = "driving"
+    STOPPING = "stopping"
+    REACHED = "reached"
+    CANCELLED = "cancelled"
+    POSE_LOST = "pose_lost"
+    FAILED = "failed"
+
+    @property
+    def active(self) -> bool:
+        """True while the navigator is working toward a goal."""
+        return self in (NavigationState.DRIVING, NavigationState.STOPPING)
+
+
+@dataclass(frozen=True)
+class GaitCommand:
+    """What the gait should do now. ``direction`` None: stop (ramp out, all pressures to 0 bar).
+
+    ``direction`` is ``inward_rolling`` or ``outward_rolling``. Both are played as the one cycle of :data:`GAIT`
+    (its ``turn_phase_rad`` set), outward rolling by playing it backward in time (:attr:`reverse`): outward
+    rolling is inward rolling reversed in time, and a reversal then ramps the signed frequency through 0
+    instead of cross-fading two different shapes (which makes the body flop over).
+    """
+
+    direction: str | None
+    turn_phase_rad: float
+    amplitude_bar: float
+    frequency_hz: float
+    reason: str = ""
+
+    @property
+    def moving(self) -> bool:
+        """True when a gait is to be played."""
+        return self.direction is not None
+
+    @property
+    def gait(self) -> str:
+        """The gait whose cycle is played (the trajectory_server's ``gait``)."""
+        return GAIT
+
+    @property
+    def reverse(self) -> bool:
+        """True when the cycle is played backward (outward rolling)."""
+        return self.direction == "outward_rolling"
+
+    @property
+    def cycle_key(self) -> tuple[str, float, float]:
+        """What needs a new cycle when it changes: ``(gait, amplitude_bar, turn_phase_rad)``."""
+        return (GAIT, self.amplitude_bar, self.turn_phase_rad)
+
+
+@dataclass(frozen=True)
+class GoalDecision:
+    """The answer to a goal: accepted, or refused with the reason."""
+
+    accepted: bool
+    reason: str
+
+
+@dataclass(frozen=True)
+class NavigationProgress:
+    """The navigator's progress, for a topic and ``/diagnostics``."""
+
+    state: NavigationState
+    goal_xy_m: tuple[float, float] | None
+    goal_index: int
+    goal_count: int
+    distance_to_go_m: float
+    heading_error_rad: float
+    direction: str
+    turn_phase_rad: float
+    elapsed_s: float
+    message: str
+
+    @property
+    def level(self) -> str:
+        """``OK``, ``WARN`` (failed, cancelled) or ``ERROR`` (pose lost) for ``/diagnostics``."""
+        if self.state is NavigationState.POSE_LOST:
+            return "ERROR"
+        return "WARN" if self.state in (NavigationState.FAILED, NavigationState.CANCELLED) else "OK"
+
+    def values(self) -> dict[str, str]:
+        """Key/values of a ``/diagnostics`` status (all text)."""
+        goal = "none" if self.goal_xy_m is None else f"{self.goal_xy_m[0]:.3f}, {self.goal_xy_m[1]:.3f}"
+        return {"state": self.state.value, "goal_m": goal, "goal": f"{self.goal_index + 1} of {self.goal_count}",
+                "distance_to_go_m": f"{self.distance_to_go_m:.3f}",
+                "heading_error_deg": f"{math.degrees(self.heading_error_rad):.1f}", "direction": self.direction,
+                "turn_phase_rad": f"{self.turn_phase_rad:.3f}", "elapsed_s": f"{self.elapsed_s:.1f}"}

@@ -1,0 +1,58 @@
+"""Where the robot comes to rest after a stop, learned per rolling direction and gait phase.
+
+A rolling body is curled; stopped, it rolls on while the gait ramps out and straightens, and its reference
+point (the midpoint of its end markers) moves by up to 0.3 m. Stopped at one gait phase it rests at the
+same place relative to its pose every time (millimetres), stopped anywhere within +-10 cm. So the navigator
+stops only as the gait passes one of :data:`~srs_ros.core.navigation.settings.STOP_PHASES`, and predicts the
+resting point from the offset learned at that phase.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from srs_ros.core.navigation.settings import DIRECTIONS, STOP_PHASES, TurningMap
+
+
+def crossed_phase(before: float, after: float, reverse: bool) -> int | None:
+    """The index of the stop phase passed going from phase ``before`` to ``after`` (backward if ``reverse``)."""
+    step = (before - after) % 1.0 if reverse else (after - before) % 1.0
+    if step > 0.5:                     # a jump, not a step of the gait
+        return None
+    for index, phase in enumerate(STOP_PHASES):
+        to_phase = (before - phase) % 1.0 if reverse else (phase - before) % 1.0
+        if 0.0 < to_phase <= step or (to_phase == 0.0 and step > 0.0):
+            return index
+    return None
+
+
+def rotate(along_across: np.ndarray, heading_rad: float) -> np.ndarray:
+    """(along, across) a heading -> floor (x, y)."""
+    cos, sin = math.cos(heading_rad), math.sin(heading_rad)
+    along, across = along_across
+    return np.array([along * cos - across * sin, along * sin + across * cos])
+
+
+class StopModel:
+    """Per direction and stop phase, where the robot rests after a stop: (along, across) its travel (m)."""
+
+    def __init__(self, turning_map: TurningMap, learning_rate: float):
+        self.learning_rate = float(learning_rate)
+        self.offset_m = {d: np.array(turning_map[d].stop_offset_m, dtype=np.float64) for d in DIRECTIONS}
+
+    def rest_offset(self, direction: str, phase_index: int, heading_rad: float) -> np.ndarray:
+        """Where the robot will rest, relative to its pose (floor frame, m), if stopped now at the phase."""
+        return rotate(self.offset_m[direction][phase_index], heading_rad)
+
+    def learn(self, direction: str, phase_index: int, heading_rad: float, moved_m: np.ndarray) -> None:
+        """Take the measured move from the stop to the rest (floor frame) into the phase's estimate."""
+        cos, sin = math.cos(heading_rad), math.sin(heading_rad)
+        measured = np.array([moved_m[0] * cos + moved_m[1] * sin, -moved_m[0] * sin + moved_m[1] * cos])
+        offsets = self.offset_m[direction]
+        offsets[phase_index] += self.learning_rate * (measured - offsets[phase_index])
+
+    def mean_rest_offset(self, direction: str, heading_rad: float) -> np.ndarray:
+        """:meth:`rest_offset` averaged over the stop phases (where to aim before knowing the phase)."""
+        return rotate(self.offset_m[direction].mean(axis=0), heading_rad)
