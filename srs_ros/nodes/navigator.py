@@ -6,6 +6,7 @@ Interface (relative names)::
                                                                 ignored
                 goal_path            nav_msgs/Path              waypoints followed in order
                 robot_pose           geometry_msgs/PoseStamped  camera_tracker's pose (never the simulator's truth)
+                gait_phase           sensor_msgs/JointState     gait_player's phase (the robot stops at set phases)
     publishes   navigation_progress  std_msgs/String (JSON)     reliable + transient_local, every update period
                 /diagnostics         diagnostic_msgs/DiagnosticArray  "navigator: navigation"
     services    ~/cancel             std_srvs/Trigger           stop (ramp out, vent); state cancelled
@@ -42,6 +43,7 @@ from geometry_msgs.msg import PoseStamped
 from nav_msgs.msg import Path
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.node import Node
+from sensor_msgs.msg import JointState
 from std_msgs.msg import String
 from std_srvs.srv import Trigger
 
@@ -59,6 +61,8 @@ from srs_ros.ros.gait_driver import GaitDriver
 from srs_ros.ros.interfaces import (
     DIAGNOSTICS_TOPIC,
     FLOOR_FRAME,
+    GAIT_PHASE_JOINT,
+    GAIT_PHASE_TOPIC,
     GOAL_PATH_TOPIC,
     GOAL_POSE_TOPIC,
     NAVIGATION_PROGRESS_TOPIC,
@@ -67,6 +71,7 @@ from srs_ros.ros.interfaces import (
     diagnostic_status,
     latched_qos,
     progress_message,
+    setpoint_qos,
     stamp_to_seconds,
 )
 from srs_ros.ros.parameters import ParameterSpec, check_parameters, declare_parameters
@@ -77,9 +82,11 @@ NODE_NAME = "navigator"
 STATUS_NAME_SUFFIX = "navigation"
 
 #: Settings the controller reads once, when it is made: read-only parameters.
-STARTUP_SETTINGS = frozenset({"turn_levels_rad", "learning_rate", "stop_lead_m", "turning_map_file"})
+STARTUP_SETTINGS = frozenset({"turn_levels_rad", "learning_rate", "turning_map_file"})
 #: Rounds of a looped path given to the controller at once (it drives through them without stopping).
 LOOP_ROUNDS = 100
+#: A gait_phase message older than this is not extrapolated (the player stopped streaming), s.
+PHASE_MAX_AGE_S = 0.25
 
 
 def _setting_parameter(field) -> ParameterSpec:
@@ -160,7 +167,8 @@ class Navigator(Node):
         self._nav = NavigationController(self._settings(), self._floor_area())
         self._driver = GaitDriver(self, self._param("trajectory_server"), self._param("gait_player"),
                                   self._param("gait_keepalive_s"))
-        self._stamps = StampClock()
+        self._stamps, self._phase_stamps = StampClock(), StampClock()
+        self._phase: tuple[float, float, float] | None = None  # (steady s, phase, signed frequency Hz)
         self._path: list[tuple[float, float]] = []  # the goal or path as sent
         self._loop = False  # the path is patrolled
         self._refusal = ""  # the last refused goal's reason, until a goal is accepted
@@ -173,6 +181,7 @@ class Navigator(Node):
         self.create_subscription(PoseStamped, GOAL_POSE_TOPIC, self._on_goal_pose, 10)
         self.create_subscription(Path, GOAL_PATH_TOPIC, self._on_goal_path, 10)
         self.create_subscription(PoseStamped, POSE_TOPIC, self._on_pose, 10)
+        self.create_subscription(JointState, GAIT_PHASE_TOPIC, self._on_gait_phase, setpoint_qos())
         self.create_service(Trigger, "~/cancel", self._on_cancel)
         self.status_name = f"{self.get_name()}: {STATUS_NAME_SUFFIX}"
         steady_timer(self, 1.0 / self._param("update_rate_hz"), self._on_tick)
@@ -266,6 +275,28 @@ class Navigator(Node):
         return response
 
     # ------------------------------------------------------------- poses and time
+    def _on_gait_phase(self, msg: JointState) -> None:
+        if list(msg.name) != [GAIT_PHASE_JOINT] or len(msg.position) != 1 or len(msg.velocity) != 1:
+            self.get_logger().error(f"{GAIT_PHASE_TOPIC} ignored: names {list(msg.name)}; expected "
+                                    f"['{GAIT_PHASE_JOINT}'] with one position and one velocity",
+                                    throttle_duration_sec=5.0)
+            return
+        phase, frequency_hz = float(msg.position[0]), float(msg.velocity[0])
+        if math.isfinite(phase) and math.isfinite(frequency_hz):
+            steady = self._phase_stamps.steady_s(stamp_to_seconds(msg.header.stamp), time.monotonic())
+            self._phase = (steady, phase, frequency_hz)
+
+    def gait_phase_now(self, now: float) -> float | None:
+        """gait_player's phase now, from its last gait_phase message (None when that is older than 0.25 s).
+
+        The controller decides to stop as the gait passes set phases; the phase the stop will take effect at
+        is the one now (when the command is sent), not the one of the camera frame, which is older.
+        """
+        if self._phase is None or now - self._phase[0] > PHASE_MAX_AGE_S:
+            return None
+        stamp_s, phase, frequency_hz = self._phase
+        return (phase + frequency_hz * (now - stamp_s)) % 1.0
+
     def _on_pose(self, msg: PoseStamped) -> None:
         arrival = time.monotonic()
         if msg.header.frame_id not in ("", FLOOR_FRAME):
@@ -275,7 +306,10 @@ class Navigator(Node):
         q = msg.pose.orientation
         pose = Pose2D(msg.pose.position.x, msg.pose.position.y, yaw_from_quaternion(q.z, q.w, q.x, q.y),
                       self._stamps.steady_s(stamp_to_seconds(msg.header.stamp), arrival))
+        phase = self.gait_phase_now(arrival)
         try:
+            if phase is not None:
+                self._nav.update_gait_phase(phase)
             self._nav.update_pose(pose)
         except SrsError as exc:  # a NaN pose: ignored, the lost-pose check still runs on time
             self.get_logger().error(f"robot_pose ignored: {exc}", throttle_duration_sec=5.0)

@@ -4,6 +4,7 @@ Topic graph (relative names, remappable with ``--ros-args -r``)::
 
     trajectory_server --gait_trajectory (JointTrajectory, reliable+transient_local)--> gait_player
     gait_player       --joint_setpoints (JointState, best effort)--> hardware_node
+                      --gait_phase (JointState: the cycle's phase and signed frequency, best effort)--> navigator
     hardware_node     --commanded_pressure_bar / command_voltage_v (Float64MultiArray, labelled)
                       --actuator_state (JointState), /diagnostics (DiagnosticArray)
     hardware_node (sim backend) --sim/regulator_command--> sim_world --sim/regulator_monitor--> (back)
@@ -27,7 +28,7 @@ import numpy as np
 from builtin_interfaces.msg import Duration, Time
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
-from sensor_msgs.msg import Image
+from sensor_msgs.msg import Image, JointState
 from std_msgs.msg import Float64MultiArray, MultiArrayDimension, String
 
 from srs_ros.core.errors import InvalidInputError
@@ -36,6 +37,13 @@ TRAJECTORY_TOPIC = "gait_trajectory"
 
 
 SETPOINT_TOPIC = "joint_setpoints"
+
+
+#: gait_player's place in its cycle while it streams: sensor_msgs/JointState with one "joint"
+#: (:data:`GAIT_PHASE_JOINT`): position = the phase in cycles [0, 1), velocity = the signed playback frequency
+#: (cycles/s, negative while reversed), effort = the cycles played; stamp = the setpoint's. Best effort.
+GAIT_PHASE_TOPIC = "gait_phase"
+GAIT_PHASE_JOINT = "gait_phase"
 
 
 COMMANDED_PRESSURE_TOPIC = "commanded_pressure_bar"
@@ -72,6 +80,14 @@ def setpoint_qos(depth: int = 1) -> QoSProfile:
     """Best effort, volatile, depth 1: a stream where only the newest sample matters (no backlog after a stall)."""
     return QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=depth, reliability=ReliabilityPolicy.BEST_EFFORT,
                       durability=DurabilityPolicy.VOLATILE)
+
+
+def gait_phase_message(stamp: Time, phase: float, frequency_hz: float, cycles_done: float) -> JointState:
+    """A :data:`GAIT_PHASE_TOPIC` message."""
+    msg = JointState(name=[GAIT_PHASE_JOINT], position=[float(phase)], velocity=[float(frequency_hz)],
+                     effort=[float(cycles_done)])
+    msg.header.stamp = stamp
+    return msg
 
 
 def labelled_array(labels: Sequence[str], values) -> Float64MultiArray:

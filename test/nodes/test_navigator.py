@@ -48,7 +48,7 @@ def test_a_goal_is_reached_within_tolerance_then_the_gait_stops_and_every_muscle
     started_s = time.monotonic()
     reached = robot.wait_state({"reached", "failed", "pose_lost"}, 120.0, "the goal reached")
     took_s = time.monotonic() - started_s
-    assert reached["state"] == "reached", reached
+    assert reached["state"] == "reached", f"{reached}\n{robot.logs()}"
     robot.wait(robot.vented, 5.0, "every muscle vented after arrival")
     robot.client.spin_for(1.0)  # at rest: the last poses
     seen_m, true_m = (float(np.linalg.norm(robot.xy(p) - goal)) for p in (robot.tracked, robot.truth))
@@ -70,7 +70,7 @@ def test_a_new_goal_replaces_the_current_one_mid_way(robot):
     robot.goal(*second)
     robot.wait(lambda: robot.state()["goal_xy_m"] == pytest.approx(list(second)), 5.0, "the second goal taken over")
     reached = robot.wait_state({"reached", "failed", "pose_lost"}, 120.0, "the second goal reached")
-    assert reached["state"] == "reached", reached
+    assert reached["state"] == "reached", f"{reached}\n{robot.logs()}"
     assert reached["goal_xy_m"] == pytest.approx(list(second)) and reached["goal_count"] == 1
     robot.wait(robot.vented, 5.0, "the vent after arrival")
     robot.client.spin_for(1.0)
