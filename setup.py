@@ -71,6 +71,8 @@ setup(
             "sim_world = srs_ros.nodes.sim_world:main",
             "srs_sim = srs_ros.tools.sim_cli:main",
             "srs_sweep = srs_ros.tools.sweep_cli:main",
+            "srs_navigate = srs_ros.tools.navigate_cli:main",
+            "srs_turning = srs_ros.tools.turning_cli:main",
         ],
     },
 )

@@ -36,6 +36,8 @@ START_SETTLE_CYCLES = 1.5
 STOP_WITHIN = 0.8
 #: Cycles a direction must have been played before a stop counts on its learned resting point.
 STOP_AFTER_CYCLES = 1.0
+#: A cycle's displacement at least this long (m) gives the travel direction directly.
+MEASURED_TRAVEL_M = 0.02
 #: A straight line passing this close to the goal (times the tolerance) needs no three-point turn.
 STRAIGHT_WITHIN = 0.7
 
@@ -69,6 +71,8 @@ class NavigationController:
         self._phase: float | None = None
         self._phase_seen: float | None = None
         self._direction_since_s = 0.0
+        self._clock_s = 0.0
+        self._fresh_goal = False
         self._best = (math.inf, 0.0)
 
     # ------------------------------------------------------------------ goals
@@ -104,7 +108,7 @@ class NavigationController:
                 "" if math.isfinite(x) and math.isfinite(y) else f"goal ({x}, {y}) is not a finite floor position (m)")
             if reason:
                 return self._refuse(reason if len(points) == 1 else f"waypoint {i + 1} of {len(points)}: {reason}")
-        self._goals, self._index, self._backing_from = points, 0, None
+        self._goals, self._index, self._backing_from, self._fresh_goal = points, 0, None, True
         self.state, self._started_s = NavigationState.DRIVING, float(now_s)
         self._best = (math.inf, float(now_s))
         self._last_pose_s = max(self._last_pose_s, float(now_s))
@@ -126,7 +130,7 @@ class NavigationController:
         """Take a camera pose (older than the last one: ignored) and return the command for now."""
         if not self.history.add(pose):
             return self._command
-        self._last_pose_s = pose.time_s
+        self._last_pose_s = self._clock_s = pose.time_s
         if self.state is NavigationState.DRIVING:
             self._drive(pose)
         elif self.state is NavigationState.STOPPING:
@@ -192,9 +196,21 @@ class NavigationController:
         return False
 
     def _travel_heading_rad(self, direction: str) -> float:
-        period = 1.0 / max(self._command.frequency_hz, self.settings.cruise_frequency_hz)
-        level = self._level if direction == self._command.direction else None
-        return self.history.smoothed_yaw_rad(period) + self.travel.offset(direction, level)
+        """Where the robot travels now in ``direction``: measured while it rolls that way, else yaw + offset.
+
+        Measured: the direction of the last cycle's displacement, turned on by the yaw turned since the middle
+        of that cycle (the displacement lags the turn by half a cycle).
+        """
+        command = self._command
+        period = 1.0 / max(command.frequency_hz, self.settings.cruise_frequency_hz)
+        yaw_now = self.history.smoothed_yaw_rad(period)
+        if direction == command.direction and self._clock_s - self._direction_since_s >= 1.5 * period:
+            cycle = measure_cycle(self.history, period)
+            if cycle is not None and float(np.hypot(*cycle.displacement_m)) >= MEASURED_TRAVEL_M:
+                dx, dy = cycle.displacement_m
+                return math.atan2(dy, dx) + (yaw_now - cycle.mean_yaw_rad)
+        level = self._level if direction == command.direction else None
+        return yaw_now + self.travel.offset(direction, level)
 
     def _aims(self, pose: Pose2D) -> tuple[dict[str, float], dict[str, float]]:
         """Per direction: heading error (rad) and distance (m) to its aim point.
@@ -241,8 +257,8 @@ class NavigationController:
     def _choose_direction(self, now_s: float, errors: dict[str, float]) -> str:
         """The direction nearer the goal's bearing; the current one kept unless the other is clearly nearer."""
         best = min(DIRECTIONS, key=lambda d: abs(errors[d]))
-        current = self._command.direction
-        if current in errors and best != current:
+        current, fresh, self._fresh_goal = self._command.direction, self._fresh_goal, False
+        if current in errors and best != current and not fresh:
             held = now_s - self._changed_s >= self._hold_s(self.settings.min_hold_cycles)
             if not held or abs(errors[best]) + self.settings.direction_hysteresis_rad > abs(errors[current]):
                 return current

@@ -1,0 +1,193 @@
+"""The navigation controller against a kinematic stand-in of the rolling robot (fast, no physics).
+
+The stand-in rolls across its body axis, turns at rates that are NOT those of the controller's turn map
+(biased and scaled), rests at a phase-dependent offset after a stop, and reports the gait phase, so these
+tests check the controller's logic and that it corrects a wrong model online. Physics: test/sim/test_navigation.py.
+"""
+
+import math
+
+import numpy as np
+import pytest
+
+from srs_ros.core.errors import ConfigurationError, InvalidInputError
+from srs_ros.core.navigation import (
+    FloorArea,
+    NavigationController,
+    NavigationState,
+    Pose2D,
+    load_navigation_settings,
+)
+from srs_ros.core.navigation.settings import DIRECTIONS, STOP_PHASES, DirectionMap, TurningMap
+
+LEVELS = np.array([-0.5, -0.35, -0.2, 0.0, 0.2, 0.35, 0.5])
+#: The map the controller is given: symmetric, +-20 deg per cycle.
+MAP = TurningMap(4.0, 1.0, "test", {
+    d: DirectionMap(LEVELS, -40.0 * LEVELS, np.full(len(LEVELS), 0.09),
+                    np.tile([0.05, 0.0], (len(STOP_PHASES), 1))) for d in DIRECTIONS})
+AREA = FloorArea(np.array([[-1.4, -1.0], [1.4, -1.0], [1.4, 1.0], [-1.4, 1.0]]), 0.25, "test area")
+FRAME_S = 1.0 / 30.0
+
+
+class Roller:
+    """A kinematic rolling robot: travels across its yaw, turns per level (its own rates), rests after a stop."""
+
+    def __init__(self, bias_deg=6.0, scale=0.7, rest_m=(0.12, 0.18, 0.09, 0.15)):
+        self.x = self.y = self.yaw = self.phase = 0.0
+        self.bias_deg, self.scale, self.rest_m = bias_deg, scale, rest_m
+        self.rest: tuple[float, np.ndarray] | None = None
+
+    def step(self, command, now_s: float) -> None:
+        if not command.moving:
+            if self.rest is None and hasattr(self, "_heading"):
+                index = min(range(len(STOP_PHASES)), key=lambda i: abs((self.phase - STOP_PHASES[i] + 0.5) % 1 - 0.5))
+                offset = self.rest_m[index] * np.array([math.cos(self._heading), math.sin(self._heading)])
+                self.rest = (now_s + 0.8, np.array([self.x, self.y]) + offset)
+            if self.rest is not None and now_s >= self.rest[0]:
+                self.x, self.y = self.rest[1]
+            return
+        self.rest = None
+        sign = 1.0 if command.direction == "inward_rolling" else -1.0
+        rate_deg = self.scale * (-40.0 * command.turn_phase_rad) + self.bias_deg
+        self.yaw += math.radians(rate_deg) * command.frequency_hz * FRAME_S
+        self._heading = self.yaw + sign * math.pi / 2
+        travel = 0.09 * command.frequency_hz * FRAME_S
+        self.x += travel * math.cos(self._heading)
+        self.y += travel * math.sin(self._heading)
+        self.phase = (self.phase + sign * command.frequency_hz * FRAME_S) % 1.0
+
+    def pose(self, now_s: float) -> Pose2D:
+        return Pose2D(self.x, self.y, self.yaw, now_s)
+
+
+def settings(**overrides):
+    return load_navigation_settings(overrides, turning_map=MAP)
+
+
+def drive(controller, roller, until_s, start_s=0.0, lost_after_s=math.inf):
+    now = start_s
+    while now < until_s:
+        controller.update_gait_phase(roller.phase)
+        if now < lost_after_s:
+            controller.update_pose(roller.pose(now))
+        command = controller.tick(now)
+        roller.step(command, now)
+        now += FRAME_S
+        if not controller.state.active and now > start_s + 0.1:
+            break
+    return now
+
+
+@pytest.mark.parametrize("goal", [(0.0, 0.6), (0.0, -0.7), (0.5, 0.5), (-0.6, 0.3), (0.7, 0.0), (-0.3, -0.6)])
+def test_reaches_goals_in_every_direction_with_a_wrong_turn_map(goal):
+    controller, roller = NavigationController(settings(), AREA), Roller()
+    assert controller.set_goal(*goal, now_s=0.0).accepted
+    end = drive(controller, roller, 120.0)
+    assert controller.state is NavigationState.REACHED, controller.progress(end).message
+    assert math.dist(goal, (roller.x, roller.y)) <= 0.05
+    assert controller.command.moving is False
+
+
+def test_learns_the_turn_rates_it_measures():
+    controller, roller = NavigationController(settings(), AREA), Roller(bias_deg=8.0, scale=0.7)
+    controller.set_goal(0.6, 0.6, 0.0)
+    drive(controller, roller, 60.0)
+    measured = np.concatenate([controller.turns.measured[d] for d in DIRECTIONS]) > 0
+    learned = np.concatenate([controller.turns.rates[d] for d in DIRECTIONS])[measured]
+    levels = np.concatenate([LEVELS, LEVELS])[measured]
+    assert len(levels) >= 1
+    truth, guess = 0.7 * -40.0 * levels + 8.0, -40.0 * levels
+    # every measured level moved at least half way from the map's guess to the truth (learning_rate 0.5)
+    assert np.all(np.abs(learned - truth) <= 0.5 * np.abs(guess - truth) + 1.0), (learned, truth, guess)
+
+
+def test_rolls_the_direction_that_faces_the_goal():
+    controller = NavigationController(settings(), AREA)
+    controller.set_goal(0.0, 0.6, 0.0)
+    assert controller.update_pose(Pose2D(0.0, 0.0, 0.0, 0.0)).direction == "inward_rolling"
+    controller.set_goal(0.0, -0.6, 0.1)
+    command = controller.update_pose(Pose2D(0.0, 0.0, 0.0, 0.1))
+    assert command.direction == "outward_rolling" and command.reverse and command.gait == "inward_rolling"
+
+
+def test_a_goal_outside_the_view_is_refused_and_the_current_goal_kept():
+    controller = NavigationController(settings(), AREA)
+    controller.set_goal(0.3, 0.3, 0.0)
+    decision = controller.set_goal(3.0, 0.0, 0.5)
+    assert not decision.accepted
+    assert "outside the camera's calibrated floor area" in decision.reason and "view_margin_m" in decision.reason
+    assert controller.goal == (0.3, 0.3) and controller.state is NavigationState.DRIVING
+    near_edge = controller.set_goal(1.3, 0.0, 0.6)
+    assert not near_edge.accepted and "only 0.10 m inside" in near_edge.reason
+    path = controller.set_path([(0.2, 0.2), (0.0, 5.0)], 0.7)
+    assert not path.accepted and path.reason.startswith("waypoint 2 of 2")
+
+
+def test_a_new_goal_replaces_the_current_one():
+    controller, roller = NavigationController(settings(), AREA), Roller()
+    controller.set_goal(0.0, 0.7, 0.0)
+    now = drive(controller, roller, 3.0)
+    assert controller.set_goal(0.5, -0.3, now).accepted
+    assert controller.goal == (0.5, -0.3) and controller.goals == ((0.5, -0.3),)
+    drive(controller, roller, 120.0, start_s=now)
+    assert controller.state is NavigationState.REACHED
+    assert math.dist((0.5, -0.3), (roller.x, roller.y)) <= 0.05
+
+
+def test_waypoints_are_followed_in_order():
+    controller, roller = NavigationController(settings(), AREA), Roller()
+    controller.set_path([(0.0, 0.4), (0.4, 0.5)], 0.0)
+    seen = set()
+    now = 0.0
+    while now < 150.0 and controller.state.active or now == 0.0:
+        controller.update_gait_phase(roller.phase)
+        controller.update_pose(roller.pose(now))
+        roller.step(controller.tick(now), now)
+        seen.add(controller.progress(now).goal_index)
+        now += FRAME_S
+    assert seen == {0, 1} and controller.state is NavigationState.REACHED
+    assert math.dist((0.4, 0.5), (roller.x, roller.y)) <= 0.05
+
+
+def test_cancel_stops():
+    controller, roller = NavigationController(settings(), AREA), Roller()
+    controller.set_goal(0.0, 0.7, 0.0)
+    now = drive(controller, roller, 2.0)
+    assert controller.command.moving
+    command = controller.cancel(now, "cancelled by the operator")
+    assert not command.moving and controller.state is NavigationState.CANCELLED
+    assert controller.progress(now).message == "cancelled by the operator"
+
+
+def test_a_lost_pose_stops_after_the_timeout_and_says_so():
+    controller, roller = NavigationController(settings(), AREA), Roller()
+    controller.set_goal(0.0, 0.7, 0.0)
+    drive(controller, roller, 2.9, lost_after_s=2.0)       # the last pose at 1.97 s
+    assert controller.tick(2.95).moving                     # 0.98 s without a pose: still driving
+    assert controller.tick(3.05).moving is False
+    progress = controller.progress(3.05)
+    assert progress.state is NavigationState.POSE_LOST and progress.level == "ERROR"
+    assert "no pose from the camera for 1.1 s" in progress.message and "last seen at" in progress.message
+
+
+def test_progress_reports_distance_and_heading_error():
+    controller = NavigationController(settings(), AREA)
+    controller.set_goal(0.3, 0.4, 0.0)
+    controller.update_pose(Pose2D(0.0, 0.0, 0.0, 0.0))
+    progress = controller.progress(0.0)
+    assert progress.state is NavigationState.DRIVING and progress.distance_to_go_m == pytest.approx(0.5)
+    assert progress.values()["state"] == "driving" and progress.direction == "inward_rolling"
+    assert abs(progress.heading_error_rad) < math.pi / 2
+
+
+def test_bad_input_is_refused():
+    controller = NavigationController(settings(), AREA)
+    with pytest.raises(InvalidInputError, match="x_m is nan"):
+        controller.update_pose(Pose2D(float("nan"), 0.0, 0.0, 0.0))
+    with pytest.raises(InvalidInputError, match="phase"):
+        controller.update_gait_phase(float("inf"))
+    assert not controller.set_goal(float("nan"), 0.0, 0.0).accepted
+    with pytest.raises(ConfigurationError, match="navigation.goal_tolerance_m is -1"):
+        settings(goal_tolerance_m=-1)
+    with pytest.raises(ConfigurationError, match="turn_levels_rad"):
+        settings(turn_levels_rad=[0.2, 0.1])
