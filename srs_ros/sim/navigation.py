@@ -275,3 +275,20 @@ class _Loop:
                           DIRECTION_CODES[command.direction], command.turn_phase_rad,
                           command.frequency_hz if command.moving else 0.0, progress.distance_to_go_m,
                           progress.heading_error_rad])
+
+
+def random_goals(rng: np.random.Generator, count: int, config: SimConfig, settings: NavigationSettings,
+                 min_m: float = 0.4, max_m: float = 1.0) -> list[tuple[float, float]]:
+    """``count`` goals at a uniform random distance ``min_m``-``max_m`` and bearing from the start.
+
+    Each lies inside the camera's floor area with the settings' margin (the issue's test of the navigator).
+    """
+    area = default_area(config, settings)
+    start = np.array([config.start.x_m, config.start.y_m])
+    goals: list[tuple[float, float]] = []
+    while len(goals) < count:
+        distance, bearing = rng.uniform(min_m, max_m), rng.uniform(-math.pi, math.pi)
+        x, y = start + distance * np.array([math.cos(bearing), math.sin(bearing)])
+        if not area.refusal(float(x), float(y)):
+            goals.append((float(x), float(y)))
+    return goals

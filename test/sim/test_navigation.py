@@ -1,0 +1,91 @@
+"""The navigator's controller on the simulated robot (MuJoCo), offline: refusal, cancel, replacement, lost pose.
+
+Whether it reaches random goals is the slow test at the end and benchmarks/bench_navigation.py.
+"""
+
+import math
+import statistics
+
+import numpy as np
+import pytest
+
+from srs_ros.core.navigation import NavigationState, load_navigation_settings
+from srs_ros.experiments.turning import measure_turn_phase
+from srs_ros.sim.config import load_sim_config
+from srs_ros.sim.navigation import GaitDriver, random_goals, run_navigation
+
+
+def test_a_goal_outside_the_view_is_refused_without_moving():
+    result = run_navigation([(3.0, 0.0)])
+    (outcome,) = result.outcomes
+    assert outcome.state is NavigationState.IDLE and outcome.message.startswith("refused: goal (3.000, 0.000) m")
+    assert "outside the camera's calibrated floor area" in outcome.message and len(result.rows) == 0
+
+
+def test_a_replaced_goal_is_driven_to_and_a_cancel_stops_and_vents():
+    seen = {}
+
+    def events(now_s, controller):
+        if "replaced" not in seen and now_s >= 1.5:
+            seen["replaced"] = controller.set_goal(-0.4, 0.3, now_s).accepted
+        if "cancelled" not in seen and now_s >= 4.0:
+            controller.cancel(now_s, "cancelled by the test")
+            seen["cancelled"] = now_s
+
+    result = run_navigation([(0.3, 0.6)], events=events, goal_timeout_s=20.0)
+    (outcome,) = result.outcomes
+    assert seen["replaced"] and outcome.state is NavigationState.CANCELLED
+    assert outcome.message == "cancelled by the test"
+    columns = result.rows
+    after = columns[columns[:, 0] >= seen["cancelled"] + 0.1]
+    assert np.all(after[:, 11] == 0.0)                    # no gait commanded after the cancel
+    assert outcome.time_s < seen["cancelled"] + 3.0       # the ramp-out ends within the ramp time and a bit
+
+
+def test_a_robot_the_camera_does_not_see_is_stopped_with_the_reason():
+    config = load_sim_config().replace("start", x_m=2.2)   # beyond the simulated camera's view (x up to 1.43 m)
+    result = run_navigation([(0.5, 0.0)], config=config, camera=True, goal_timeout_s=10.0)
+    (outcome,) = result.outcomes
+    assert outcome.state is NavigationState.POSE_LOST
+    assert "no pose from the camera for 1." in outcome.message
+    assert 1.0 < outcome.time_s < 3.5
+    assert np.all(np.isnan(result.rows[:, 4]))            # the tracker never gave a pose
+
+
+def test_the_offline_driver_plays_outward_as_the_inward_cycle_backward():
+    from srs_ros.core.navigation import GaitCommand
+    from srs_ros.core.robot import default_robot
+
+    driver = GaitDriver(default_robot())
+    driver.apply(GaitCommand("outward_rolling", 0.2, 4.0, 1.0))
+    pressures = [driver.pressures_bar(0.005) for _ in range(400)]
+    assert driver.playback.reverse and driver.playback.frequency_hz == pytest.approx(-1.0)
+    assert max(float(p.max()) for p in pressures) <= 4.0 + 1e-9
+    driver.apply(GaitCommand(None, 0.0, 4.0, 1.0))
+    for _ in range(400):
+        last = driver.pressures_bar(0.005)
+    assert np.all(last == 0.0)
+
+
+def gait_speed_m_s(config) -> float:
+    """The rolling gaits' straight speed (turn_phase_rad 0), mean of both directions, measured here."""
+    runs = [m for d in ("inward_rolling", "outward_rolling") for m in measure_turn_phase(d, 4.0, 1.0, 0.0, config,
+                                                                                        start_yaws_rad=(0.0,))]
+    return statistics.mean(m.speed_m_s for m in runs)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("friction", ["isotropic", "anisotropic"])
+def test_ten_random_goals_are_reached(friction):
+    config = load_sim_config().replace("contact", friction=friction)
+    settings = load_navigation_settings()
+    goals = random_goals(np.random.default_rng(20), 10, config, settings)
+    result = run_navigation(goals, config=config, settings=settings, from_start=True, goal_timeout_s=60.0)
+    reached = [o for o in result.outcomes if o.reached and o.final_error_m <= 0.05]
+    speed = gait_speed_m_s(config)
+    ratios = [o.time_s / (o.straight_m / speed) for o in result.outcomes]
+    lines = "\n".join(o.summary() for o in result.outcomes)
+    assert len(reached) >= 9, f"{len(reached)} of 10 reached:\n{lines}"
+    median = statistics.median(ratios)
+    assert median <= 2.0, f"median time / (straight distance / {speed:.3f} m/s) is {median:.2f}"
+    assert all(math.isfinite(o.path_length_m) for o in result.outcomes)
