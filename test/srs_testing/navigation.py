@@ -4,13 +4,12 @@
 hardware_node (sim rig), trajectory_server, gait_player (no autostart) and the navigator on a
 :class:`~srs_testing.ros.RosSession`'s domain, and gives the client's view of them: the navigator's progress,
 the commanded pressures, the tracked pose and the simulator's ground truth (read by the harness only, to
-check where the robot really is; the navigator never sees it). :func:`random_goals` draws goals as the issue's
-statistical test asks (0.4-1.0 m from the start, inside the camera's view).
+check where the robot really is; the navigator never sees it). Random goals as the issue's statistical test
+asks them: :func:`srs_ros.sim.navigation.random_goals`.
 """
 
 from __future__ import annotations
 
-import math
 from collections.abc import Iterable, Mapping
 from typing import Any
 
@@ -137,16 +136,3 @@ class NavigationSystem:
         count = len(self.tracked)
         self.wait(lambda: len(self.tracked) > count + 5, 20.0, "tracked poses after the reset")
         return self.xy(self.tracked)
-
-
-def random_goals(count: int, seed: int, start_xy_m=(0.0, 0.0), distance_m=(0.4, 1.0), area=None) -> list:
-    """``count`` goals (x, y) m drawn ``distance_m`` from ``start_xy_m`` in a uniform direction, inside ``area``
-    (a :class:`~srs_ros.core.navigation.FloorArea`: the camera's view less its margin) when given."""
-    rng = np.random.default_rng(seed)
-    goals = []
-    while len(goals) < count:
-        distance, bearing = rng.uniform(*distance_m), rng.uniform(-math.pi, math.pi)
-        goal = (start_xy_m[0] + distance * math.cos(bearing), start_xy_m[1] + distance * math.sin(bearing))
-        if area is None or not area.refusal(*goal):
-            goals.append(goal)
-    return goals
