@@ -237,8 +237,7 @@ class NavigationController:
         if run_up is not None:
             self._heading_error_rad = errors[run_up]
             return _other(run_up), 0.0
-        near = min(distances.values()) < settings.approach_distance_m
-        direction = self._choose_direction(now_s, errors, STOP_AFTER_CYCLES if near else settings.min_hold_cycles)
+        direction = self._choose_direction(now_s, errors, settings.min_hold_cycles)
         error, distance_m = errors[direction], distances[direction]
         self._heading_error_rad = error
         if self._out_of_reach(direction, error, distance_m, 1.0):

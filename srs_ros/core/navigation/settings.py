@@ -132,10 +132,11 @@ def turning_map_from_dict(data: Any, source: str = "<dict>") -> TurningMap:
         values = table.read(section(block, direction, source, "turning_map"), source)
         phases = np.asarray(values["turn_phase_rad"], dtype=np.float64)
         if np.any(np.diff(phases) <= 0.0):
-            raise refusal(source, table.key("turn_phase_rad"), values["turn_phase_rad"], "increasing values")
+            raise refusal(source, table.key("turn_phase_rad"), list(values["turn_phase_rad"]), "increasing values")
         for name in ("turn_rate_deg_per_cycle", "travel_m_per_cycle"):
             if len(values[name]) != len(phases):
-                raise refusal(source, table.key(name), values[name], f"{len(phases)} values, one per turn_phase_rad")
+                raise refusal(source, table.key(name), list(values[name]),
+                              f"{len(phases)} values, one per turn_phase_rad")
         directions[direction] = DirectionMap(phases, np.asarray(values["turn_rate_deg_per_cycle"], dtype=np.float64),
                                              np.asarray(values["travel_m_per_cycle"], dtype=np.float64),
                                              np.reshape(values["stop_offset_m"], (len(STOP_PHASES), 2)))

@@ -230,3 +230,23 @@ def test_setpoints_never_leave_the_stroke_even_where_the_spline_overshoots():
     positions = np.array([player.step(0.001).positions_m for _ in range(3000)])
     assert positions.max() <= MAX_M and positions.min() >= 0.0
     assert positions.max() == pytest.approx(MAX_M)  # and it does reach the top
+
+
+def test_reverse_plays_the_cycle_backward_without_a_jump():
+    player = GaitPlayback(ramp_time_s=0.5)
+    player.load(rolling_cycle(), frequency_hz=1.0)
+    player.start()
+    forward = run(player, 2.0)
+    player.set_reverse(True)
+    turning = run(player, 0.5)
+    backward = run(player, 1.0)
+    assert player.reverse and backward[-1].frequency_hz == pytest.approx(-1.0)
+    assert forward[-1].frequency_hz == pytest.approx(1.0)
+    # the signed frequency passes smoothly through 0; no setpoint jumps on the way
+    frequencies = [s.frequency_hz for s in forward + turning + backward]
+    assert np.max(np.abs(np.diff(frequencies))) < 0.05
+    positions = np.array([s.positions_m for s in forward + turning + backward])
+    assert np.max(np.abs(np.diff(positions, axis=0))) < 0.003
+    phases = np.array([s.phase for s in backward])
+    assert np.all(((phases[1:] - phases[:-1]) % 1.0) > 0.5)        # the phase runs backward
+    assert backward[-1].cycles_done > forward[-1].cycles_done        # cycles played keep counting up

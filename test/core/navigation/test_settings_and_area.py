@@ -1,0 +1,48 @@
+"""Navigator settings, the identified turn map file and the camera's floor area where goals may lie."""
+
+import numpy as np
+import pytest
+
+from srs_ros.core.errors import ConfigurationError
+from srs_ros.core.navigation import FloorArea, load_navigation_settings, load_turning_map
+from srs_ros.core.navigation.settings import DIRECTIONS, STOP_PHASES, turning_map_from_dict
+from srs_ros.core.robot import config_file
+from srs_ros.core.vision.camera_calibration import load_calibration
+
+
+def test_the_package_turning_map_loads_with_both_directions():
+    mapped = load_turning_map()
+    for direction in DIRECTIONS:
+        assert mapped[direction].stop_offset_m.shape == (len(STOP_PHASES), 2)
+        assert len(mapped[direction].turn_phase_rad) == len(mapped[direction].turn_rate_deg_per_cycle)
+    assert load_navigation_settings().goal_tolerance_m == 0.05
+
+
+def test_a_bad_turning_map_is_refused_with_the_key():
+    block = {"amplitude_bar": 4.0, "frequency_hz": 1.0}
+    good = {"turn_phase_rad": [0.0, 0.2], "turn_rate_deg_per_cycle": [1.0, -3.0], "travel_m_per_cycle": [0.1, 0.1]}
+    for direction in DIRECTIONS:
+        block[direction] = dict(good)
+    assert turning_map_from_dict({"turning_map": block}, "m.yaml")["inward_rolling"].rate_at(0.1) == pytest.approx(-1)
+    block["outward_rolling"] = {**good, "turn_rate_deg_per_cycle": [1.0]}
+    with pytest.raises(ConfigurationError, match=r"m.yaml: turning_map.outward_rolling.turn_rate_deg_per_cycle is "
+                                                 r"\[1.0\]; expected 2 values"):
+        turning_map_from_dict({"turning_map": block}, "m.yaml")
+    block["outward_rolling"] = {**good, "turn_phase_rad": [0.2, 0.0]}
+    with pytest.raises(ConfigurationError, match="increasing values"):
+        turning_map_from_dict({"turning_map": block}, "m.yaml")
+
+
+def test_a_missing_turning_map_says_how_to_make_one(tmp_path):
+    with pytest.raises(ConfigurationError, match="turning_cli --write-map"):
+        load_navigation_settings({"turning_map_file": str(tmp_path / "none.yaml")})
+
+
+def test_the_floor_area_is_the_simulated_cameras_view_less_the_margin():
+    area = FloorArea.from_calibration(load_calibration(config_file("sim_camera_calibration.yaml")), 0.25)
+    low, high = area.polygon_m.min(axis=0), area.polygon_m.max(axis=0)
+    np.testing.assert_allclose([low[0], high[0], low[1], high[1]], [-1.61, 1.61, -1.22, 1.08], atol=0.01)
+    assert area.refusal(0.0, 0.0) == "" and area.refusal(1.0, 0.6) == ""
+    assert "0.48 m outside" in area.refusal(2.0, 0.0)
+    assert "only 0.22 m inside" in area.refusal(1.3, 0.0) and "view_margin_m = 0.25 m" in area.refusal(1.3, 0.0)
+    assert "not a finite floor position" in area.refusal(float("nan"), 0.0)
