@@ -36,8 +36,6 @@ START_SETTLE_CYCLES = 1.5
 STOP_WITHIN = 0.8
 #: Cycles a direction must have been played before a stop counts on its learned resting point.
 STOP_AFTER_CYCLES = 1.0
-#: A run-up before a stop is this many cycles of travel long.
-RUN_UP_CYCLES = 1.0
 #: A straight line passing this close to the goal (times the tolerance) needs no three-point turn.
 STRAIGHT_WITHIN = 0.7
 
@@ -73,7 +71,6 @@ class NavigationController:
         self._direction_since_s = 0.0
         self._clock_s = 0.0
         self._fresh_goal = False
-        self._run_up: str | None = None
         self._best = (math.inf, 0.0)
 
     # ------------------------------------------------------------------ goals
@@ -110,7 +107,6 @@ class NavigationController:
             if reason:
                 return self._refuse(reason if len(points) == 1 else f"waypoint {i + 1} of {len(points)}: {reason}")
         self._goals, self._index, self._backing_from, self._fresh_goal = points, 0, None, True
-        self._run_up = None
         self.state, self._started_s = NavigationState.DRIVING, float(now_s)
         self._best = (math.inf, float(now_s))
         self._last_pose_s = max(self._last_pose_s, float(now_s))
@@ -233,10 +229,6 @@ class NavigationController:
             if not held or self._out_of_reach(toward, error, distance_m, 1.2):
                 return _other(toward), math.copysign(limit, error)
             self._backing_from = None
-        run_up = self._run_up_direction(errors, distances)
-        if run_up is not None:
-            self._heading_error_rad = errors[run_up]
-            return _other(run_up), 0.0
         direction = self._choose_direction(now_s, errors, settings.min_hold_cycles)
         error, distance_m = errors[direction], distances[direction]
         self._heading_error_rad = error
@@ -249,34 +241,12 @@ class NavigationController:
         arc_deg = math.degrees(2.0 * math.sin(error) * float(travel) / max(distance_m, 1e-3))
         return direction, max(-limit, min(limit, settings.pursuit_gain * arc_deg))
 
-    def _run_up_direction(self, errors: dict[str, float], distances: dict[str, float]) -> str | None:
-        """The direction to take a run-up for, while the robot rolls back from it; None when no run-up is needed.
-
-        Near the goal the robot can sit past both aim points (each direction's resting offset reaches beyond the
-        goal): it then rolls back, straight, until it lies a run-up (``RUN_UP_CYCLES`` of travel) before the aim
-        of the direction facing it best, and rolls toward it from there.
-        """
-        if self._run_up is None:
-            if all(abs(errors[d]) > 0.5 * math.pi for d in DIRECTIONS) and \
-                    min(distances.values()) < self.settings.approach_distance_m:
-                self._run_up = min(DIRECTIONS, key=lambda d: abs(errors[d]))
-                self._message = "past the point to stop at: rolling back for a run-up"
-            return self._run_up
-        direction = self._run_up
-        ahead_m = distances[direction] * math.cos(errors[direction])       # how far ahead the aim lies
-        if ahead_m >= RUN_UP_CYCLES * float(np.mean(self.travel.travel_m[direction])):
-            self._run_up = None
-        return self._run_up
-
     def _choose_direction(self, now_s: float, errors: dict[str, float], hold_cycles: float) -> str:
-        """The direction nearer the goal's bearing; the current one kept unless the other is clearly nearer.
-
-        Near the goal a direction is held long enough for a stop to count (``STOP_AFTER_CYCLES``).
-        """
+        """The direction nearer the goal's bearing; the current one kept unless the other is clearly nearer."""
         best = min(DIRECTIONS, key=lambda d: abs(errors[d]))
         current, fresh, self._fresh_goal = self._command.direction, self._fresh_goal, False
         if current in errors and best != current and not fresh:
-            held = now_s - self._direction_since_s >= self._hold_s(hold_cycles)
+            held = now_s - self._changed_s >= self._hold_s(hold_cycles)
             if not held or abs(errors[best]) + self.settings.direction_hysteresis_rad > abs(errors[current]):
                 return current
         return best

@@ -1,0 +1,31 @@
+"""The turning experiments: a short run measures turn and travel; the turn map they write reads back."""
+
+import math
+
+import numpy as np
+
+from srs_ros.core.navigation.settings import DIRECTIONS, STOP_PHASES, turning_map_from_dict
+from srs_ros.experiments.turning import TurnMeasurement, cone_scales, measure_turn_phase, turning_map_yaml
+
+
+def test_a_short_run_measures_turn_and_travel():
+    (run,) = measure_turn_phase("inward_rolling", 4.0, 1.0, 0.35, cycles=3, skip_cycles=1, start_yaws_rad=(0.0,))
+    assert run.label == "inward_rolling" and run.value == 0.35
+    assert math.isfinite(run.turn_deg_per_cycle) and 0.02 < run.travel_m_per_cycle < 0.2
+    assert run.speed_m_s == run.travel_m_per_cycle
+
+
+def test_the_written_turn_map_reads_back():
+    runs = {d: [TurnMeasurement(d, 4.0, 1.0, v, yaw, 10.0 * v + yaw, 1.0, 0.1) for v in (-0.2, 0.2)
+                for yaw in (0.0, 2.0)] for d in DIRECTIONS}
+    stops = {d: np.full((len(STOP_PHASES), 2), 0.1) for d in DIRECTIONS}
+    import yaml
+
+    mapped = turning_map_from_dict(yaml.safe_load(turning_map_yaml(runs, stops, 4.0, 1.0, "test")), "written")
+    np.testing.assert_allclose(mapped["inward_rolling"].turn_rate_deg_per_cycle, [-1.0, 3.0])
+    np.testing.assert_allclose(mapped["outward_rolling"].stop_offset_m, 0.1)
+
+
+def test_cone_scales_grow_toward_the_head_and_peak_at_one():
+    assert np.allclose(cone_scales(1.0), (1 / 3, 2 / 3, 1.0))
+    assert np.allclose(cone_scales(-1.0), (1.0, 2 / 3, 1 / 3))

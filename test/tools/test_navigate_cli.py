@@ -1,0 +1,47 @@
+"""srs_navigate: arguments, a refused goal, a run that gives up, the CSV and the plot it writes."""
+
+import csv
+
+import pytest
+
+from srs_ros.tools.navigate_cli import main
+
+
+def test_a_goal_outside_the_view_exits_1_with_the_reason(tmp_path, capsys):
+    code = main(["--goal", "4", "0", "--out", str(tmp_path / "run.csv")])
+    out = capsys.readouterr().out
+    assert code == 1
+    assert "refused: goal (4.000, 0.000) m is" in out and "0 of 1 goals reached" in out
+    with (tmp_path / "run.csv").open() as stream:
+        assert next(csv.reader(stream))[:4] == ["time_s", "x_m", "y_m", "yaw_rad"]
+
+
+def test_a_short_run_writes_the_track_and_the_plot(tmp_path, capsys):
+    out_csv, plot = tmp_path / "run.csv", tmp_path / "run.png"
+    code = main(["--goal", "0.0", "0.6", "--out", str(out_csv), "--plot", str(plot), "--timeout-s", "3"])
+    text = capsys.readouterr().out
+    assert code == 1 and "cancelled after" in text and "gave up after 3 s" in text
+    with out_csv.open() as stream:
+        rows = list(csv.DictReader(stream))
+    assert len(rows) >= 90 and {r["state"] for r in rows} >= {"driving", "cancelled"}
+    assert rows[10]["direction"] in ("inward_rolling", "outward_rolling")
+    assert plot.stat().st_size > 10_000
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["--goal", "0", "0.5", "--out", "x.csv", "--setting", "goal_tolerance_m=-1"], "goal_tolerance_m is -1"),
+    (["--goal", "0", "0.5", "--out", "x.csv", "--setting", "tolerance"], "expected NAME=VALUE"),
+    (["--goal", "0", "0.5", "--out", "x.csv", "--friction", "sticky"], "friction is 'sticky'"),
+])
+def test_bad_settings_exit_2_with_a_message(argv, message, capsys):
+    assert main(argv) == 2
+    assert message in capsys.readouterr().err
+
+
+def test_bad_arguments_exit_2(capsys):
+    with pytest.raises(SystemExit) as exit_info:
+        main(["--goal", "0", "--out", "x.csv"])
+    assert exit_info.value.code == 2
+    with pytest.raises(SystemExit) as exit_info:
+        main(["--goal", "0", "0.5", "--out", "x.csv", "--plot", "x.jpg"])
+    assert exit_info.value.code == 2 and "expected a .png path" in capsys.readouterr().err
