@@ -337,7 +337,8 @@ class Navigator(Node):
         count = max(len(self._path), 1)
         return {"refused": self._refusal, "gait_error": self._driver.error, "loop": self._loop,
                 "pose_age_s": now - self._last_pose_s if math.isfinite(self._last_pose_s) else None,
-                "gait_playing": self._driver.playing, "waypoint_index": progress.goal_index % count,
+                "gait_playing": self._driver.playing, "gait_phase": self.gait_phase_now(now),
+                "waypoint_index": progress.goal_index % count,
                 "waypoint_count": len(self._path), "round": progress.goal_index // count + 1}
 
     def _publish_progress(self, now: float | None = None) -> None:

@@ -28,7 +28,7 @@ FINAL_STATES = frozenset({"reached", "cancelled", "pose_lost", "failed"})
 class NavigationSystem:
     """The module's process set and what the test client sees of it (see the module docstring)."""
 
-    def __init__(self, session, navigator_params: Mapping[str, Any] | None = None, camera_rate_hz: float = 15.0,
+    def __init__(self, session, navigator_params: Mapping[str, Any] | None = None, camera_rate_hz: float = 30.0,
                  sim_config_file: str = ""):
         from geometry_msgs.msg import PoseStamped
         from nav_msgs.msg import Path
