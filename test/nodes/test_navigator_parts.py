@@ -62,7 +62,7 @@ def test_the_gait_phase_at_a_camera_frames_stamp_is_extrapolated_from_the_sample
 
     node = SimpleNamespace(_phases=deque([(10.00, 0.90, 1.0), (10.02, 0.92, 1.0), (10.04, 0.10, -2.0)]))
     assert Navigator.gait_phase_at(node, 10.03) == pytest.approx(0.93)  # 10 ms after the 10.02 sample, 1 Hz
-    assert Navigator.gait_phase_at(node, 10.09) == pytest.approx(0.0)  # 50 ms after 10.04 at -2 Hz: wrapped
+    assert Navigator.gait_phase_at(node, 10.10) == pytest.approx(0.98)  # 60 ms after 10.04 at -2 Hz: wrapped
     assert Navigator.gait_phase_at(node, 9.99) == pytest.approx(0.89)  # just before the first sample
     assert Navigator.gait_phase_at(node, 10.5) is None  # no sample within 0.25 s: the player stopped
     assert Navigator.gait_phase_at(SimpleNamespace(_phases=deque()), 10.0) is None
