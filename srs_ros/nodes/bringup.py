@@ -51,6 +51,7 @@ import rclpy
 import yaml
 from rclpy.executors import MultiThreadedExecutor, SingleThreadedExecutor
 from rclpy.experimental import EventsExecutor
+from rclpy.logging import LoggingSeverity, set_logger_level
 from rclpy.node import Node
 
 from srs_ros.core import rig as rig_config
@@ -253,6 +254,9 @@ class System:
         self.player = self._keep(GaitPlayer())
         self.hardware = self._keep(HardwareNode())
         if _navigating(args):  # on the world's executor: it only calls the gait nodes' services
+            # the navigator changes the cycle every second or two: the player's takeover lines would bury the
+            # status line, which shows the navigator's state instead (its warnings and errors still show)
+            set_logger_level(self.player.get_logger().name, LoggingSeverity.WARN)
             self.navigator = self._keep(Navigator())
             self.world_nodes.append(self.navigator)
             if args.patrol:

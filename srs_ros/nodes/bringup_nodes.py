@@ -198,7 +198,8 @@ class Patrol(Node):
     The path goes out once the navigator listens and the camera tracks the robot (a goal sent before the
     first pose would be lost at once). When the navigator stopped for a lost pose or no progress (states
     ``pose_lost``, ``failed``: a loaded machine's tracker can fall silent for a second) the patrol is sent
-    again once the robot has been tracked for :attr:`RESUME_AFTER_S`; never after a ``~/cancel``.
+    again, from the waypoint it was driving to, once the robot has been tracked for :attr:`RESUME_AFTER_S`;
+    never after a ``~/cancel``.
     """
 
     #: Tracked this long again after a stop for a lost pose or no progress: the patrol goes on.
@@ -209,6 +210,7 @@ class Patrol(Node):
         self.waypoints_xy_m = [tuple(p) for p in waypoints_xy_m]
         self.sent = 0  # times the path was sent
         self._state = ""  # the navigator's last state
+        self._waypoint = 0  # the waypoint the navigator was driving to (a resumed patrol goes on from there)
         self._tracked_since: float | None = None  # steady s since poses arrive without a gap, None: none now
         self._last_pose_s = self._sent_s = -math.inf
         self._publisher = self.create_publisher(Path, GOAL_PATH_TOPIC, 10)
@@ -224,9 +226,12 @@ class Patrol(Node):
 
     def _on_progress(self, msg: String) -> None:
         try:
-            self._state = progress_fields(msg).get("state", "")
+            fields = progress_fields(msg)
         except SrsError:
-            pass
+            return
+        self._state = fields.get("state", "")
+        if fields.get("loop") and isinstance(fields.get("waypoint_index"), int):
+            self._waypoint = fields["waypoint_index"] % len(self.waypoints_xy_m)
 
     def _check(self) -> None:
         now = time.monotonic()
@@ -240,13 +245,13 @@ class Patrol(Node):
             self._send(f"sent again (the navigator had stopped: {self._state}; the robot is tracked again)")
 
     def _send(self, what: str) -> None:
-        self._publisher.publish(patrol_path(self.waypoints_xy_m))
+        order = self.waypoints_xy_m[self._waypoint:] + self.waypoints_xy_m[:self._waypoint]
+        self._publisher.publish(patrol_path(order))
         self.sent += 1
         self._state = "sent"  # until the navigator's progress says otherwise
         self._sent_s = time.monotonic()
-        self.get_logger().info(f"patrol of {len(self.waypoints_xy_m)} waypoints {what} on "
-                               f"{self._publisher.topic_name}: "
-                               + ", ".join(f"({x:g}, {y:g})" for x, y in self.waypoints_xy_m))
+        self.get_logger().info(f"patrol of {len(order)} waypoints {what} on {self._publisher.topic_name}: "
+                               + ", ".join(f"({x:g}, {y:g})" for x, y in order))
 
 
 class SpeedMeter:

@@ -333,7 +333,13 @@ class Navigator(Node):
         self._publish_progress(now)
         if self._nav.state != self._last_state:
             self._last_state = self._nav.state
-            self.get_logger().info(f"state {self._nav.state.value}: {self._nav.progress(now).message}")
+            progress = self._nav.progress(now)
+            where = ""
+            if self._loop:
+                extra = self._extra(progress, now)
+                where = f" (patrol: waypoint {extra['waypoint_index'] + 1} of {extra['waypoint_count']}, round " \
+                        f"{extra['round']})"
+            self.get_logger().info(f"state {self._nav.state.value}{where}: {progress.message}")
             self._publish_diagnostics()
 
     # ------------------------------------------------------------- outputs

@@ -1,5 +1,6 @@
 """srs_bringup's patrol (the main job): sent once the navigator listens and the robot is tracked, sent again
-after a stop for a lost pose once the robot is tracked again, never after a cancel. In-process: the Patrol
+(from the waypoint it was driving to) after a stop for a lost pose once the robot is tracked again, never after
+a cancel. In-process: the Patrol
 node on the test client's context, the navigator's side played by the client over DDS."""
 
 import time
@@ -28,7 +29,8 @@ def test_the_patrol_waits_for_a_tracked_robot_and_resumes_after_a_lost_pose_but_
         while time.monotonic() < end:
             poses.publish(PoseStamped())
             if state:
-                progress.publish(progress_message({"state": state if len(paths) == count else "driving"}))
+                progress.publish(progress_message({"state": state if len(paths) == count else "driving",
+                                                   "loop": True, "waypoint_index": 2, "waypoint_count": 4}))
             ros_client.spin_for(0.05)
 
     try:
@@ -46,6 +48,8 @@ def test_the_patrol_waits_for_a_tracked_robot_and_resumes_after_a_lost_pose_but_
         assert len(paths) == 1  # not while untracked
         tracked_for(2.0, "pose_lost")
         assert len(paths) == 2, "the patrol sent again, once"
+        resumed = [(p.pose.position.x, p.pose.position.y) for p in paths[-1].poses]
+        assert resumed == list(SIM_PATROL_XY_M[2:] + SIM_PATROL_XY_M[:2])  # on from the waypoint it was driving to
         tracked_for(1.5, "cancelled")
         assert len(paths) == 2 and patrol.sent == 2  # an operator's cancel stays
     finally:
