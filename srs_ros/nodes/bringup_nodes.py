@@ -210,6 +210,7 @@ class Patrol(Node):
         self.sent = 0  # times the path was sent
         self._state = ""  # the navigator's last state
         self._waypoint = 0  # the waypoint the navigator was driving to (a resumed patrol goes on from there)
+        self._sent_from = 0  # the waypoint the path last sent starts with
         self._tracked_since: float | None = None  # steady s since poses arrive without a gap, None: none now
         self._last_pose_s = self._sent_s = -math.inf
         self._publisher = self.create_publisher(Path, GOAL_PATH_TOPIC, 10)
@@ -229,8 +230,8 @@ class Patrol(Node):
         except SrsError:
             return
         self._state = fields.get("state", "")
-        if fields.get("loop") and isinstance(fields.get("waypoint_index"), int):
-            self._waypoint = fields["waypoint_index"] % len(self.waypoints_xy_m)
+        if fields.get("loop") and isinstance(fields.get("waypoint_index"), int):  # of the path as last sent
+            self._waypoint = (self._sent_from + fields["waypoint_index"]) % len(self.waypoints_xy_m)
 
     def _check(self) -> None:
         now = time.monotonic()
@@ -244,6 +245,7 @@ class Patrol(Node):
             self._send(f"sent again (the navigator had stopped: {self._state}; the robot is tracked again)")
 
     def _send(self, what: str) -> None:
+        self._sent_from = self._waypoint
         order = self.waypoints_xy_m[self._waypoint:] + self.waypoints_xy_m[:self._waypoint]
         self._publisher.publish(patrol_path(order))
         self.sent += 1

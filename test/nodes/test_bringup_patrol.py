@@ -23,14 +23,17 @@ def test_the_patrol_waits_for_a_tracked_robot_and_resumes_after_a_lost_pose_but_
     poses = node.create_publisher(PoseStamped, POSE_TOPIC, 10)
     progress = node.create_publisher(String, NAVIGATION_PROGRESS_TOPIC, latched_qos())
 
-    def tracked_for(seconds, state=None):
-        """Poses for ``seconds``, and the navigator's ``state`` until a (new) path comes: then it drives."""
+    def tracked_for(seconds, state=None, waypoint_index=2):
+        """Poses for ``seconds``, and the navigator's ``state`` (at the path's ``waypoint_index``) until a (new)
+        path comes: then it drives (from that path's first waypoint)."""
         end, count = time.monotonic() + seconds, len(paths)
         while time.monotonic() < end:
             poses.publish(PoseStamped())
             if state:
-                progress.publish(progress_message({"state": state if len(paths) == count else "driving",
-                                                   "loop": True, "waypoint_index": 2, "waypoint_count": 4}))
+                stopped = len(paths) == count
+                progress.publish(progress_message({"state": state if stopped else "driving", "loop": True,
+                                                   "waypoint_index": waypoint_index if stopped else 0,
+                                                   "waypoint_count": 4}))
             ros_client.spin_for(0.05)
 
     try:
@@ -50,8 +53,11 @@ def test_the_patrol_waits_for_a_tracked_robot_and_resumes_after_a_lost_pose_but_
         assert len(paths) == 2, "the patrol sent again, once"
         resumed = [(p.pose.position.x, p.pose.position.y) for p in paths[-1].poses]
         assert resumed == list(SIM_PATROL_XY_M[2:] + SIM_PATROL_XY_M[:2])  # on from the waypoint it was driving to
+        tracked_for(2.0, "failed", waypoint_index=1)  # the resent path's second: the patrol's fourth
+        assert len(paths) == 3 and [(p.pose.position.x, p.pose.position.y) for p in paths[-1].poses] == list(
+            SIM_PATROL_XY_M[3:] + SIM_PATROL_XY_M[:3])
         tracked_for(1.5, "cancelled")
-        assert len(paths) == 2 and patrol.sent == 2  # an operator's cancel stays
+        assert len(paths) == 3 and patrol.sent == 3  # an operator's cancel stays
     finally:
         ros_client.executor.remove_node(patrol)
         patrol.destroy_node()
