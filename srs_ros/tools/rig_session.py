@@ -55,12 +55,18 @@ def _raise_keyboard_interrupt(signum, frame) -> None:
 
 @contextlib.contextmanager
 def interrupts_on_sigterm() -> Iterator[None]:
-    """SIGTERM raises ``KeyboardInterrupt`` like Ctrl-C while inside (a supervisor's stop vents too)."""
+    """SIGTERM raises ``KeyboardInterrupt`` like Ctrl-C while inside (a supervisor's stop vents too).
+
+    Ctrl-C (SIGINT) raises it too even if the process started with SIGINT ignored, as a command started with
+    ``&`` from a script is: Python then installs no handler, and the tool would not vent on SIGINT.
+    """
     previous = signal.signal(signal.SIGTERM, _raise_keyboard_interrupt)
+    previous_int = signal.signal(signal.SIGINT, signal.default_int_handler)
     try:
         yield
     finally:
         signal.signal(signal.SIGTERM, previous)
+        signal.signal(signal.SIGINT, previous_int)
 
 
 def write_whole(backend: ActuatorBackend, pressure_bar) -> np.ndarray:
