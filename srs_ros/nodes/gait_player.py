@@ -9,8 +9,8 @@ Interface (relative names)::
                                                                     the cycle's phase (position, cycles) and
                                                                     signed frequency (velocity, cycles/s)
     services    ~/start, ~/stop   std_srvs/Trigger
-    parameters  rate_hz, cycles, amplitude_scale, frequency_hz, reverse, ramp_time_s, blend_time_s, autostart,
-                zero_hold_s, phase_rate_hz, robot_description_file and realtime_priority (read-only)
+    parameters  rate_hz, cycles, amplitude_scale, frequency_hz, reverse, stop_at_phase, ramp_time_s, blend_time_s,
+                autostart, zero_hold_s, phase_rate_hz, robot_description_file and realtime_priority (read-only)
 
 Behaviour, as a robotics user expects it:
 
@@ -25,6 +25,9 @@ Behaviour, as a robotics user expects it:
   played backward rolls the other way (outward rolling is inward rolling reversed), which the navigator uses.
   ``cycles`` is read at ``~/start``: a ``~/start`` while running only sets the end ``cycles`` from now (the
   navigator's dead man's handle). ``rate_hz`` changes live (the timer is re-created).
+- ``stop_at_phase`` (set while playing) ramps out as the phase next passes it, at most one cycle later: a
+  rolling robot stopped at the same phase comes to rest at the same place, so the navigator stops it there
+  however late its call arrives. ``~/stop`` stops at once, a pending phase stop or not.
 - A new trajectory cross-fades from the old one over ``blend_time_s`` at the same phase.
 - The phase follows the monotonic clock, or with ``use_sim_time`` the ROS clock (the simulated world's
   ``/clock``, so a simulation that runs slower than real time still sees the gait's own frequency); after
@@ -86,6 +89,9 @@ PARAMETERS = (
                   0.0, CYCLE_FREQUENCY_RANGE_HZ[1]),
     ParameterSpec("reverse", False, "play the cycle backward in time (live; the signed frequency ramps through 0 "
                   "over ramp_time_s): a rolling gait rolls the other way"),
+    ParameterSpec("stop_at_phase", -1.0, "set while playing: ramp out as the cycle's phase next passes this "
+                  "phase (0..1, at most one cycle later; the navigator stops the robot exactly at a set phase "
+                  "however late its call); -1 = none; ~/stop still stops at once (live)", -1.0, 1.0),
     ParameterSpec("ramp_time_s", DEFAULT_RAMP_TIME_S, "soft start/stop and live-change duration in s", 0.05, 60.0),
     ParameterSpec("blend_time_s", 0.5, "cross-fade duration in s when a new trajectory takes over", 0.05, 10.0),
     ParameterSpec("autostart", False, "start as soon as the first trajectory arrives"),
@@ -147,6 +153,8 @@ class GaitPlayer(Node):
                 self._playback.set_frequency_override(param.value)
             elif param.name == "reverse":
                 self._playback.set_reverse(param.value)
+            elif param.name == "stop_at_phase":
+                self._stop_at_phase(float(param.value))
             elif param.name == "ramp_time_s":
                 self._playback.set_ramp_time(param.value)
             elif param.name == "blend_time_s":
@@ -156,6 +164,12 @@ class GaitPlayer(Node):
             elif param.name == "rate_hz":
                 self.destroy_timer(self._timer)
                 self._timer = steady_timer(self, 1.0 / float(param.value), self._on_tick)
+
+    def _stop_at_phase(self, phase: float) -> None:
+        playing = self._playback.state in (PlaybackState.STARTING, PlaybackState.RUNNING)
+        self._playback.stop_at_phase(phase % 1.0 if phase >= 0.0 and playing else None)
+        if phase >= 0.0 and playing:
+            self.get_logger().info(f"ramping out as the phase passes {phase % 1.0:g} (at most one cycle from now)")
 
     @staticmethod
     def _period(rate_hz: float) -> float:

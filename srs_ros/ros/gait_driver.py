@@ -10,6 +10,8 @@ would make (relative names, resolved in the navigator's namespace)::
     gait_player/start                             ramp in when the robot was stopped; then again every quarter
                                                   of ``keepalive_s`` (a dead man's handle, below)
     gait_player/stop                              ramp out to 0 (all lengths 0 = every muscle vented)
+    gait_player/set_parameters  stop_at_phase     a stop near the goal: ramp out as the phase passes it (the
+                                                  navigator decides a cycle ahead; a late call stops as exactly)
 
 A dead man's handle made of the player's own interface: the driver sets gait_player's ``cycles`` so that a
 ``~/start`` lets it play ``keepalive_s`` (2 s by default) more, and calls ``~/start`` again every quarter of
@@ -39,6 +41,10 @@ from std_srvs.srv import Trigger
 RETRY_S = 1.0
 #: A call without an answer for this long is given up (and retried), s.
 CALL_TIMEOUT_S = 5.0
+#: gait_player's parameters the driver sets, in the order of its player key.
+PLAYER_VALUES = ("frequency_hz", "reverse", "cycles", "stop_at_phase")
+#: gait_player's ``stop_at_phase`` for none pending.
+NO_STOP_PHASE = -1.0
 
 
 class GaitDriver:
@@ -65,7 +71,7 @@ class GaitDriver:
         self.wanted = None  # the newest GaitCommand
         self._cycle_key: tuple | None = None  # latched by trajectory_server (its regenerate answered success)
         self._sent_key: tuple | None = None  # parameters set, regenerate not yet answered
-        self._player_key: tuple | None = None  # gait_player's (frequency_hz, reverse, cycles) as we set them
+        self._player_key: tuple | None = None  # gait_player's (frequency_hz, reverse, cycles, stop_at_phase) as set
         self._playing = False
         self._pending: dict[str, tuple[Any, float]] = {}  # what -> (future, sent at)
         self._retry_at = 0.0
@@ -120,7 +126,9 @@ class GaitDriver:
         if command is None:
             return
         if not command.moving:
-            if self._playing and "stop" not in self._pending:
+            if command.stop_phase is not None and self._playing:
+                self._stop_at_phase(float(command.stop_phase), now)
+            elif self._playing and "stop" not in self._pending:
                 self._call("stop", Trigger.Request(), self._on_stop)
             return
         keepalive = self.keepalive_s > 0 and now - self._started_s >= self.keepalive_s / 4
@@ -136,10 +144,23 @@ class GaitDriver:
             self._playing = True
             self._start(now)
 
-    def _player_values(self, command) -> tuple[float, bool, int]:
-        """gait_player's (frequency_hz, reverse, cycles) for ``command`` (cycles: keepalive_s of them, 0 = none)."""
+    def _player_values(self, command) -> tuple[float, bool, int, float]:
+        """gait_player's (frequency_hz, reverse, cycles, stop_at_phase) for a moving ``command`` (cycles:
+        keepalive_s of them, 0 = none; no stop at a phase pending)."""
         cycles = max(1, math.ceil(self.keepalive_s * command.frequency_hz)) if self.keepalive_s > 0 else 0
-        return (float(command.frequency_hz), bool(command.reverse), cycles)
+        return (float(command.frequency_hz), bool(command.reverse), cycles, NO_STOP_PHASE)
+
+    def _stop_at_phase(self, phase: float, now: float) -> None:
+        """A stop at a gait phase: gait_player's ``stop_at_phase`` set (it ramps out as the phase passes it).
+
+        No ``~/start`` meanwhile (a start after the ramp-out began would ramp in again): the ``cycles`` of the
+        last start (``keepalive_s`` of them) outlast the one cycle to the phase at 1 Hz, and a navigator that
+        dies now leaves a gait that ramps out by itself at the phase.
+        """
+        key = (*(self._player_key or (math.nan, False, 0, NO_STOP_PHASE))[:3], phase)
+        if self._player_key == key or "set_player" in self._pending or now < self._retry_at:
+            return
+        self._set_player(key, names=("stop_at_phase",))
 
     # ------------------------------------------------------------- the calls
     def _set_gait(self, command) -> None:
@@ -154,11 +175,12 @@ class GaitDriver:
         self._started_s = now
         self._call("start", Trigger.Request(), self._on_start)
 
-    def _set_player(self, key: tuple[float, bool, int]) -> None:
-        values = dict(zip(("frequency_hz", "reverse", "cycles"), key))
+    def _set_player(self, key: tuple[float, bool, int, float], names: tuple[str, ...] = PLAYER_VALUES) -> None:
+        """Set gait_player's ``names`` (of :data:`PLAYER_VALUES`) to their values in ``key``; ``key`` once done."""
+        values = {name: value for name, value in zip(PLAYER_VALUES, key) if name in names}
         request = SetParameters.Request(
             parameters=[Parameter(name, value=value).to_parameter_msg() for name, value in values.items()])
-        self._call("set_player", request, lambda response: self._on_set_player(response, values))
+        self._call("set_player", request, lambda response: self._on_set_player(response, values, key))
 
     def _call(self, what: str, request, on_answer: Callable[[Any], None]) -> None:
         client = self._clients[what]
@@ -198,13 +220,13 @@ class GaitDriver:
             return
         self._cycle_key, self.error = self._sent_key, ""
 
-    def _on_set_player(self, response, values: dict[str, Any]) -> None:
+    def _on_set_player(self, response, values: dict[str, Any], key: tuple) -> None:
         refused = [f"{name} {value}: {result.reason}" for (name, value), result in zip(values.items(), response.results)
                    if not result.successful]
         if refused or len(response.results) != len(values):
             self._failed("set_player", "gait_player refused " + ("; ".join(refused) or "the parameters (no result)"))
             return
-        self._player_key, self.error = tuple(values.values()), ""
+        self._player_key, self.error = key, ""
 
     def _on_start(self, response) -> None:
         if not response.success:

@@ -162,6 +162,37 @@ def test_live_changes_and_takeover_never_jump_and_bad_parameters_are_rejected(pl
     assert proc.alive(), proc.output()
 
 
+@pytest.mark.slow
+def test_stop_at_phase_ramps_out_as_the_phase_passes_it_and_stop_still_stops_at_once(player, ros_client):
+    proc, publisher, setpoints = player(autostart=True)  # ramp_time_s 0.3
+    phases = ros_client.subscribe(JointState, GAIT_PHASE_TOPIC, setpoint_qos(depth=1000))
+    publisher.publish(trajectory(rolling_cycle(), 1.0))
+    ros_client.spin_until(lambda: len(phases) >= 75, 10.0, "1.5 s of gait_phase")
+
+    def first_zero_s(after_s):
+        zero = [stamps_s([m])[0] for m in setpoints if stamps_s([m])[0] > after_s and not np.any(m.position)]
+        return zero[0] if zero else None
+
+    last = phases[-1]
+    seen_s, target = stamps_s([last])[0], (last.position[0] + 0.7) % 1.0  # 0.7 cycle ahead (1 Hz): 0.7 s
+    assert ros_client.set_parameters("gait_player", {"stop_at_phase": target})[0].successful
+    ros_client.spin_until(lambda: first_zero_s(seen_s) is not None, 10.0, "zero setpoints after the phase stop")
+    # the ramp-out began as the phase passed the target, 0.7 s after the phase seen, and lasted ramp_time_s
+    assert first_zero_s(seen_s) - seen_s == pytest.approx(0.7 + 0.3, abs=0.06)
+
+    assert ros_client.trigger("gait_player/start").success
+    ros_client.spin_for(1.5)
+    last = phases[-1]
+    assert ros_client.set_parameters("gait_player", {"stop_at_phase": (last.position[0] + 0.95) % 1.0})[0].successful
+    asked_s = ros_client.node.get_clock().now().nanoseconds * 1e-9
+    assert "ramp out" in ros_client.trigger("gait_player/stop").message
+    ros_client.spin_until(lambda: first_zero_s(asked_s) is not None, 10.0, "zero setpoints after ~/stop")
+    assert first_zero_s(asked_s) - asked_s < 0.3 + 0.25  # at once (the phase stop would be 0.95 s + 0.3 s later)
+    bad = ros_client.set_parameters("gait_player", {"stop_at_phase": 1.5})[0]
+    assert not bad.successful and "stop_at_phase" in bad.reason
+    assert proc.alive(), proc.output()
+
+
 def malformed_trajectories():
     good = trajectory(rolling_cycle(), 1.0)
 
