@@ -37,6 +37,8 @@ START_SETTLE_CYCLES = 1.5
 STOP_WITHIN = 0.8
 #: Cycles a direction must have been played before a stop counts on its learned resting point.
 STOP_AFTER_CYCLES = 1.0
+#: Aim with the rest offset of the turn level played (True) or the mean over the levels (False).
+AIM_AT_LEVEL = False
 #: A straight line passing this close to the goal (times the tolerance) needs no three-point turn.
 STRAIGHT_WITHIN = 0.7
 
@@ -52,6 +54,7 @@ class StopPlan:
     level: int | None
     phase_index: int
     ahead: bool
+    predicted_xy_m: tuple[float, float]
     stopped: Pose2D | None = None
     heading_rad: float = 0.0
 
@@ -94,6 +97,11 @@ class NavigationController:
     def command(self) -> GaitCommand:
         """The latest command."""
         return self._command
+
+    @property
+    def stop_plan(self) -> StopPlan | None:
+        """The last stop near a goal: where and how it was decided, where the robot was predicted to rest."""
+        return self._stop
 
     @property
     def goals(self) -> tuple[tuple[float, float], ...]:
@@ -219,13 +227,15 @@ class NavigationController:
         """Per direction: heading error (rad) and distance (m) to its aim point.
 
         The aim point is the goal; for the last goal, the goal less where the robot rolls on after a stop
-        (the pose must pass there for the robot to rest on the goal).
+        (the pose must pass there for the robot to rest on the goal): at the turn level played in the direction
+        played (a turning body rolls on up to 20 cm to the side), else the mean over the levels.
         """
         errors, distances = {}, {}
         final = self._index == len(self._goals) - 1
         for direction in DIRECTIONS:
             heading = self._travel_heading_rad(direction)
-            aim = np.asarray(self.goal) - (self.stops.mean_rest_offset(direction, heading) if final else 0.0)
+            level = self._level if direction == self._command.direction and AIM_AT_LEVEL else None
+            aim = np.asarray(self.goal) - (self.stops.mean_rest_offset(direction, heading, level) if final else 0.0)
             dx, dy = aim[0] - pose.x_m, aim[1] - pose.y_m
             errors[direction] = wrap_rad(math.atan2(dy, dx) - heading)
             distances[direction] = math.hypot(dx, dy)
@@ -355,7 +365,8 @@ class NavigationController:
     def _begin_stop(self, pose: Pose2D, phase_index: int) -> None:
         direction, ahead = self._command.direction, self.settings.stop_cycle_ahead
         self.state = NavigationState.STOPPING
-        self._stop = StopPlan(pose, direction, self._level, phase_index, ahead)
+        predicted = self._predicted_rest(pose, phase_index)
+        self._stop = StopPlan(pose, direction, self._level, phase_index, ahead, (float(predicted[0]), float(predicted[1])))
         if ahead:
             self._message = (f"stopping a cycle ahead, {self._distance(pose):.3f} m from the goal, as the gait "
                              f"passes phase {STOP_PHASES[phase_index]:g}; then waiting for the robot to rest")

@@ -76,6 +76,9 @@ class StopModel:
             self.measured[direction][level_index, phase_index] += 1
         offsets[:, phase_index] += self.learning_rate * weight[:, None] * (measured - offsets[:, phase_index])
 
-    def mean_rest_offset(self, direction: str, heading_rad: float) -> np.ndarray:
-        """:meth:`rest_offset` averaged over the turn levels and stop phases (where to aim before knowing them)."""
-        return rotate(self.offset_m[direction].mean(axis=(0, 1)), heading_rad)
+    def mean_rest_offset(self, direction: str, heading_rad: float, level_index: int | None = None) -> np.ndarray:
+        """:meth:`rest_offset` averaged over the stop phases (where to aim before knowing the phase), at the
+        turn level ``level_index`` (None: averaged over the levels too)."""
+        offsets = self.offset_m[direction]
+        return rotate((offsets.mean(axis=(0, 1)) if level_index is None else offsets[level_index].mean(axis=0)),
+                      heading_rad)

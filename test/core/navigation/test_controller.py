@@ -211,7 +211,7 @@ def test_bad_input_is_refused():
         settings(turn_levels_rad=[0.2, 0.1])
 
 
-def drive_late(controller, roller, until_s, pose_late_s, command_late_s, seed=0):
+def drive_late(controller, roller, until_s, pose_late_s, command_late_s, seed=0, after=None):
     """As :func:`drive`, but each pose (with the gait phase of its frame) reaches the controller ``pose_late_s``
     after its frame and each command reaches the robot 0 to ``command_late_s`` after it was given, at random
     (DDS on a loaded machine)."""
@@ -229,6 +229,8 @@ def drive_late(controller, roller, until_s, pose_late_s, command_late_s, seed=0)
             commands.pop(0)
         if commands[0][0] <= now + 1e-9:
             roller.step(commands[0][1], now)
+        if after is not None:
+            after(now)
         now += FRAME_S
         if not controller.state.active and not roller.moving_or_settling(now) and now > 0.1:
             break
@@ -252,13 +254,37 @@ def test_the_stop_is_sent_a_cycle_ahead_at_a_stop_phase_and_late_commands_still_
             now += FRAME_S
         assert stops and all(not c.moving and c.stop_phase in STOP_PHASES for _, c in stops), stops
         assert controller.state is NavigationState.REACHED and math.dist(goal, (roller.x, roller.y)) <= 0.05
-        # the same goal with every command up to 0.4 s late and every pose 0.1 s late (the gait phase of its
-        # frame), on a robot whose resting point depends much on the phase it stops at
-        controller, roller = NavigationController(settings(), AREA), Roller(rest_m=(0.04, 0.16, 0.24, 0.10))
+
+
+#: A robot whose resting point depends much on the gait phase it stops at (4 to 24 cm ahead), and the map
+#: that knows it: a stop that lands at another phase than the one decided rests up to 20 cm elsewhere.
+PHASE_REST_M = (0.04, 0.16, 0.24, 0.10)
+PHASE_MAP = TurningMap(4.0, 1.0, "test", {
+    d: DirectionMap(LEVELS, -40.0 * LEVELS, np.full(len(LEVELS), 0.09),
+                    np.array([[r, 0.0] for r in PHASE_REST_M])) for d in DIRECTIONS})
+
+
+def test_with_late_poses_and_late_commands_the_robot_rests_where_the_stop_was_predicted():
+    misses = []
+    for goal in [(0.0, 0.6), (0.5, 0.5), (-0.3, -0.6), (0.6, -0.2)]:
+        controller = NavigationController(load_navigation_settings(turning_map=PHASE_MAP), AREA)
+        roller = Roller(rest_m=PHASE_REST_M)
         controller.set_goal(*goal, now_s=0.0)
-        end = drive_late(controller, roller, 120.0, pose_late_s=0.1, command_late_s=0.4)
-        assert controller.state is NavigationState.REACHED, controller.progress(end).message
-        assert math.dist(goal, (roller.x, roller.y)) <= 0.05
+        plans = []
+
+        def settled(now_s, plans=plans, controller=controller, roller=roller):
+            plan = controller.stop_plan
+            if plan is not None and plan not in [p for p, _ in plans] and controller.state is not \
+                    NavigationState.STOPPING:
+                plans.append((plan, math.dist(plan.predicted_xy_m, (roller.x, roller.y))))
+
+        # every pose 0.1 s late (with the gait phase of its frame), every command 0 to 0.4 s late at random
+        drive_late(controller, roller, 60.0, pose_late_s=0.1, command_late_s=0.4, after=settled)
+        assert plans, f"no stop near {goal}"
+        misses += [miss for _, miss in plans]
+    # stopped at the phase decided, the robot rests where predicted (what is left: the cycle ahead's travel and
+    # turn, learned); stopping at once as the phase passes, these late commands miss by 3-21 cm, median 10
+    assert float(np.median(misses)) <= 0.02 and max(misses) <= 0.08, misses
 
 
 def test_stop_offsets_are_learned_per_turn_level_and_shared_with_unmeasured_levels():
