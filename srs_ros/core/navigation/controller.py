@@ -37,6 +37,8 @@ START_SETTLE_CYCLES = 1.5
 STOP_WITHIN = 0.8
 #: Cycles a direction must have been played before a stop counts on its learned resting point.
 STOP_AFTER_CYCLES = 1.0
+#: The cycle ahead of a stop moves as the last whole cycle did (True) or by the learned travel and turn (False).
+CYCLE_AHEAD_FROM_LAST_CYCLE = True
 #: Aim with the rest offset of the turn level played (True) or the mean over the levels (False).
 AIM_AT_LEVEL = False
 #: A straight line passing this close to the goal (times the tolerance) needs no three-point turn.
@@ -353,9 +355,31 @@ class NavigationController:
             index = len(self.travel.levels_rad) // 2 if level is None else level
             turn = math.radians(float(self.turns.rates[direction][index]))
             travel = float(self.travel.travel_m[direction][index])
-            where = where + travel * np.array([math.cos(heading + 0.5 * turn), math.sin(heading + 0.5 * turn)])
+            step = travel * np.array([math.cos(heading + 0.5 * turn), math.sin(heading + 0.5 * turn)])
+            last = self._last_cycle(pose) if CYCLE_AHEAD_FROM_LAST_CYCLE else None
+            if last is not None:  # the last cycle seen at this phase, turned by its own turn
+                moved, turned = last
+                cos, sin = math.cos(turned), math.sin(turned)
+                step = np.array([moved[0] * cos - moved[1] * sin, moved[0] * sin + moved[1] * cos])
+                turn = turned
+            where = where + step
             heading += turn
         return where + self.stops.rest_offset(direction, phase_index, heading, level)
+
+    def _last_cycle(self, pose: Pose2D) -> tuple[np.ndarray, float] | None:
+        """The move (m) and turn (rad) from the pose a cycle ago (the same gait phase) to ``pose``, if the gait
+        played one direction and level all that cycle and a pose was seen then (within a frame)."""
+        period_s = 1.0 / max(self._command.frequency_hz, 1e-3)
+        if pose.time_s - self._direction_since_s < period_s * (1.0 + SETTLE_CYCLES):
+            return None
+        rows = self.history.window(period_s + 0.05)
+        if not len(rows):
+            return None
+        then = rows[int(np.argmin(np.abs(rows[:, 0] - (pose.time_s - period_s))))]
+        if abs(then[0] - (pose.time_s - period_s)) > 0.04:
+            return None
+        now_row = self.history.window(0.0)[-1]
+        return now_row[1:3] - then[1:3], float(now_row[3] - then[3])
 
     def _rest_error_m(self, pose: Pose2D, phase_index: int) -> float:
         """How far from the goal the robot would rest if stopped at the phase just passed (or a cycle later)."""
