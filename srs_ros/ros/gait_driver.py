@@ -145,8 +145,10 @@ class GaitDriver:
             self._start(now)
 
     def _player_values(self, command) -> tuple[float, bool, int, float]:
-        """gait_player's (frequency_hz, reverse, cycles, stop_at_phase) for a moving ``command`` (cycles:
-        keepalive_s of them, 0 = none; no stop at a phase pending)."""
+        """gait_player's (frequency_hz, reverse, cycles, stop_at_phase) for a moving ``command``.
+
+        cycles: keepalive_s of them (0 = none); no stop at a phase pending.
+        """
         cycles = max(1, math.ceil(self.keepalive_s * command.frequency_hz)) if self.keepalive_s > 0 else 0
         return (float(command.frequency_hz), bool(command.reverse), cycles, NO_STOP_PHASE)
 

@@ -332,7 +332,8 @@ class GaitPlayback:
         """True when advancing the phase by ``advance`` (signed) reaches or passes the pending stop phase."""
         if self._stop_at_phase is None or advance == 0.0 or abs(advance) >= 1.0:
             return self._stop_at_phase is not None and abs(advance) >= 1.0
-        to_stop = (self._stop_at_phase - self._phase) % 1.0 if advance > 0 else (self._phase - self._stop_at_phase) % 1.0
+        ahead = self._stop_at_phase - self._phase
+        to_stop = ahead % 1.0 if advance > 0 else (-ahead) % 1.0
         return 0.0 < to_stop <= abs(advance)
 
     def _advance_state(self, passed_stop_phase: bool = False) -> None:

@@ -47,8 +47,10 @@ STRAIGHT_WITHIN = 0.7
 
 @dataclasses.dataclass
 class StopPlan:
-    """A stop near the goal: decided at ``decided`` (as the gait passed stop phase ``phase_index``), done at
-    ``stopped`` (the pose as the gait passes that phase a cycle later, or at once), learned from after ``settle_s``.
+    """A stop near the goal: how it was decided, where the robot is predicted to rest, where it stopped.
+
+    Decided at ``decided`` (as the gait passed stop phase ``phase_index``), done at ``stopped`` (the pose as the
+    gait passes that phase a cycle later, or at once), learned from after ``settle_s``.
     """
 
     decided: Pose2D
@@ -367,8 +369,10 @@ class NavigationController:
         return where + self.stops.rest_offset(direction, phase_index, heading, level)
 
     def _last_cycle(self, pose: Pose2D) -> tuple[np.ndarray, float] | None:
-        """The move (m) and turn (rad) from the pose a cycle ago (the same gait phase) to ``pose``, if the gait
-        played one direction and level all that cycle and a pose was seen then (within a frame)."""
+        """The move (m) and turn (rad) from the pose a cycle ago (the same gait phase) to ``pose``, or None.
+
+        None unless the gait played one direction all that cycle and a pose was seen then (within a frame).
+        """
         period_s = 1.0 / max(self._command.frequency_hz, 1e-3)
         if pose.time_s - self._direction_since_s < period_s * (1.0 + SETTLE_CYCLES):
             return None
@@ -390,7 +394,8 @@ class NavigationController:
         direction, ahead = self._command.direction, self.settings.stop_cycle_ahead
         self.state = NavigationState.STOPPING
         predicted = self._predicted_rest(pose, phase_index)
-        self._stop = StopPlan(pose, direction, self._level, phase_index, ahead, (float(predicted[0]), float(predicted[1])))
+        self._stop = StopPlan(pose, direction, self._level, phase_index, ahead,
+                              (float(predicted[0]), float(predicted[1])))
         if ahead:
             self._message = (f"stopping a cycle ahead, {self._distance(pose):.3f} m from the goal, as the gait "
                              f"passes phase {STOP_PHASES[phase_index]:g}; then waiting for the robot to rest")
@@ -403,8 +408,7 @@ class NavigationController:
         self._level = None
 
     def _settle(self, pose: Pose2D) -> None:
-        """The stop a cycle ahead passing; after ``settle_s`` at rest: learn where the robot rested, then
-        reached or drive on."""
+        """Wait for the stop a cycle ahead; after ``settle_s`` at rest learn the resting point, then reached or on."""
         plan = self._stop
         if plan.stopped is None:
             period_s = 1.0 / max(self.settings.cruise_frequency_hz, 1e-3)

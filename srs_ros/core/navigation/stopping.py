@@ -62,8 +62,10 @@ class StopModel:
 
     def learn(self, direction: str, phase_index: int, heading_rad: float, moved_m: np.ndarray,
               level_index: int | None = None) -> None:
-        """Take the measured move from the stop to the rest (floor frame) into the estimate of the level and
-        phase (``level_index`` None: every level); unmeasured levels near it get a share."""
+        """Take the measured move from the stop to the rest (floor frame) into the level's and phase's estimate.
+
+        ``level_index`` None: every level; otherwise the unmeasured levels near it get a share.
+        """
         cos, sin = math.cos(heading_rad), math.sin(heading_rad)
         measured = np.array([moved_m[0] * cos + moved_m[1] * sin, -moved_m[0] * sin + moved_m[1] * cos])
         offsets = self.offset_m[direction]
@@ -77,8 +79,10 @@ class StopModel:
         offsets[:, phase_index] += self.learning_rate * weight[:, None] * (measured - offsets[:, phase_index])
 
     def mean_rest_offset(self, direction: str, heading_rad: float, level_index: int | None = None) -> np.ndarray:
-        """:meth:`rest_offset` averaged over the stop phases (where to aim before knowing the phase), at the
-        turn level ``level_index`` (None: averaged over the levels too)."""
+        """:meth:`rest_offset` averaged over the stop phases (where to aim before knowing the phase).
+
+        At the turn level ``level_index`` (None: averaged over the levels too).
+        """
         offsets = self.offset_m[direction]
         return rotate((offsets.mean(axis=(0, 1)) if level_index is None else offsets[level_index].mean(axis=0)),
                       heading_rad)
