@@ -39,8 +39,6 @@ STOP_WITHIN = 0.8
 STOP_AFTER_CYCLES = 1.0
 #: The cycle ahead of a stop moves as the last whole cycle did (True) or by the learned travel and turn (False).
 CYCLE_AHEAD_FROM_LAST_CYCLE = True
-#: Aim with the rest offset of the turn level played (True) or the mean over the levels (False).
-AIM_AT_LEVEL = False
 #: A straight line passing this close to the goal (times the tolerance) needs no three-point turn.
 STRAIGHT_WITHIN = 0.7
 
@@ -231,15 +229,14 @@ class NavigationController:
         """Per direction: heading error (rad) and distance (m) to its aim point.
 
         The aim point is the goal; for the last goal, the goal less where the robot rolls on after a stop
-        (the pose must pass there for the robot to rest on the goal): at the turn level played in the direction
-        played (a turning body rolls on up to 20 cm to the side), else the mean over the levels.
+        (the pose must pass there for the robot to rest on the goal), the mean over the turn levels (aiming with
+        the offset of the level played was measured worse: it moves the aim as the level changes).
         """
         errors, distances = {}, {}
         final = self._index == len(self._goals) - 1
         for direction in DIRECTIONS:
             heading = self._travel_heading_rad(direction)
-            level = self._level if direction == self._command.direction and AIM_AT_LEVEL else None
-            aim = np.asarray(self.goal) - (self.stops.mean_rest_offset(direction, heading, level) if final else 0.0)
+            aim = np.asarray(self.goal) - (self.stops.mean_rest_offset(direction, heading) if final else 0.0)
             dx, dy = aim[0] - pose.x_m, aim[1] - pose.y_m
             errors[direction] = wrap_rad(math.atan2(dy, dx) - heading)
             distances[direction] = math.hypot(dx, dy)
