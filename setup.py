@@ -67,6 +67,7 @@ setup(
             "hardware_node = srs_ros.nodes.hardware_node:main",
             "srs_bringup = srs_ros.nodes.bringup:main",
             "camera_tracker = srs_ros.nodes.camera_tracker:main",
+            "navigator = srs_ros.nodes.navigator:main",
             "srs_track = srs_ros.tools.track_cli:main",
             "srs_calibrate_camera = srs_ros.tools.calibrate_camera:main",
             "srs_wiring_check = srs_ros.tools.wiring_check:main",

@@ -13,19 +13,25 @@ navigator keeps it) and prints:
 
 Targets of the issue: >= 9 of 10 reached within 5 cm, median time <= 2 x straight distance / gait speed.
 
+``--latency POSE_S COMMAND_S`` runs the controller as over DDS on a loaded machine (:class:`Latency`: each
+pose reaches it late, stamped with its frame's time and gait phase, each command reaches the gait player late,
+and every 10 s on average the navigator stalls for 0.3 s).
+
 Run: python benchmarks/bench_navigation.py [--goals 10] [--seed 20] [--camera] [--sim-config FILE]
+     [--friction isotropic|anisotropic] [--latency 0.1 0.2]
 """
 
 import argparse
 import statistics
 import time
+from pathlib import Path
 
 import numpy as np
 
 from srs_ros.core.navigation import load_navigation_settings
 from srs_ros.experiments.turning import measure_turn_phase
 from srs_ros.sim.config import load_sim_config
-from srs_ros.sim.navigation import random_goals, run_navigation
+from srs_ros.sim.navigation import Latency, random_goals, run_navigation
 
 
 def gait_speed_m_s(config) -> float:
@@ -35,11 +41,12 @@ def gait_speed_m_s(config) -> float:
     return statistics.mean(m.speed_m_s for m in runs)
 
 
-def report(label, config, goals, camera, settings):
+def report(label, config, goals, camera, settings, latency=None):
     started = time.perf_counter()
     speed = gait_speed_m_s(config)
     result = run_navigation(goals, config=config, settings=settings, camera=camera, from_start=True,
-                            goal_timeout_s=60.0, progress=lambda line: print("   ", line, flush=True))
+                            goal_timeout_s=60.0, progress=lambda line: print("   ", line, flush=True),
+                            latency=latency)
     outcomes = result.outcomes
     reached = [o for o in outcomes if o.reached and o.final_error_m <= settings.goal_tolerance_m]
     ratios = [o.time_s * speed / o.straight_m for o in outcomes]
@@ -61,14 +68,31 @@ def main() -> None:
     parser.add_argument("--seed", type=int, default=20)
     parser.add_argument("--camera", action="store_true", help="pose from the simulated camera + tracker")
     parser.add_argument("--sim-config", help="another simulation config (e.g. the calibrated one)")
+    parser.add_argument("--friction", choices=("isotropic", "anisotropic"), action="append",
+                        help="only this friction (repeatable; default both)")
+    parser.add_argument("--latency", type=float, nargs=2, metavar=("POSE_S", "COMMAND_S"),
+                        help="poses and commands this late, and a 0.3 s stall every 10 s on average")
+    parser.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
+                        help="a navigation setting (e.g. stop_cycle_ahead=false, "
+                        "turning_map_file=config/turning_map_calibrated_paper.yaml)")
     args = parser.parse_args()
-    settings = load_navigation_settings()
+    overrides = {}
+    for item in args.set:
+        name, _, value = item.partition("=")
+        overrides[name] = {"true": True, "false": False}.get(value.lower(), value)
+        try:
+            overrides[name] = float(overrides[name]) if isinstance(overrides[name], str) else overrides[name]
+        except ValueError:
+            pass  # a text setting (turning_map_file)
+    settings = load_navigation_settings(overrides)
+    latency = Latency(args.latency[0], args.latency[1], 10.0, 0.3, seed=args.seed) if args.latency else None
     base = load_sim_config(args.sim_config)
-    for friction in ("isotropic", "anisotropic"):
+    for friction in args.friction or ("isotropic", "anisotropic"):
         config = base.replace("contact", friction=friction)
         goals = random_goals(np.random.default_rng(args.seed), args.goals, config, settings)
-        report(f"{config.contact.describe()} ({'camera' if args.camera else 'simulator pose'})", config, goals,
-               args.camera, settings)
+        late = f", poses {args.latency[0]:g} s and commands {args.latency[1]:g} s late" if latency else ""
+        report(f"{Path(base.source).name}: {config.contact.describe()} ({'camera' if args.camera else 'simulator pose'}"
+               f"{late})", config, goals, args.camera, settings, latency)
 
 
 if __name__ == "__main__":

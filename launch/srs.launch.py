@@ -7,7 +7,10 @@
   std_srvs/srv/Trigger``) with a real camera tracking ArUco markers (``camera:=false`` for none);
 - ``ros2 launch srs_ros srs.launch.py namespace:=snake1 use_sim_time:=true``: every node under
   ``/snake1`` (topics ``/snake1/joint_setpoints`` ..., services ``/snake1/hardware_node/...``), on
-  ``/clock`` time.
+  ``/clock`` time;
+- ``ros2 launch srs_ros srs.launch.py navigate:=true``: closed loop, the ``navigator`` drives the gait to the
+  goals sent on ``goal_pose`` (RViz's "2D Goal Pose", frame ``floor``) or ``goal_path``, by the camera's pose;
+  the gait player then waits for it instead of starting on its own (docs/navigation.md).
 
 ``hardware_node`` is started with launch_ros's ``LifecycleNode`` action, so launch can drive its
 transitions (``ChangeState`` events); with ``autostart:=true`` it configures and activates itself.
@@ -62,6 +65,15 @@ def _typed(name: str, value_type: type) -> ParameterValue:
     return ParameterValue(LaunchConfiguration(name), value_type=value_type)
 
 
+def _gait_player(context, config: str, namespace, common: dict) -> list:
+    """gait_player; with ``navigate:=true`` it never starts on its own (the navigator starts and stops it)."""
+    autostart = (LaunchConfiguration("autostart").perform(context) == "true"
+                 and LaunchConfiguration("navigate").perform(context) != "true")
+    return [Node(package="srs_ros", executable="gait_player", name="gait_player", namespace=namespace,
+                 output="screen", parameters=[os.path.join(config, "gait_player.yaml"), common,
+                                              {"autostart": autostart}])]
+
+
 def generate_launch_description():
     config = os.path.join(get_package_share_directory("srs_ros"), "config")
     gait, amplitude = gait_field(list_gaits()), amplitude_field(default_robot())
@@ -85,6 +97,9 @@ def generate_launch_description():
         DeclareLaunchArgument("namespace", default_value="", description="ROS namespace of every node"),
         DeclareLaunchArgument("use_sim_time", default_value="false", choices=["true", "false"],
                               description="use /clock (simulation) time"),
+        DeclareLaunchArgument("navigate", default_value="false", choices=["true", "false"],
+                              description="start the navigator (goals on goal_pose / goal_path, pose from the camera); "
+                                          "the gait then plays only when the navigator starts it"),
     ]
     namespace = LaunchConfiguration("namespace")
     common = {"use_sim_time": _typed("use_sim_time", bool)}
@@ -98,10 +113,7 @@ def generate_launch_description():
             "frequency_hz": _typed("frequency_hz", float),
         }],
     )
-    gait_player = Node(
-        package="srs_ros", executable="gait_player", name="gait_player", namespace=namespace, output="screen",
-        parameters=[os.path.join(config, "gait_player.yaml"), common, autostart],
-    )
+    gait_player = OpaqueFunction(function=_gait_player, args=[config, namespace, common])
     hardware_node = LifecycleNode(
         package="srs_ros", executable="hardware_node", name="hardware_node", namespace=namespace, output="screen",
         parameters=[os.path.join(config, "hardware_node.yaml"), common, autostart,
@@ -113,9 +125,16 @@ def generate_launch_description():
                     {"color_preset": _typed("camera_preset", str)}],
         condition=IfCondition(LaunchConfiguration("camera")),
     )
+    navigator = Node(
+        package="srs_ros", executable="navigator", name="navigator", namespace=namespace, output="screen",
+        parameters=[os.path.join(config, "navigator.yaml"), common,
+                    {"calibration_preset": _typed("camera_preset", str)}],
+        condition=IfCondition(LaunchConfiguration("navigate")),
+    )
     sim_world = Node(
         package="srs_ros", executable="sim_world", name="sim_world", namespace=namespace, output="screen",
         parameters=[common], condition=IfCondition(LaunchConfiguration("sim")),
     )
     check = OpaqueFunction(function=_check_numbers)  # after the arguments, before any node starts
-    return LaunchDescription(args + [check, sim_world, trajectory_server, gait_player, hardware_node, camera_tracker])
+    return LaunchDescription(args + [check, sim_world, trajectory_server, gait_player, hardware_node, camera_tracker,
+                                     navigator])

@@ -66,6 +66,21 @@ def test_defaults_run_the_simulated_robot_with_hardware_node_as_a_lifecycle_node
     assert sorted(real) == ["gait_player", "hardware_node", "trajectory_server"]
 
 
+def test_navigate_adds_the_navigator_and_leaves_the_gait_to_it(ament_prefix):
+    plain = evaluate(ament_prefix)
+    assert "navigator" not in plain and plain["gait_player"]["parameters"]["autostart"] is True
+    nodes = evaluate(ament_prefix, "navigate:=true", "namespace:=snake1")
+    navigator = nodes["navigator"]
+    assert navigator["executable"] == "navigator" and navigator["namespace"] == "snake1"
+    assert navigator["parameters"]["calibration_preset"] == "sim_bands"  # the tracker's calibration, as its preset
+    assert [Path(f).name for f in navigator["parameter_files"]] == ["navigator.yaml"]
+    assert all(Path(f).is_file() for f in navigator["parameter_files"])
+    assert nodes["gait_player"]["parameters"]["autostart"] is False  # the navigator starts and stops it
+    assert nodes["hardware_node"]["parameters"]["autostart"] is True
+    real = evaluate(ament_prefix, "navigate:=true", "camera_preset:=", "sim:=false")
+    assert real["navigator"]["parameters"]["calibration_preset"] == ""  # config/camera_calibration.yaml
+
+
 #: Run before the launch file in its process: every default the launch takes from srs_ros's specs changed.
 CHANGED_SPECS = """
 import dataclasses, runpy, sys

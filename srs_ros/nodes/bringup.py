@@ -2,8 +2,8 @@
 
 Starts ``trajectory_server`` (fits the gait at start-up), ``gait_player`` (autostart) and the
 lifecycle ``hardware_node`` (autostart: configured and active) on the chosen rig, plus a small status
-monitor that prints gait, cycles, setpoint and command rates and the largest commanded pressure until
-Ctrl-C (or ``--duration-s``); then the valves are vented.
+monitor (:mod:`srs_ros.nodes.bringup_nodes`) that prints gait, cycles, setpoint and command rates and the
+largest commanded pressure until Ctrl-C (or ``--duration-s``); then the valves are vented.
 
 The default rig is the simulated robot (``config/rigs/sim.yaml``): the bringup then also runs
 ``sim_world`` (MuJoCo, real time) and ``camera_tracker`` on its overhead camera (colour bands), and the
@@ -11,6 +11,12 @@ status line shows the tracked traveling speed beside the ground truth (cm/s); wh
 robot out of the camera's view (or the camera silent) on ``/diagnostics`` the line says so with where the
 robot was last seen, and the tracked speed shows ``--``. ``--video FILE`` saves the camera's view.
 ``--rig config/rigs/mock.yaml`` runs the muscle-only mock instead.
+
+``--navigate`` closes the loop: the ``navigator`` (:mod:`srs_ros.nodes.navigator`) drives the gait to the goals
+sent on ``goal_pose`` / ``goal_path`` by the camera's pose, the gait player waits for it, and the status line
+adds the navigator's state, goal, distance to go and heading error. ``--patrol`` also sends it waypoints to
+patrol in a loop (``--waypoint X Y`` ..., by default on the sim rig a rectangle inside the simulated camera's
+view): the main job, ``scripts/run.sh``, does this unless it is given ``--gait`` (open loop).
 
 On a rig with real regulators (``can``, ``daq``) nothing above 0 bar is commanded until the operator
 arms it: ``--arm`` on the command line, or ``ros2 service call /hardware_node/arm std_srvs/srv/Trigger``
@@ -21,9 +27,10 @@ Executors: the real-time path (gait_player, hardware_node, status) shares one Ev
 by a timed spin_once loop in the main thread (its spin() hangs in this rclpy); the trajectory_server
 keeps its own multi-threaded executor in a second thread so that a fit (~0.1 s) never holds up a
 setpoint or a command; the simulated world, the camera tracker and the video recorder share a third
-executor on a third thread (a MultiThreadedExecutor for everything was measured to drop the 200 Hz streams
-to 10-40 Hz in this rclpy). The GIL switch interval is lowered to 0.5 ms so the real-time thread gets
-the interpreter back quickly while a fit runs.
+executor on a third thread, with the navigator (it only reads poses and calls services); a
+MultiThreadedExecutor for everything was measured to drop the 200 Hz streams to 10-40 Hz in this rclpy. The
+GIL switch interval is lowered to 0.5 ms so the real-time thread gets the interpreter back quickly while a
+fit runs.
 
 Example: ``srs_bringup --gait serpentine --amplitude-bar 3 --frequency-hz 0.5``. ROS arguments
 after ``--ros-args`` are passed on (e.g. remappings) and win over the options above
@@ -34,186 +41,44 @@ starts the same nodes as separate processes on a stock ROS install.
 from __future__ import annotations
 
 import argparse
-import math
 import os
 import sys
 import tempfile
 import threading
-import time
 from typing import Any
 
 import rclpy
 import yaml
-from diagnostic_msgs.msg import DiagnosticArray
-from geometry_msgs.msg import PoseStamped
 from rclpy.executors import MultiThreadedExecutor, SingleThreadedExecutor
 from rclpy.experimental import EventsExecutor
+from rclpy.logging import LoggingSeverity, set_logger_level
 from rclpy.node import Node
-from sensor_msgs.msg import Image, JointState
-from std_msgs.msg import Float64MultiArray
 
 from srs_ros.core import rig as rig_config
 from srs_ros.core.actuation.safety import min_setpoint_rate_hz
-from srs_ros.core.errors import ConfigurationError
+from srs_ros.core.errors import ConfigurationError, SrsError
 from srs_ros.core.gait import request
 from srs_ros.core.gait.library import list_gaits
 from srs_ros.core.rig import load_rig
 from srs_ros.core.robot import amplitude_field, default_robot
-from srs_ros.core.vision.view import ViewStatus
 from srs_ros.nodes import gait_player
+from srs_ros.nodes.bringup_nodes import (  # noqa: F401 (SpeedMeter, navigation_text: this module's API too)
+    Patrol,
+    SpeedMeter,
+    StatusMonitor,
+    VideoRecorder,
+    navigation_text,
+)
 from srs_ros.nodes.gait_player import GaitPlayer
 from srs_ros.nodes.hardware_node import HardwareNode, release_and_report
+from srs_ros.nodes.navigator import Navigator
 from srs_ros.nodes.trajectory_server import TrajectoryServer
-from srs_ros.ros.interfaces import (
-    COMMANDED_PRESSURE_TOPIC,
-    DIAGNOSTICS_TOPIC,
-    GROUND_TRUTH_TOPIC,
-    IMAGE_TOPIC,
-    POSE_TOPIC,
-    SETPOINT_TOPIC,
-    diagnostic_values,
-    image_msg_to_array,
-    setpoint_qos,
-    stamp_to_seconds,
-)
 from srs_ros.ros.parameters import guard_parameter_services
-from srs_ros.ros.process import CleanExit, init_ros, spin_until_shutdown, steady_timer
+from srs_ros.ros.process import CleanExit, init_ros, spin_until_shutdown
 
-
-class StatusMonitor(Node):
-    """Counts setpoints and commands and prints one status line per period (with speeds on the sim rig).
-
-    ``tracker_status`` (sim rig) is the camera tracker's ``(status name, hardware_id)`` on ``/diagnostics``:
-    what it reports about the robot's view is followed (another robot's tracker on the same domain is not).
-    """
-
-    def __init__(self, player: GaitPlayer, server: TrajectoryServer, hardware: HardwareNode, period_s: float,
-                 simulated: bool = False, tracker_status: tuple[str, str] | None = None, context=None):
-        super().__init__("srs_status", context=context)
-        self._player, self._server, self._hardware = player, server, hardware
-        self._setpoints = 0
-        self._commands = 0
-        self._largest_bar = 0.0
-        self._since_s = time.monotonic()
-        self._start_s = self._since_s
-        self._tty = sys.stdout.isatty()
-        self._tracked = SpeedMeter()
-        self._truth = SpeedMeter() if simulated else None
-        self._tracker_status = tracker_status
-        self._view: tuple[ViewStatus, float] | None = None  # the tracker's last report, when it arrived (steady s)
-        self.create_subscription(JointState, SETPOINT_TOPIC, self._on_setpoint, setpoint_qos())
-        self.create_subscription(Float64MultiArray, COMMANDED_PRESSURE_TOPIC, self._on_command, 10)
-        if simulated:
-            self.create_subscription(PoseStamped, POSE_TOPIC, self._tracked.add, 10)
-            self.create_subscription(PoseStamped, GROUND_TRUTH_TOPIC, self._truth.add, 10)
-        if simulated and tracker_status is not None:
-            self.create_subscription(DiagnosticArray, DIAGNOSTICS_TOPIC, self._on_diagnostics, 10)
-        steady_timer(self, period_s, self._print)
-
-    def _on_setpoint(self, _msg: JointState) -> None:
-        self._setpoints += 1
-
-    def _on_command(self, msg: Float64MultiArray) -> None:
-        self._commands += 1
-        self._largest_bar = max(self._largest_bar, max(msg.data, default=0.0))
-
-    def _on_diagnostics(self, msg: DiagnosticArray) -> None:
-        for status in msg.status:
-            if (status.name, status.hardware_id) == self._tracker_status:
-                view = ViewStatus.from_values(diagnostic_values(status), status.message)
-                if view is not None:
-                    self._view = (view, time.monotonic())
-
-    def _speeds(self, now_s: float) -> str:
-        """The sim rig's speeds; the tracked one is ``--`` while the tracker has no current pose (said why)."""
-        view = self._view[0].aged(now_s - self._view[1]) if self._view is not None else None
-        current = view is None or view.pose_current
-        text = f" | travel speed tracked {self._tracked.take() if current else '  --'} truth {self._truth.take()} cm/s"
-        return text if current else f"{text} | {view.summary()}"
-
-    def status_line(self) -> str:
-        """One line: gait, cycles played, rates (Hz), the largest pressure in the period, speeds (sim rig).
-
-        On the simulated robot it ends with the traveling speed since the start (Table I's displacement over
-        time), tracked by the camera beside the ground truth (cm/s), or ``--`` and e.g. ``robot out of the
-        camera's view: last seen 2.1 s ago at x 1.234 y 0.056 m (floor)`` while the tracker says so.
-        Cycles played (e.g. ``cycle  12.37``: 12 whole cycles, phase 0.37) rather than the bare phase,
-        which a 1 s status period samples at the same value every time for a 1 Hz gait.
-        """
-        now_s = time.monotonic()
-        span_s = max(now_s - self._since_s, 1e-9)
-        get = self._server.get_parameter
-        playback = self._player.playback
-        line = (f"[{now_s - self._start_s:6.1f} s] {get('gait').value} {get('amplitude_bar').value:g} bar "
-                f"{get('frequency_hz').value:g} Hz | {playback.state.value} cycle {playback.cycles_done:7.2f} | "
-                f"setpoints {self._setpoints / span_s:5.0f} Hz | commands {self._commands / span_s:5.0f} Hz | "
-                f"largest {self._largest_bar:4.2f} bar | hardware {self._hardware.status.reason.value}")
-        if self._truth is not None:
-            line += self._speeds(now_s)
-        self._setpoints = self._commands = 0
-        self._largest_bar = 0.0
-        self._since_s = now_s
-        return line
-
-    def _print(self) -> None:
-        line = self.status_line()
-        if self._tty:
-            print("\r" + line.ljust(170), end="", flush=True)
-        else:
-            print(line, flush=True)
-
-
-class SpeedMeter:
-    """Traveling speed (cm/s) of a PoseStamped stream since its first pose, by the stamps.
-
-    The paper's Table I measure (displacement over time): a gait that only sways in place shows about 0.
-    """
-
-    def __init__(self) -> None:
-        self._first: tuple[float, float, float] | None = None
-        self._last: tuple[float, float, float] | None = None
-
-    def add(self, msg: PoseStamped) -> None:
-        """One pose (stamp s, x m, y m)."""
-        sample = (stamp_to_seconds(msg.header.stamp), msg.pose.position.x, msg.pose.position.y)
-        self._first = self._first or sample
-        self._last = sample
-
-    def take(self) -> str:
-        """The speed so far as text (``--`` before two poses)."""
-        first, last = self._first, self._last
-        if first is None or last is None or last[0] <= first[0]:
-            return "  --"
-        return f"{100.0 * math.hypot(last[1] - first[1], last[2] - first[2]) / (last[0] - first[0]):4.1f}"
-
-
-class VideoRecorder(Node):
-    """``--video``: writes the overhead camera's images (``image_raw``) to a video file (MJPG)."""
-
-    def __init__(self, path: str, fps: float):
-        super().__init__("srs_video_recorder")
-        self.path, self.fps, self.frames = path, fps, 0
-        self._writer = None
-        self.create_subscription(Image, IMAGE_TOPIC, self._on_image, 10)
-
-    def _on_image(self, msg: Image) -> None:
-        import cv2  # only with --video: OpenCV is not loaded at start otherwise
-
-        frame = image_msg_to_array(msg)
-        if self._writer is None:
-            self._writer = cv2.VideoWriter(self.path, cv2.VideoWriter_fourcc(*"MJPG"), self.fps,
-                                           (frame.shape[1], frame.shape[0]))
-            if not self._writer.isOpened():
-                raise ConfigurationError(f"--video {self.path}: OpenCV cannot write this file (use a .avi path in "
-                                         "a writable folder).")
-        self._writer.write(frame)
-        self.frames += 1
-
-    def close(self) -> None:
-        """Finish the file and say where it is."""
-        if self._writer is not None:
-            self._writer.release()
-            print(f"srs_bringup: saved {self.frames} camera frames to {self.path}", flush=True)
+#: The main job's patrol on the sim rig (m, floor frame): a rectangle well inside the simulated camera's view
+#: (2.9 m x 2.3 m around the origin, where the robot starts), kept view_margin_m inside its edge.
+SIM_PATROL_XY_M = ((0.4, 0.4), (-0.4, 0.4), (-0.4, -0.4), (0.4, -0.4))
 
 
 def spec_defaults() -> dict[str, Any]:
@@ -252,6 +117,16 @@ def build_parser() -> argparse.ArgumentParser:
                         choices=range(0, 99), metavar="0-98",
                         help="SCHED_FIFO priority of the process, so CPU load cannot delay setpoints (needs an "
                              "rtprio limit or CAP_SYS_NICE; default 0 = the normal scheduler)")
+    parser.add_argument("--navigate", action="store_true",
+                        help="closed loop: start the navigator, which drives the gait to the goals sent on goal_pose "
+                             "(RViz's 2D Goal Pose, frame floor) or goal_path by the camera's pose (the gait player "
+                             "waits for it); docs/navigation.md")
+    parser.add_argument("--patrol", action="store_true",
+                        help="navigate and patrol waypoints in a loop: --waypoint's, or on the sim rig "
+                             f"{' '.join(f'({x:g}, {y:g})' for x, y in SIM_PATROL_XY_M)} m, inside the simulated "
+                             "camera's view (scripts/run.sh does this unless given --gait)")
+    parser.add_argument("--waypoint", nargs=2, type=float, action="append", metavar=("X_M", "Y_M"), default=None,
+                        help="a patrol waypoint (floor frame, m); repeat for each, in order")
     parser.add_argument("--duration-s", type=float, default=0.0, help="stop after this long; 0 = until Ctrl-C")
     parser.add_argument("--status-period-s", type=float, default=1.0, help="status line period, s (default 1)")
     return parser
@@ -268,11 +143,14 @@ def _params_file(args: argparse.Namespace, ros_args: list[str]) -> str:
     params = {
         "trajectory_server": {"gait": args.gait, "amplitude_bar": args.amplitude_bar,
                               "frequency_hz": args.frequency_hz, "samples": args.samples},
-        "gait_player": {"autostart": True, "rate_hz": args.rate_hz, "realtime_priority": args.realtime_priority},
+        "gait_player": {"autostart": not _navigating(args), "rate_hz": args.rate_hz,
+                        "realtime_priority": args.realtime_priority},
         "hardware_node": {"autostart": True, "rig_file": args.rig, "backend": args.backend,
                           "realtime_priority": args.realtime_priority},
         "sim_world": {"sim_config_file": args.sim_config},
         "camera_tracker": {"color_preset": rig_config.SIM_COLOR_PRESET},
+        "navigator": {"calibration_preset": rig_config.SIM_COLOR_PRESET if _simulated(args) else "",
+                      "loop_path": bool(args.patrol)},
     }
     params = {node: {k: v for k, v in values.items() if k not in given} for node, values in params.items()}
     with tempfile.NamedTemporaryFile("w", prefix="srs_bringup_", suffix=".yaml", delete=False) as stream:
@@ -306,7 +184,28 @@ def _parse_arguments(argv: list[str] | None) -> tuple[argparse.Namespace, list[s
     """The bringup's own options, and the ROS arguments from ``--ros-args`` on (passed on to rclpy)."""
     argv = list(sys.argv[1:] if argv is None else argv)
     ros_args = argv[argv.index("--ros-args"):] if "--ros-args" in argv else []
-    return build_parser().parse_args(argv[:len(argv) - len(ros_args)]), ros_args
+    parser = build_parser()
+    args = parser.parse_args(argv[:len(argv) - len(ros_args)])
+    if args.waypoint and not args.patrol:
+        parser.error("--waypoint X_M Y_M is a patrol waypoint: add --patrol (or send goals on goal_path)")
+    if args.patrol and not args.waypoint:
+        if not _simulated(args):
+            parser.error("--patrol on a rig other than the simulated robot needs its waypoints (--waypoint X_M Y_M, "
+                         "inside your camera's calibrated floor area)")
+        args.waypoint = [list(p) for p in SIM_PATROL_XY_M]
+    return args, ros_args
+
+
+def _navigating(args: argparse.Namespace) -> bool:
+    return bool(args.navigate or args.patrol)
+
+
+def _simulated(args: argparse.Namespace) -> bool:
+    """True for the sim rig; False also for a rig file that cannot be read (the hardware node says why)."""
+    try:
+        return _rig_backend(args) == "sim"
+    except SrsError:
+        return False
 
 
 def _init_ros(args: argparse.Namespace, ros_args: list[str], outcome: CleanExit) -> None:
@@ -335,6 +234,7 @@ class System:
         self.player: GaitPlayer | None = None
         self.hardware: HardwareNode | None = None
         self.status: StatusMonitor | None = None
+        self.navigator: Navigator | None = None
         self.recorder: VideoRecorder | None = None
         self.tracker: Node | None = None  # the camera tracker (sim rig)
         self.world_nodes: list[Node] = []
@@ -352,10 +252,19 @@ class System:
         self.server = self._keep(TrajectoryServer())
         self.player = self._keep(GaitPlayer())
         self.hardware = self._keep(HardwareNode())
+        if _navigating(args):  # on the world's executor: it only calls the gait nodes' services
+            # the navigator changes the cycle every second or two: the player's takeover lines would bury the
+            # status line, which shows the navigator's state instead (its warnings and errors still show)
+            set_logger_level(self.player.get_logger().name, LoggingSeverity.WARN)
+            self.navigator = self._keep(Navigator())
+            self.world_nodes.append(self.navigator)
+            if args.patrol:
+                self.world_nodes.append(self._keep(Patrol(args.waypoint)))
         tracker = self.tracker
         self.status = self._keep(StatusMonitor(self.player, self.server, self.hardware, args.status_period_s,
                                                simulated, None if tracker is None
-                                               else (tracker.status_name, tracker.hardware_id)))
+                                               else (tracker.status_name, tracker.hardware_id),
+                                               navigating=_navigating(args)))
         for node in self.nodes:
             guard_parameter_services(node)
 

@@ -5,9 +5,12 @@ Interface (relative names)::
     subscribes  gait_trajectory   trajectory_msgs/JointTrajectory   reliable + transient_local (latched)
     publishes   joint_setpoints   sensor_msgs/JointState            best effort; names m1_pma1..m3_pma3,
                                                                     position (m), velocity (m/s), stamp = now
+                gait_phase        sensor_msgs/JointState            best effort, phase_rate_hz while streaming:
+                                                                    the cycle's phase (position, cycles) and
+                                                                    signed frequency (velocity, cycles/s)
     services    ~/start, ~/stop   std_srvs/Trigger
-    parameters  rate_hz, cycles, amplitude_scale, frequency_hz, ramp_time_s, blend_time_s, autostart,
-                zero_hold_s, robot_description_file and realtime_priority (read-only)
+    parameters  rate_hz, cycles, amplitude_scale, frequency_hz, reverse, stop_at_phase, ramp_time_s, blend_time_s,
+                autostart, zero_hold_s, phase_rate_hz, robot_description_file and realtime_priority (read-only)
 
 Behaviour, as a robotics user expects it:
 
@@ -17,8 +20,14 @@ Behaviour, as a robotics user expects it:
   cycle keeps moving; then zero lengths are published for ``zero_hold_s`` so the hardware sees a
   clean 0, and then the stream ends (the hardware node vents when setpoints go stale anyway).
 - ``amplitude_scale`` and ``frequency_hz`` (0 = the trajectory's own) change live, each over
-  ``ramp_time_s``; the phase is integrated, so neither makes a setpoint jump. ``cycles`` is read at
-  ``~/start``. ``rate_hz`` changes live (the timer is re-created).
+  ``ramp_time_s``; the phase is integrated, so neither makes a setpoint jump. ``reverse`` plays the cycle
+  backward in time (live: the signed frequency ramps through 0 over ``ramp_time_s``); a rolling cycle
+  played backward rolls the other way (outward rolling is inward rolling reversed), which the navigator uses.
+  ``cycles`` is read at ``~/start``: a ``~/start`` while running only sets the end ``cycles`` from now (the
+  navigator's dead man's handle). ``rate_hz`` changes live (the timer is re-created).
+- ``stop_at_phase`` (set while playing) ramps out as the phase next passes it, at most one cycle later: a
+  rolling robot stopped at the same phase comes to rest at the same place, so the navigator stops it there
+  however late its call arrives. ``~/stop`` stops at once, a pending phase stop or not.
 - A new trajectory cross-fades from the old one over ``blend_time_s`` at the same phase.
 - The phase follows the monotonic clock, or with ``use_sim_time`` the ROS clock (the simulated world's
   ``/clock``, so a simulation that runs slower than real time still sees the gait's own frequency); after
@@ -29,6 +38,7 @@ The playback logic lives in :mod:`srs_ros.core.gait.playback`; this node is the 
 
 from __future__ import annotations
 
+import math
 import time
 from typing import Any
 
@@ -49,7 +59,15 @@ from srs_ros.core.gait.playback import (
 )
 from srs_ros.core.ramp import DEFAULT_RAMP_TIME_S
 from srs_ros.core.robot import CYCLE_FREQUENCY_RANGE_HZ, load_robot
-from srs_ros.ros.interfaces import SETPOINT_TOPIC, TRAJECTORY_TOPIC, latched_qos, setpoint_qos, stamp_to_seconds
+from srs_ros.ros.interfaces import (
+    GAIT_PHASE_TOPIC,
+    SETPOINT_TOPIC,
+    TRAJECTORY_TOPIC,
+    gait_phase_message,
+    latched_qos,
+    setpoint_qos,
+    stamp_to_seconds,
+)
 from srs_ros.ros.parameters import REALTIME_PRIORITY, ParameterSpec, check_parameters, declare_parameters
 from srs_ros.ros.process import request_realtime_priority, run_node, steady_timer
 
@@ -69,9 +87,16 @@ PARAMETERS = (
     ParameterSpec("amplitude_scale", 1.0, "scale of every length, 0..1 (live, reached over ramp_time_s)", 0.0, 1.0),
     ParameterSpec("frequency_hz", 0.0, "playback frequency in Hz, 0 = the trajectory's own (live)",
                   0.0, CYCLE_FREQUENCY_RANGE_HZ[1]),
+    ParameterSpec("reverse", False, "play the cycle backward in time (live; the signed frequency ramps through 0 "
+                  "over ramp_time_s): a rolling gait rolls the other way"),
+    ParameterSpec("stop_at_phase", -1.0, "set while playing: ramp out as the cycle's phase next passes this "
+                  "phase (0..1, at most one cycle later; the navigator stops the robot exactly at a set phase "
+                  "however late its call); -1 = none; ~/stop still stops at once (live)", -1.0, 1.0),
     ParameterSpec("ramp_time_s", DEFAULT_RAMP_TIME_S, "soft start/stop and live-change duration in s", 0.05, 60.0),
     ParameterSpec("blend_time_s", 0.5, "cross-fade duration in s when a new trajectory takes over", 0.05, 10.0),
     ParameterSpec("autostart", False, "start as soon as the first trajectory arrives"),
+    ParameterSpec("phase_rate_hz", 50.0, "gait_phase messages per second while streaming (the navigator stops the "
+                  "robot at set phases of the cycle); 0 = none (live)", 0.0, 1000.0),
     ParameterSpec("zero_hold_s", 0.5, "zero lengths are published this long after a ramp-out, in s", 0.0, 10.0),
     ParameterSpec("robot_description_file", "", "robot description YAML; '' = the package's config/robot.yaml",
                   read_only=True),
@@ -91,6 +116,7 @@ class GaitPlayer(Node):
                                       max_length_m=self._robot.max_extension_m)
         self._playback.set_amplitude_scale(self._param("amplitude_scale"))
         self._playback.set_frequency_override(self._param("frequency_hz"))
+        self._playback.set_reverse(self._param("reverse"))
         self._zeros_until = 0.0
         self._sim_time = bool(self.get_parameter("use_sim_time").value)
         self._last_tick = self._phase_time_s()
@@ -101,6 +127,9 @@ class GaitPlayer(Node):
         self.add_on_set_parameters_callback(self._check_parameters)
         self.add_post_set_parameters_callback(self._apply_parameters)
         self._publisher = self.create_publisher(JointState, SETPOINT_TOPIC, setpoint_qos())
+        self._phase_publisher = self.create_publisher(JointState, GAIT_PHASE_TOPIC, setpoint_qos())
+        self._phase_period_s = self._period(self._param("phase_rate_hz"))
+        self._phase_due = 0.0  # steady s of the next gait_phase message
         self.create_subscription(JointTrajectory, TRAJECTORY_TOPIC, self._on_trajectory, latched_qos(), raw=True)
         self.create_service(Trigger, "~/start", self._on_start)
         self.create_service(Trigger, "~/stop", self._on_stop)
@@ -122,13 +151,29 @@ class GaitPlayer(Node):
                 self._playback.set_amplitude_scale(param.value)
             elif param.name == "frequency_hz":
                 self._playback.set_frequency_override(param.value)
+            elif param.name == "reverse":
+                self._playback.set_reverse(param.value)
+            elif param.name == "stop_at_phase":
+                self._stop_at_phase(float(param.value))
             elif param.name == "ramp_time_s":
                 self._playback.set_ramp_time(param.value)
             elif param.name == "blend_time_s":
                 self._playback.set_blend_time(param.value)
+            elif param.name == "phase_rate_hz":
+                self._phase_period_s, self._phase_due = self._period(param.value), 0.0
             elif param.name == "rate_hz":
                 self.destroy_timer(self._timer)
                 self._timer = steady_timer(self, 1.0 / float(param.value), self._on_tick)
+
+    def _stop_at_phase(self, phase: float) -> None:
+        playing = self._playback.state in (PlaybackState.STARTING, PlaybackState.RUNNING)
+        self._playback.stop_at_phase(phase % 1.0 if phase >= 0.0 and playing else None)
+        if phase >= 0.0 and playing:
+            self.get_logger().info(f"ramping out as the phase passes {phase % 1.0:g} (at most one cycle from now)")
+
+    @staticmethod
+    def _period(rate_hz: float) -> float:
+        return 1.0 / rate_hz if rate_hz > 0 else math.inf
 
     # ------------------------------------------------------------- inputs
     def _on_trajectory(self, serialized: bytes) -> None:
@@ -222,6 +267,10 @@ class GaitPlayer(Node):
         msg.velocity = setpoint.velocities_m_per_s.tolist()
         self._publisher.publish(msg)
         self.published_count += 1
+        if now >= self._phase_due:
+            self._phase_due = max(self._phase_due + self._phase_period_s, now)
+            self._phase_publisher.publish(gait_phase_message(msg.header.stamp, setpoint.phase, setpoint.frequency_hz,
+                                                             setpoint.cycles_done))
 
     @property
     def playback(self) -> GaitPlayback:

@@ -4,17 +4,22 @@ Topic graph (relative names, remappable with ``--ros-args -r``)::
 
     trajectory_server --gait_trajectory (JointTrajectory, reliable+transient_local)--> gait_player
     gait_player       --joint_setpoints (JointState, best effort)--> hardware_node
+                      --gait_phase (JointState: the cycle's phase and signed frequency, best effort)--> navigator
     hardware_node     --commanded_pressure_bar / command_voltage_v (Float64MultiArray, labelled)
                       --actuator_state (JointState), /diagnostics (DiagnosticArray)
     hardware_node (sim backend) --sim/regulator_command--> sim_world --sim/regulator_monitor--> (back)
     sim_world         --sim/ground_truth_pose, sim/body_markers, image_raw, /clock (use_sim_time)
     camera_tracker    --robot_pose (PoseStamped), robot_twist (TwistStamped), robot_path (Path)
+    navigator         <--goal_pose (PoseStamped), goal_path (Path), robot_pose; drives trajectory_server and
+                      gait_player through their parameters and services; --navigation_progress (String, JSON,
+                      reliable+transient_local), /diagnostics
 
 Nodes, backends, experiments, tests and benchmarks take names and profiles from here, never as literals.
 """
 
 from __future__ import annotations
 
+import json
 from collections.abc import Mapping, Sequence
 from typing import Any
 
@@ -23,7 +28,7 @@ from builtin_interfaces.msg import Duration, Time
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import Image, JointState
-from std_msgs.msg import Float64MultiArray, MultiArrayDimension
+from std_msgs.msg import Float64MultiArray, MultiArrayDimension, String
 
 from srs_ros.core.errors import InvalidInputError
 
@@ -31,6 +36,13 @@ TRAJECTORY_TOPIC = "gait_trajectory"
 
 
 SETPOINT_TOPIC = "joint_setpoints"
+
+
+#: gait_player's place in its cycle while it streams: sensor_msgs/JointState with one "joint"
+#: (:data:`GAIT_PHASE_JOINT`): position = the phase in cycles [0, 1), velocity = the signed playback frequency
+#: (cycles/s, negative while reversed), effort = the cycles played; stamp = the setpoint's. Best effort.
+GAIT_PHASE_TOPIC = "gait_phase"
+GAIT_PHASE_JOINT = "gait_phase"
 
 
 COMMANDED_PRESSURE_TOPIC = "commanded_pressure_bar"
@@ -67,6 +79,14 @@ def setpoint_qos(depth: int = 1) -> QoSProfile:
     """Best effort, volatile, depth 1: a stream where only the newest sample matters (no backlog after a stall)."""
     return QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=depth, reliability=ReliabilityPolicy.BEST_EFFORT,
                       durability=DurabilityPolicy.VOLATILE)
+
+
+def gait_phase_message(stamp: Time, phase: float, frequency_hz: float, cycles_done: float) -> JointState:
+    """A :data:`GAIT_PHASE_TOPIC` message."""
+    msg = JointState(name=[GAIT_PHASE_JOINT], position=[float(phase)], velocity=[float(frequency_hz)],
+                     effort=[float(cycles_done)])
+    msg.header.stamp = stamp
+    return msg
 
 
 def labelled_array(labels: Sequence[str], values) -> Float64MultiArray:
@@ -231,3 +251,48 @@ def bus_qos():
 
     return QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1, reliability=ReliabilityPolicy.RELIABLE,
                       durability=DurabilityPolicy.VOLATILE)
+
+
+# ------------------------------------------------------------------------------------------
+# Navigation (the navigator node)
+# ------------------------------------------------------------------------------------------
+#: A goal: geometry_msgs/PoseStamped in the floor frame (what RViz's "2D Goal Pose" tool publishes on
+#: /goal_pose); the orientation is ignored.
+GOAL_POSE_TOPIC = "goal_pose"
+
+
+#: Waypoints followed in order: nav_msgs/Path in the floor frame (orientations ignored).
+GOAL_PATH_TOPIC = "goal_path"
+
+
+#: The navigator's progress: std_msgs/String holding one JSON object (:func:`progress_message`), reliable and
+#: transient_local (a late subscriber gets the current state at once).
+NAVIGATION_PROGRESS_TOPIC = "navigation_progress"
+
+
+def progress_message(fields: Mapping[str, Any]) -> String:
+    """The navigator's progress as a std_msgs/String of one JSON object (keys sorted, floats as numbers).
+
+    Read it back with :func:`progress_fields`; on a ROS install ``ros2 topic echo --qos-durability
+    transient_local /navigation_progress`` shows it. NaN or inf (a quantity not known yet) is sent as null.
+    """
+    def plain(value: Any) -> Any:
+        if isinstance(value, float) and not np.isfinite(value):
+            return None
+        if isinstance(value, (list, tuple)):
+            return [plain(v) for v in value]
+        return value
+
+    return String(data=json.dumps({key: plain(value) for key, value in fields.items()}, sort_keys=True))
+
+
+def progress_fields(msg: String) -> dict[str, Any]:
+    """The fields of a :data:`NAVIGATION_PROGRESS_TOPIC` message (:class:`InvalidInputError` if it is not JSON)."""
+    try:
+        fields = json.loads(msg.data)
+    except json.JSONDecodeError as exc:
+        raise InvalidInputError(f"navigation progress {msg.data[:80]!r} is not JSON ({exc}); expected one JSON "
+                                "object as the navigator publishes it.") from None
+    if not isinstance(fields, dict):
+        raise InvalidInputError(f"navigation progress {msg.data[:80]!r}; expected one JSON object.")
+    return fields

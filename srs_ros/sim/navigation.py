@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import math
 import time
+from collections import deque
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from functools import lru_cache
@@ -51,6 +52,32 @@ COLUMNS = ("time_s", "x_m", "y_m", "yaw_rad", "seen_x_m", "seen_y_m", "seen_yaw_
 #: Codes of the ``state`` and ``direction`` columns.
 STATE_CODES = {state: i for i, state in enumerate(NavigationState)}
 DIRECTION_CODES = {None: 0, "inward_rolling": 1, "outward_rolling": -1}
+
+
+@dataclass(frozen=True)
+class Latency:
+    """The delays of the ROS system, offline: what the navigator node meets over DDS on a loaded machine.
+
+    Each camera pose reaches the controller ``pose_s`` after its frame (stamped with the frame's time and the
+    gait's phase then, as the node does), each command reaches the gait player ``command_s`` after the
+    controller gave it, and now and then (on average every ``stall_every_s``, 0 = never) the navigator stalls
+    for ``stall_s``: no pose taken, no command given meanwhile (a Python process on a busy 2-core machine stalls
+    0.2-0.4 s now and then). Seeded: the same run every time.
+    """
+
+    pose_s: float = 0.0
+    command_s: float = 0.0
+    stall_every_s: float = 0.0
+    stall_s: float = 0.0
+    seed: int = 0
+
+    def check(self) -> Latency:
+        """``self`` when every delay is finite and >= 0, else :class:`InvalidInputError`."""
+        for name in ("pose_s", "command_s", "stall_every_s", "stall_s"):
+            value = getattr(self, name)
+            if not math.isfinite(value) or value < 0.0:
+                raise InvalidInputError(f"latency {name}: {value!r}; expected a finite number of seconds >= 0.")
+        return self
 
 
 @dataclass(frozen=True)
@@ -102,10 +129,15 @@ class GaitDriver:
         self._frequency_hz = 0.0
 
     def apply(self, command: GaitCommand) -> None:
-        """New cycle when the gait or turn level changes (cross-faded), live frequency, start, stop."""
+        """New cycle when the gait or turn level changes (cross-faded), live frequency, start, stop (at a phase)."""
         if not command.moving:
-            self.playback.stop()
+            playing = self.playback.state in (PlaybackState.STARTING, PlaybackState.RUNNING)
+            if command.stop_phase is None or not playing:
+                self.playback.stop()
+            elif self.playback.pending_stop_phase != command.stop_phase:
+                self.playback.stop_at_phase(command.stop_phase)
             return
+        self.playback.stop_at_phase(None)
         if command.cycle_key != self._key:
             cycle = _cycle(command.gait, command.amplitude_bar, command.turn_phase_rad, self.samples, self.robot)
             self.playback.load(cycle.lengths_m, cycle.frequency_hz)
@@ -167,14 +199,16 @@ def run_navigation(goals: Sequence[Sequence[float]], config: SimConfig | None = 
                    on_frame: Callable[[SimState, np.ndarray | None, NavigationController], None] | None = None,
                    render: bool = False, progress: Callable[[str], None] | None = None,
                    events: Callable[[float, NavigationController], None] | None = None,
-                   from_start: bool = False, controller: NavigationController | None = None) -> NavigationResult:
+                   from_start: bool = False, controller: NavigationController | None = None,
+                   latency: Latency | None = None) -> NavigationResult:
     """Drive the simulated robot to ``goals`` [(x_m, y_m), ...] with the navigation controller; see the module doc.
 
     ``on_frame(state, image, controller)`` at every camera frame (``image`` when ``camera`` or ``render``);
     ``events(time_s, controller)`` before the controller sees each frame (a test replaces a goal or cancels
     there); ``progress(line)`` once per goal. A goal the controller refuses is recorded as refused and skipped.
     ``from_start``: every goal from the start on a fresh world (the controller, and what it learned, is kept,
-    as a running navigator keeps it); ``controller``: one to use (and keep learning) instead of a new one.
+    as a running navigator keeps it); ``controller``: one to use (and keep learning) instead of a new one;
+    ``latency``: the delays of a ROS system (:class:`Latency`; None: none).
     Raises :class:`InvalidInputError` for bad arguments, :class:`~srs_ros.core.errors.SimulationError` if the
     physics diverges.
     """
@@ -187,7 +221,8 @@ def run_navigation(goals: Sequence[Sequence[float]], config: SimConfig | None = 
     controller = controller or NavigationController(settings, default_area(config, settings))
     rate_hz = load_rig(robot=robot).command_rate_hz
     eyes = _Eyes(config, camera, render)
-    loop = _Loop(SimWorld(config, robot), GaitDriver(robot), eyes, controller, rate_hz)
+    latency = (latency or Latency()).check()
+    loop = _Loop(SimWorld(config, robot), GaitDriver(robot), eyes, controller, rate_hz, latency=latency)
     started = time.perf_counter()
     outcomes, rows = [], []
     batches = [goals] if as_path else [[g] for g in goals]
@@ -195,7 +230,7 @@ def run_navigation(goals: Sequence[Sequence[float]], config: SimConfig | None = 
         if from_start and i > 0:
             rows += loop.rows
             clock_s = loop.clock_offset_s + loop.world.time_s + FRESH_WORLD_GAP_S
-            loop = _Loop(SimWorld(config, robot), GaitDriver(robot), eyes, controller, rate_hz, clock_s)
+            loop = _Loop(SimWorld(config, robot), GaitDriver(robot), eyes, controller, rate_hz, clock_s, latency)
         outcome = loop.drive(batch, goal_timeout_s * len(batch), on_frame, events)
         outcomes.append(outcome)
         if progress is not None:
@@ -207,10 +242,15 @@ class _Loop:
     """The world, the driver, the pose source and the controller, stepped together."""
 
     def __init__(self, world: SimWorld, driver: GaitDriver, eyes: _Eyes, controller: NavigationController,
-                 command_rate_hz: float, clock_offset_s: float = 0.0):
+                 command_rate_hz: float, clock_offset_s: float = 0.0, latency: Latency = Latency()):
         """``clock_offset_s``: the controller's clock at the world's time 0 (a fresh world for a kept controller)."""
         self.world, self.driver, self.eyes, self.controller = world, driver, eyes, controller
         self.clock_offset_s = clock_offset_s
+        self.latency = latency
+        self._rng = np.random.default_rng(latency.seed)
+        self._poses: deque[tuple[float, Pose2D | None, float]] = deque()  # (due s, pose, phase at its frame)
+        self._commands: deque[tuple[float, GaitCommand]] = deque()  # (due s, command)
+        self._stalled_until_s = -math.inf
         self.command_dt_s = 1.0 / command_rate_hz
         self.rows: list[list[float]] = []
         self._next_command_s = 0.0
@@ -257,14 +297,30 @@ class _Loop:
         if events is not None:
             events(now, nav)
         pose = self.eyes.see(state, now)
-        nav.update_gait_phase(self.driver.playback.phase)
-        if pose is not None:
-            nav.update_pose(pose)
-        self.driver.apply(nav.tick(now))
+        self._poses.append((now + self.latency.pose_s, pose, self.driver.playback.phase))
+        if self._running(now):
+            while self._poses and self._poses[0][0] <= now + 1e-9:
+                _, seen, phase = self._poses.popleft()
+                nav.update_gait_phase(phase)
+                if seen is not None:
+                    nav.update_pose(seen)
+            self._commands.append((now + self.latency.command_s, nav.tick(now)))
+        while self._commands and self._commands[0][0] <= now + 1e-9:
+            self.driver.apply(self._commands.popleft()[1])
         self._record(state, pose, now)
         if on_frame is not None:
             on_frame(state, self.eyes.frame, nav)
         return state
+
+    def _running(self, now_s: float) -> bool:
+        """False while the navigator stalls (:class:`Latency`); a stall starts at random, seeded."""
+        latency = self.latency
+        if now_s < self._stalled_until_s:
+            return False
+        if latency.stall_every_s > 0.0 and self._rng.random() < 1.0 / (CAMERA_RATE_HZ * latency.stall_every_s):
+            self._stalled_until_s = now_s + latency.stall_s
+            return False
+        return True
 
     def _record(self, state: SimState, pose: Pose2D | None, now_s: float) -> None:
         nav = self.controller

@@ -1,14 +1,14 @@
 """``python -m srs_ros.tools.node_config``: write config/<node>.yaml from the nodes' parameter specs.
 
-The parameter files of ``hardware_node``, ``gait_player``, ``trajectory_server`` and ``camera_tracker`` in
-``config/`` list every parameter of the node with its default, range and description. They are generated
-from the node's parameter specs (:class:`~srs_ros.ros.parameters.ParameterSpec`, the one place a default
-is written), and ``test/tools/test_node_config.py`` keeps them equal, so they cannot drift from the nodes.
-Generated rather than cut down to a lab's overrides because the launch file passes them and a newcomer
-reads them: each lists what its node takes, which ``ros2 param describe`` shows only with the node
-running. A lab's own values go in a params file of its own, passed after these.
+The parameter files of ``hardware_node``, ``gait_player``, ``trajectory_server``, ``camera_tracker`` and
+``navigator`` in ``config/`` list every parameter of the node with its default, range and description.
+They are generated from the node's parameter specs (:class:`~srs_ros.ros.parameters.ParameterSpec`, the
+one place a default is written), and ``test/tools/test_node_config.py`` keeps them equal, so they cannot
+drift from the nodes. Generated rather than cut down to a lab's overrides because the launch file passes
+them and a newcomer reads them: each lists what its node takes, which ``ros2 param describe`` shows only
+with the node running. A lab's own values go in a params file of its own, passed after these.
 
-Examples: ``python -m srs_ros.tools.node_config`` (rewrite the four files after changing a spec),
+Examples: ``python -m srs_ros.tools.node_config`` (rewrite the files after changing a spec),
 ``python -m srs_ros.tools.node_config --check`` (compare only: exit 1 naming each file that differs).
 """
 
@@ -33,7 +33,8 @@ HEADERS = {
     ),
     "gait_player": (
         "Pass with  ros2 run srs_ros gait_player --ros-args --params-file config/gait_player.yaml",
-        "Live: rate_hz, amplitude_scale, frequency_hz, ramp_time_s, blend_time_s. `cycles` is read at ~/start.",
+        "Live: rate_hz, amplitude_scale, frequency_hz, reverse, ramp_time_s, blend_time_s. `cycles` is read at",
+        "~/start.",
     ),
     "trajectory_server": (
         "Pass with  ros2 run srs_ros trajectory_server --ros-args --params-file config/trajectory_server.yaml",
@@ -44,6 +45,11 @@ HEADERS = {
     "camera_tracker": (
         "Pass with  ros2 run srs_ros camera_tracker --ros-args --params-file config/camera_tracker.yaml",
         "All read-only (restart the node to change one).",
+    ),
+    "navigator": (
+        "Pass with  ros2 run srs_ros navigator --ros-args --params-file config/navigator.yaml",
+        "The navigation settings come from srs_ros/core/navigation/settings.py (NAVIGATION_TABLE); all live but",
+        "those marked read-only. loop_path is read when a goal_path arrives. States and topics: docs/navigation.md.",
     ),
 }
 NODES = tuple(HEADERS)
@@ -57,6 +63,8 @@ def node_specs(node: str) -> tuple[ParameterSpec, ...]:
         from srs_ros.nodes.gait_player import PARAMETERS
     elif node == "camera_tracker":
         from srs_ros.nodes.camera_tracker import PARAMETERS
+    elif node == "navigator":
+        from srs_ros.nodes.navigator import PARAMETERS
     elif node == "trajectory_server":
         from srs_ros.core.gait.library import list_gaits
         from srs_ros.core.robot import default_robot

@@ -20,6 +20,8 @@ import argparse
 import sys
 from pathlib import Path
 
+import numpy as np
+
 from srs_ros.core.errors import SrsError
 from srs_ros.core.navigation.settings import DIRECTIONS, NAVIGATION_TABLE, STOP_PHASES
 from srs_ros.experiments import turning
@@ -139,12 +141,17 @@ def _print_map(config, args) -> None:
     print(turning.table_markdown([m for runs in rows.values() for m in runs], "turn_phase_rad"))
     stops = {}
     for direction in DIRECTIONS:
-        _say(f"  {direction} stop offsets ...")
-        stops[direction] = turning.measure_stop_offsets(direction, args.amplitude_bar, args.frequency_hz,
-                                                        config=config)
-        cells = ", ".join(f"phase {p:g}: {100 * a:+.1f} / {100 * c:+.1f}" for p, (a, c) in
-                          zip(STOP_PHASES, stops[direction]))
-        print(f"{direction}: rests after a stop (cm along / across the travel) {cells}")
+        levels = sorted({m.value for m in rows[direction]})
+        per_level = []
+        for level in levels:
+            _say(f"  {direction} stop offsets at turn_phase_rad {level:+g} ...")
+            per_level.append(turning.measure_stop_offsets(direction, args.amplitude_bar, args.frequency_hz,
+                                                          turn_phase_rad=level, config=config))
+            cells = ", ".join(f"phase {p:g}: {100 * a:+.1f} / {100 * c:+.1f}" for p, (a, c) in
+                              zip(STOP_PHASES, per_level[-1]))
+            print(f"{direction} turn_phase_rad {level:+.2f}: rests after a stop (cm along / across the travel) "
+                  f"{cells}")
+        stops[direction] = np.array(per_level)
     if args.write_map:
         text = turning.turning_map_yaml(rows, stops, args.amplitude_bar, args.frequency_hz,
                                         f"{Path(config.source).name}, {config.contact.describe()}")

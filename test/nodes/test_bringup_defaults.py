@@ -3,6 +3,7 @@
 import dataclasses
 from pathlib import Path
 
+import pytest
 import yaml
 
 from srs_ros.core import rig
@@ -52,3 +53,32 @@ def read_params(path: str) -> dict:
     finally:
         Path(path).unlink()
     return {key.removeprefix("/**/"): value["ros__parameters"] for key, value in data.items()}
+
+
+def params_of(args) -> dict:
+    """The parameters srs_bringup hands its nodes (its temporary params file, read and removed)."""
+    path = Path(bringup._params_file(args, []))
+    try:
+        return {name.removeprefix("/**/"): block["ros__parameters"]
+                for name, block in yaml.safe_load(path.read_text()).items()}
+    finally:
+        path.unlink()
+
+
+def test_navigating_leaves_the_gait_to_the_navigator_and_patrol_defaults_to_the_sim_waypoints():
+    args, _ = bringup._parse_arguments(["--patrol"])
+    assert args.waypoint == [list(p) for p in bringup.SIM_PATROL_XY_M]
+    params = params_of(args)
+    assert params["gait_player"]["autostart"] is False
+    assert params["navigator"] == {"calibration_preset": "sim_bands", "loop_path": True}
+    assert params_of(bringup._parse_arguments([])[0])["gait_player"]["autostart"] is True
+    own, _ = bringup._parse_arguments(["--patrol", "--waypoint", "0.1", "0.2", "--waypoint", "-0.3", "0"])
+    assert own.waypoint == [[0.1, 0.2], [-0.3, 0.0]]
+
+
+def test_patrol_options_that_cannot_work_are_refused_with_what_to_do(capsys):
+    for argv, reason in ((["--waypoint", "0.1", "0.2"], "--waypoint X_M Y_M is a patrol waypoint: add --patrol"),
+                         (["--patrol", "--rig", str(rig.rig_path("mock"))], "needs its waypoints (--waypoint X_M")):
+        with pytest.raises(SystemExit) as refused:
+            bringup._parse_arguments(argv)
+        assert refused.value.code == 2 and reason in capsys.readouterr().err

@@ -102,3 +102,45 @@ def test_status_line_says_robot_out_of_the_cameras_view_and_shows_no_tracked_spe
     finally:
         ros_client.executor.remove_node(monitor)
         monitor.destroy_node()
+
+
+def test_with_the_navigator_the_status_line_shows_its_state_goal_distance_to_go_and_heading_error(ros_client):
+    from std_msgs.msg import String
+
+    from srs_ros.core.navigation import NavigationProgress, NavigationState
+    from srs_ros.nodes.navigator import progress_fields
+    from srs_ros.ros.interfaces import NAVIGATION_PROGRESS_TOPIC, latched_qos, progress_message
+
+    monitor = StatusMonitor(*stand_ins(), period_s=3600.0, context=ros_client.context, navigating=True)
+    ros_client.executor.add_node(monitor)
+    publisher = ros_client.node.create_publisher(String, NAVIGATION_PROGRESS_TOPIC, latched_qos())
+
+    def progress(state, goal_index=0, distance_m=0.314, heading_rad=0.21, message="", **extra):
+        fields = progress_fields(NavigationProgress(state, (0.4, -0.4), goal_index, 400, distance_m, heading_rad,
+                                                    "inward_rolling", 0.2, 12.0, message),
+                                 **{"refused": "", "gait_error": "", "loop": True, "waypoint_index": goal_index % 4,
+                                    "waypoint_count": 4, "round": goal_index // 4 + 1, **extra})
+        return progress_message(fields)
+
+    def shown(msg, part):
+        def check():
+            publisher.publish(msg)
+            return part in monitor.status_line()
+        return check
+
+    try:
+        assert "nav: no progress from the navigator yet" in monitor.status_line()
+        ros_client.spin_until(shown(progress(NavigationState.DRIVING, goal_index=5), "| nav driving"), 10.0,
+                              "the navigator's progress on the line")
+        line = monitor.status_line()
+        assert ("| nav driving to (0.400, -0.400) m [waypoint 2 of 4, round 2]: 0.31 m to go, heading error 12 deg, "
+                "inward_rolling turn +0.20 rad" in line), line
+        lost = progress(NavigationState.POSE_LOST, distance_m=float("nan"), message="no pose from the camera for 1.2 s",
+                        refused="goal (3.000, 0.000) m is 1.57 m outside the camera's calibrated floor area")
+        ros_client.spin_until(shown(lost, "nav pose_lost"), 10.0, "pose lost on the line")
+        line = monitor.status_line()
+        assert "nav pose_lost to (0.400, -0.400) m [waypoint 1 of 4, round 1]: -- m to go (no pose from the camera " \
+               "for 1.2 s) | goal refused: goal (3.000, 0.000) m is 1.57 m outside" in line, line
+    finally:
+        ros_client.executor.remove_node(monitor)
+        monitor.destroy_node()

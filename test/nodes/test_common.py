@@ -104,6 +104,7 @@ NODES = {
     "hardware_node": ({"state_publish_rate_hz": 25}, "state_publish_rate_hz"),
     "camera_tracker": ({"image_timeout_s": 2}, "image_timeout_s"),
     "sim_world": ({"camera_rate_hz": 0.0, "pose_rate_hz": 25}, "pose_rate_hz"),
+    "navigator": ({"calibration_preset": "sim_bands", "pose_timeout_s": 2}, "pose_timeout_s"),
 }
 
 
@@ -149,3 +150,4 @@ def test_every_writable_double_of_every_node_takes_an_integer_as_ros2_param_set_
     assert {"amplitude_bar", "frequency_hz", "serpentine.poor_fit_mm"} <= taken["trajectory_server"]
     assert {"rate_hz", "amplitude_scale"} <= taken["gait_player"]
     assert {"setpoint_timeout_s", "ramp_time_s"} <= taken["hardware_node"]
+    assert {"goal_tolerance_m", "pose_timeout_s"} <= taken["navigator"]

@@ -13,7 +13,14 @@ from trajectory_msgs.msg import JointTrajectory
 
 from srs_ros.core.gait.interpolation import PeriodicTrajectory
 from srs_ros.core.robot import config_dir
-from srs_ros.ros.interfaces import SETPOINT_TOPIC, TRAJECTORY_TOPIC, latched_qos, setpoint_qos, stamp_to_seconds
+from srs_ros.ros.interfaces import (
+    GAIT_PHASE_TOPIC,
+    SETPOINT_TOPIC,
+    TRAJECTORY_TOPIC,
+    latched_qos,
+    setpoint_qos,
+    stamp_to_seconds,
+)
 
 NAMES = JOINT_NAMES
 
@@ -30,6 +37,15 @@ def largest_excess_step_m(msgs, speed_m_per_s):
     """Largest change between consecutive setpoints beyond what ``speed_m_per_s`` explains (0 = no jump)."""
     steps = np.max(np.abs(np.diff(positions(msgs), axis=0)), axis=1)
     return float(np.max(steps - speed_m_per_s * np.diff(stamps_s(msgs))))
+
+
+def phase_rate_hz(msgs, samples, scale: float) -> float:
+    """How fast (cycles/s, signed) the setpoints move along the cycle ``samples`` scaled by ``scale``."""
+    cycle, grid = PeriodicTrajectory(samples), np.linspace(0.0, 1.0, 2000, endpoint=False)
+    shapes = scale * cycle.values(grid)
+    phases = np.unwrap(2 * np.pi * np.array([grid[np.argmin(np.sum((shapes - p) ** 2, axis=1))]
+                                             for p in positions(msgs)])) / (2 * np.pi)
+    return float(np.polyfit(stamps_s(msgs), phases, 1)[0])
 
 
 @pytest.fixture
@@ -96,6 +112,7 @@ def test_start_follows_the_trajectory_at_the_rate_and_stop_ramps_to_zero(player,
 
 def test_live_changes_and_takeover_never_jump_and_bad_parameters_are_rejected(player, ros_client):
     proc, publisher, setpoints = player(autostart=True, blend_time_s=0.3)
+    phases = ros_client.subscribe(JointState, GAIT_PHASE_TOPIC, setpoint_qos(depth=1000))
     publisher.publish(trajectory(rolling_cycle(), 1.0))
     ros_client.spin_until(lambda: len(setpoints) >= 150, 10.0, "autostarted setpoints")
     results = ros_client.set_parameters("gait_player", {"amplitude_scale": 0.4, "frequency_hz": 2.0})
@@ -108,6 +125,22 @@ def test_live_changes_and_takeover_never_jump_and_bad_parameters_are_rejected(pl
 
     ros_client.spin_until(settled_on_new_cycle, 10.0, "the new cycle at amplitude_scale 0.4")
     assert largest_excess_step_m(setpoints, 2 * np.pi * 0.0325 * 2.0 * 1.3) < 0.001, "a setpoint jumped"
+
+    # reverse: the same cycle played backward (the signed frequency ramps through 0 over ramp_time_s)
+    ros_client.spin_for(0.5)  # past the cross-fade
+    forward = phase_rate_hz(setpoints[-100:], rolling_cycle(shift=0.5, amplitude_m=0.05), 0.4)
+    assert ros_client.set_parameters("gait_player", {"reverse": True})[0].successful
+    count = len(setpoints)
+    ros_client.spin_until(lambda: len(setpoints) > count + 200, 10.0, "a second of reversed setpoints")
+    backward = phase_rate_hz(setpoints[-100:], rolling_cycle(shift=0.5, amplitude_m=0.05), 0.4)
+    assert forward == pytest.approx(2.0, abs=0.3) and backward == pytest.approx(-2.0, abs=0.3), (forward, backward)
+    # gait_phase (50 Hz while streaming): the phase in [0, 1) and the signed frequency, for the navigator
+    recent = [m for m in phases if stamp_to_seconds(m.header.stamp) > stamps_s(setpoints[-100:])[0]]
+    assert len(recent) > 10 and all(m.name == ["gait_phase"] and 0.0 <= m.position[0] < 1.0 for m in recent)
+    assert recent[-1].velocity[0] == pytest.approx(-2.0, abs=0.05)
+    cycles = np.unwrap(2 * np.pi * np.array([m.position[0] for m in recent])) / (2 * np.pi)
+    assert np.polyfit(stamps_s(recent), cycles, 1)[0] == pytest.approx(-2.0, abs=0.3)
+    assert largest_excess_step_m(setpoints[count - 1:], 2 * np.pi * 0.0325 * 2.0 * 1.3) < 0.001, "reversal jumped"
 
     bad = [("amplitude_scale", 1.5), ("rate_hz", 5000.0), ("ramp_time_s", 0.0), ("frequency_hz", -1.0),
            ("rate_hz", 5.0)]  # 5 Hz cannot keep a 0.2 s setpoint watchdog fed: the valves would pulse
@@ -126,6 +159,37 @@ def test_live_changes_and_takeover_never_jump_and_bad_parameters_are_rejected(pl
     count = len(setpoints)
     ros_client.spin_until(lambda: len(setpoints) >= count + 400, 10.0, "setpoints at 500 Hz")
     assert float(np.median(np.diff(stamps_s(setpoints[count:])))) == pytest.approx(1 / 500.0, rel=0.5)
+    assert proc.alive(), proc.output()
+
+
+@pytest.mark.slow
+def test_stop_at_phase_ramps_out_as_the_phase_passes_it_and_stop_still_stops_at_once(player, ros_client):
+    proc, publisher, setpoints = player(autostart=True)  # ramp_time_s 0.3
+    phases = ros_client.subscribe(JointState, GAIT_PHASE_TOPIC, setpoint_qos(depth=1000))
+    publisher.publish(trajectory(rolling_cycle(), 1.0))
+    ros_client.spin_until(lambda: len(phases) >= 75, 10.0, "1.5 s of gait_phase")
+
+    def first_zero_s(after_s):
+        zero = [stamps_s([m])[0] for m in setpoints if stamps_s([m])[0] > after_s and not np.any(m.position)]
+        return zero[0] if zero else None
+
+    last = phases[-1]
+    seen_s, target = stamps_s([last])[0], (last.position[0] + 0.7) % 1.0  # 0.7 cycle ahead (1 Hz): 0.7 s
+    assert ros_client.set_parameters("gait_player", {"stop_at_phase": target})[0].successful
+    ros_client.spin_until(lambda: first_zero_s(seen_s) is not None, 10.0, "zero setpoints after the phase stop")
+    # the ramp-out began as the phase passed the target, 0.7 s after the phase seen, and lasted ramp_time_s
+    assert first_zero_s(seen_s) - seen_s == pytest.approx(0.7 + 0.3, abs=0.06)
+
+    assert ros_client.trigger("gait_player/start").success
+    ros_client.spin_for(1.5)
+    last = phases[-1]
+    assert ros_client.set_parameters("gait_player", {"stop_at_phase": (last.position[0] + 0.95) % 1.0})[0].successful
+    asked_s = ros_client.node.get_clock().now().nanoseconds * 1e-9
+    assert "ramp out" in ros_client.trigger("gait_player/stop").message
+    ros_client.spin_until(lambda: first_zero_s(asked_s) is not None, 10.0, "zero setpoints after ~/stop")
+    assert first_zero_s(asked_s) - asked_s < 0.3 + 0.25  # at once (the phase stop would be 0.95 s + 0.3 s later)
+    bad = ros_client.set_parameters("gait_player", {"stop_at_phase": 1.5})[0]
+    assert not bad.successful and "stop_at_phase" in bad.reason
     assert proc.alive(), proc.output()
 
 

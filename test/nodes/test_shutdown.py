@@ -40,13 +40,15 @@ CASES = {
                       "hardware_node: stopped; every valve vented to 0 bar"),
     "gait_player": ([], _ready_service("/gait_player/start"), "gait_player: published"),
     "trajectory_server": (ros_args({"samples": 16}), _ready_on(TRAJECTORY_TOPIC, JointTrajectory, latched_qos()), ""),
+    "navigator": (ros_args({"calibration_preset": "sim_bands"}), _ready_service("/navigator/cancel"), ""),
     "srs_bringup": (["--samples", "16"], _ready_on(COMMANDED_PRESSURE_TOPIC, Float64MultiArray),
                     "srs_bringup: stopped; every valve vented to 0 bar"),
 }
 
 
 @pytest.mark.parametrize(("script", "gap_s"), [("hardware_node", 0.001), ("gait_player", 0.03),
-                                                ("trajectory_server", 0.1), ("srs_bringup", 0.005),
+                                                ("trajectory_server", 0.1), ("navigator", 0.02),
+                                                ("srs_bringup", 0.005),
                                                 ("srs_bringup", 0.1)])
 def test_two_sigints_vent_once_and_exit_0(launch_node, ros_client, script, gap_s):
     args, wait_ready, goodbye = CASES[script]

@@ -45,6 +45,15 @@ def test_regenerate_latches_one_period_and_failures_keep_the_last_good_one(launc
     assert lengths.max() > 0.02  # 3 bar = about 0.03 m at 100 bar/m
     assert msg.header.stamp.sec > 0
 
+    # The same request again (the navigator switching back to a turn level) is published from the cache.
+    assert all(r.successful for r in ros_client.set_parameters("trajectory_server", {"amplitude_bar": 2.0}))
+    other = ros_client.trigger("trajectory_server/regenerate", timeout_s=60.0)
+    assert other.success and "at 2 bar" in other.message and "fitted in" in other.message, other.message
+    assert all(r.successful for r in ros_client.set_parameters("trajectory_server", {"amplitude_bar": 3.0}))
+    again = ros_client.trigger("trajectory_server/regenerate", timeout_s=60.0)
+    assert again.success and "at 3 bar" in again.message and "kept from before" in again.message, again.message
+    assert np.allclose([p.positions for p in latest_trajectory(ros_client).points], lengths)
+
     # A refused fit (poor samples with reject_poor_fit): success=false with the reason, the old one stays.
     assert all(r.successful for r in ros_client.set_parameters(
         "trajectory_server", {"gait": "serpentine", "serpentine.poor_fit_mm": 0.1, "samples": 8,

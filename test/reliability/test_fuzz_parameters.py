@@ -230,6 +230,41 @@ def test_camera_tracker_parameters(launch_node, ros_client, tmp_path):
     run_fuzz(ParameterFuzz(client, "/camera_tracker", proc), lambda name: None, ALWAYS[1:])
 
 
+def test_navigator_parameters(launch_node, ros_client):
+    """The navigator alone (no gait nodes: its gait calls fail and say so): after each set, a goal is taken."""
+    from geometry_msgs.msg import PoseStamped
+    from std_msgs.msg import String
+
+    from srs_ros.ros.interfaces import GOAL_POSE_TOPIC, NAVIGATION_PROGRESS_TOPIC, POSE_TOPIC, progress_fields
+
+    proc = launch_node("navigator", ros_args({"calibration_preset": "sim_bands"}))
+    client = ros_client
+    progress = client.subscribe(String, NAVIGATION_PROGRESS_TOPIC, latched_qos())
+    goals = client.node.create_publisher(PoseStamped, GOAL_POSE_TOPIC, 10)
+    poses = client.node.create_publisher(PoseStamped, POSE_TOPIC, 10)
+    client.spin_until(lambda: progress and goals.get_subscription_count(), 20.0, "the navigator up")
+
+    def exercise(name: str) -> None:
+        pose, goal = PoseStamped(), PoseStamped()
+        pose.header.frame_id = goal.header.frame_id = "floor"
+        pose.header.stamp = client.node.get_clock().now().to_msg()
+        pose.pose.orientation.w = goal.pose.orientation.w = 1.0
+        goal.pose.position.x = 0.3
+        poses.publish(pose)
+        goals.publish(goal)
+        start = len(progress)
+        client.spin_until(lambda: len(progress) > start + 2, 10.0, "progress after the goal")
+        fields = progress_fields(progress[-1])
+        assert fields["state"] in ("driving", "stopping", "pose_lost", "failed") or fields["refused"], fields
+        client.trigger("/navigator/cancel")
+
+    run_fuzz(ParameterFuzz(client, "/navigator", proc), exercise, ALWAYS[1:] + [
+        ("goal_tolerance_m", value_of(ParameterType.PARAMETER_DOUBLE, math.nan)),
+        ("turn_levels_rad", value_of(ParameterType.PARAMETER_DOUBLE_ARRAY, [0.5, -0.5])),
+        ("view_margin_m", value_of(ParameterType.PARAMETER_DOUBLE, 1.9)),
+    ])
+
+
 def _trigger():
     from std_srvs.srv import Trigger
 
@@ -245,6 +280,8 @@ def _trigger():
     ("hardware_node", "max_pressure_bar", ".inf", "max_pressure_bar out of range Min: 0.1, Max: 4.0"),
     ("trajectory_server", "samples", "9223372036854775808", "expecting type 'INTEGER'"),
     ("camera_tracker", "velocity_window_s", "[.nan, 1]", "the ROS arguments cannot be parsed"),
+    ("navigator", "goal_tolerance_m", ".nan", "goal_tolerance_m out of range"),
+    ("navigator", "turn_levels_rad", "[0.5, -0.5]", "increasing values"),
 ])
 def test_a_node_started_with_a_hostile_parameter_exits_2_with_the_reason(launch_node, script, name, value, reason):
     proc = launch_node(script, ["--ros-args", "-p", f"{name}:={value}"])

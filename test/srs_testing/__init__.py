@@ -15,6 +15,9 @@ Modules:
 - :mod:`srs_testing.gaits`: gait cycles as a sender publishes them (:data:`JOINT_NAMES`, :func:`rolling_cycle`,
   :func:`trajectory`).
 - :mod:`srs_testing.netns`: several hosts on one machine as network namespaces (:class:`NetnsLab`, root only).
+- :mod:`srs_testing.navigation`: the navigator on the simulated robot, every node a process
+  (:class:`~srs_testing.navigation.NavigationSystem`); not imported here: ``from srs_testing.navigation import
+  NavigationSystem``.
 - :mod:`srs_testing.stream`: one measured run of the whole setpoint stream (soak, CPU-load and multi-host
   benchmarks and tests); it runs :mod:`srs_testing.stream_probe` as the observer process. Not imported here
   (it loads the synthetic camera): ``from srs_testing.stream import run_stream``.

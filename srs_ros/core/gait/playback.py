@@ -137,6 +137,7 @@ class GaitPlayback:
         self._phase = 0.0
         self._cycles_done = 0.0
         self._stop_after_cycles: float | None = None
+        self._stop_at_phase: float | None = None
         self.state = PlaybackState.IDLE
 
     # ---------------------------------------------------------------- inputs
@@ -187,6 +188,7 @@ class GaitPlayback:
             raise InvalidInputError(f"cycles: expected an integer >= 0 (0 = forever), got {cycles}.")
         if self.state is PlaybackState.IDLE:
             self._phase, self._cycles_done = 0.0, 0.0
+            self._stop_at_phase = None
             self._retarget_frequency(0.0)
         self._stop_after_cycles = self._cycles_done + cycles if cycles > 0 else None
         if self.state is not PlaybackState.RUNNING:
@@ -199,6 +201,26 @@ class GaitPlayback:
             self.state = PlaybackState.STOPPING
             self._envelope.set_target(0.0, self.ramp_time_s)
         self._stop_after_cycles = None
+        self._stop_at_phase = None
+
+    def stop_at_phase(self, phase: float | None) -> None:
+        """Ramp out (as :meth:`stop`) when the played phase next passes ``phase`` in [0, 1); None: no such stop.
+
+        A robot stopped at the same phase of its gait comes to rest at the same place relative to where it
+        was at that phase, so a caller that decides late (a camera frame's age, a message's latency) still
+        stops the robot exactly: up to one cycle ahead. Played backward, the phase passes ``phase`` going down.
+        A later :meth:`stop` stops at once; a :meth:`start` while playing keeps the pending stop.
+        """
+        if phase is not None:
+            phase = float(phase)
+            if not (0.0 <= phase < 1.0):
+                raise InvalidInputError(f"stop phase: expected a phase in [0, 1) or None, got {phase!r}.")
+        self._stop_at_phase = phase
+
+    @property
+    def pending_stop_phase(self) -> float | None:
+        """The phase at which the playback will ramp out (:meth:`stop_at_phase`), None when none is pending."""
+        return self._stop_at_phase
 
     def set_amplitude_scale(self, scale: float) -> None:
         """Scale every length by ``scale`` in [0, 1], reached smoothly over ``ramp_time_s``."""
@@ -282,6 +304,7 @@ class GaitPlayback:
         gain_before, blend_before, old_cycle = self._gain(), self._blend.value, self._old_cycle
         frequency_hz = self._frequency.step(dt_s)
         advance = frequency_hz * dt_s
+        passed = self._passes_stop_phase(advance)
         self._phase = (self._phase + advance) % 1.0
         self._cycles_done += abs(advance)
         self._amplitude.step(dt_s)
@@ -289,7 +312,7 @@ class GaitPlayback:
         self._blend.step(dt_s)
         if self._old_cycle is not None and self._blend.settled:
             self._old_cycle = None
-        self._advance_state()
+        self._advance_state(passed)
 
         gain = self._gain()
         values, slopes = self._shape(self._phase)
@@ -305,7 +328,17 @@ class GaitPlayback:
         positions = np.clip(gain * values, 0.0, self.max_length_m)
         return Setpoint(positions, velocities, self._phase, self._cycles_done, gain, frequency_hz, self.state)
 
-    def _advance_state(self) -> None:
+    def _passes_stop_phase(self, advance: float) -> bool:
+        """True when advancing the phase by ``advance`` (signed) reaches or passes the pending stop phase."""
+        if self._stop_at_phase is None or advance == 0.0 or abs(advance) >= 1.0:
+            return self._stop_at_phase is not None and abs(advance) >= 1.0
+        ahead = self._stop_at_phase - self._phase
+        to_stop = ahead % 1.0 if advance > 0 else (-ahead) % 1.0
+        return 0.0 < to_stop <= abs(advance)
+
+    def _advance_state(self, passed_stop_phase: bool = False) -> None:
+        if passed_stop_phase and self.state in (PlaybackState.STARTING, PlaybackState.RUNNING):
+            self.stop()
         if self._stop_after_cycles is not None and self._cycles_done >= self._stop_after_cycles:
             self.stop()
         if self.state is PlaybackState.STARTING and self._envelope.settled:

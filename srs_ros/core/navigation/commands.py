@@ -42,6 +42,10 @@ class GaitCommand:
     amplitude_bar: float
     frequency_hz: float
     reason: str = ""
+    #: For a stop (``direction`` None): the gait phase in [0, 1) at which the player is to ramp out (it plays on
+    #: until then, at most one cycle); None: ramp out at once. The navigator stops a cycle ahead at a set
+    #: phase, so the stop is exact however late the command arrives (within the cycle).
+    stop_phase: float | None = None
 
     @property
     def moving(self) -> bool:

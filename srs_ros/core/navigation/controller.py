@@ -16,6 +16,7 @@ robot to rest, and checks: within the tolerance the goal is reached, otherwise i
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Iterable, Sequence
 
@@ -25,7 +26,7 @@ from srs_ros.core.errors import InvalidInputError
 from srs_ros.core.navigation.area import FloorArea
 from srs_ros.core.navigation.commands import GaitCommand, GoalDecision, NavigationProgress, NavigationState
 from srs_ros.core.navigation.motion import Pose2D, PoseHistory, TravelModel, TurnModel, measure_cycle, wrap_rad
-from srs_ros.core.navigation.settings import DIRECTIONS, NavigationSettings
+from srs_ros.core.navigation.settings import DIRECTIONS, STOP_PHASES, NavigationSettings
 from srs_ros.core.navigation.stopping import StopModel, crossed_phase
 
 #: Cycles after a gait change before the camera's cycle measurements count (the cross-fade and the body settle).
@@ -36,8 +37,28 @@ START_SETTLE_CYCLES = 1.5
 STOP_WITHIN = 0.8
 #: Cycles a direction must have been played before a stop counts on its learned resting point.
 STOP_AFTER_CYCLES = 1.0
+#: The cycle ahead of a stop moves as the last whole cycle did (True) or by the learned travel and turn (False).
+CYCLE_AHEAD_FROM_LAST_CYCLE = True
 #: A straight line passing this close to the goal (times the tolerance) needs no three-point turn.
 STRAIGHT_WITHIN = 0.7
+
+
+@dataclasses.dataclass
+class StopPlan:
+    """A stop near the goal: how it was decided, where the robot is predicted to rest, where it stopped.
+
+    Decided at ``decided`` (as the gait passed stop phase ``phase_index``), done at ``stopped`` (the pose as the
+    gait passes that phase a cycle later, or at once), learned from after ``settle_s``.
+    """
+
+    decided: Pose2D
+    direction: str
+    level: int | None
+    phase_index: int
+    ahead: bool
+    predicted_xy_m: tuple[float, float]
+    stopped: Pose2D | None = None
+    heading_rad: float = 0.0
 
 
 def _other(direction: str) -> str:
@@ -54,7 +75,7 @@ class NavigationController:
         self.history = PoseHistory()
         self.turns = TurnModel(settings.turning_map, settings.turn_levels_rad, settings.learning_rate)
         self.travel = TravelModel(settings.turn_levels_rad, settings.learning_rate, settings.turning_map)
-        self.stops = StopModel(settings.turning_map, settings.learning_rate)
+        self.stops = StopModel(settings.turning_map, settings.learning_rate, settings.turn_levels_rad)
         self.state = NavigationState.IDLE
         self._goals: list[tuple[float, float]] = []
         self._index = 0
@@ -65,7 +86,7 @@ class NavigationController:
         self._heading_error_rad = 0.0
         self._backing_from: str | None = None
         self._settle_cycles = START_SETTLE_CYCLES
-        self._stop: tuple[Pose2D, str, float, int] | None = None
+        self._stop: StopPlan | None = None
         self._phase: float | None = None
         self._phase_seen: float | None = None
         self._direction_since_s = 0.0
@@ -78,6 +99,11 @@ class NavigationController:
     def command(self) -> GaitCommand:
         """The latest command."""
         return self._command
+
+    @property
+    def stop_plan(self) -> StopPlan | None:
+        """The last stop near a goal: where and how it was decided, where the robot was predicted to rest."""
+        return self._stop
 
     @property
     def goals(self) -> tuple[tuple[float, float], ...]:
@@ -203,7 +229,8 @@ class NavigationController:
         """Per direction: heading error (rad) and distance (m) to its aim point.
 
         The aim point is the goal; for the last goal, the goal less where the robot rolls on after a stop
-        (the pose must pass there for the robot to rest on the goal).
+        (the pose must pass there for the robot to rest on the goal), the mean over the turn levels (aiming with
+        the offset of the level played was measured worse: it moves the aim as the level changes).
         """
         errors, distances = {}, {}
         final = self._index == len(self._goals) - 1
@@ -300,35 +327,101 @@ class NavigationController:
     # ------------------------------------------------------------------ stopping
     def _crossed_stop_phase(self, now_s: float) -> int | None:
         """The stop phase the gait passed since the last pose, once the direction has played long enough."""
-        before, self._phase_seen = self._phase_seen, self._phase
         command = self._command
-        if not command.moving or before is None or self._phase is None:
+        crossed = self._passed_stop_phase(command.reverse)
+        if not command.moving or now_s - self._direction_since_s < STOP_AFTER_CYCLES / command.frequency_hz:
             return None
-        if now_s - self._direction_since_s < STOP_AFTER_CYCLES / command.frequency_hz:
+        return crossed
+
+    def _passed_stop_phase(self, reverse: bool) -> int | None:
+        """The stop phase the gait passed since the last call (None: none, or the phase is not known)."""
+        before, self._phase_seen = self._phase_seen, self._phase
+        if before is None or self._phase is None:
             return None
-        return crossed_phase(before, self._phase, command.reverse)
+        return crossed_phase(before, self._phase, reverse)
+
+    def _predicted_rest(self, pose: Pose2D, phase_index: int) -> np.ndarray:
+        """Where the robot would rest (floor x, y) if stopped at the stop phase just passed, or a cycle later.
+
+        A cycle ahead: the pose then is this one moved by a cycle's learned travel at the level played, along
+        the travel heading turned by half the cycle's learned turn; the rest offset is that of the phase, in
+        the heading turned by the whole cycle's turn.
+        """
+        direction, level = self._command.direction, self._level
+        heading = self._travel_heading_rad(direction)
+        where = np.array([pose.x_m, pose.y_m])
+        if self.settings.stop_cycle_ahead:
+            index = len(self.travel.levels_rad) // 2 if level is None else level
+            turn = math.radians(float(self.turns.rates[direction][index]))
+            travel = float(self.travel.travel_m[direction][index])
+            step = travel * np.array([math.cos(heading + 0.5 * turn), math.sin(heading + 0.5 * turn)])
+            last = self._last_cycle(pose) if CYCLE_AHEAD_FROM_LAST_CYCLE else None
+            if last is not None:  # the last cycle seen at this phase, turned by its own turn
+                moved, turned = last
+                cos, sin = math.cos(turned), math.sin(turned)
+                step = np.array([moved[0] * cos - moved[1] * sin, moved[0] * sin + moved[1] * cos])
+                turn = turned
+            where = where + step
+            heading += turn
+        return where + self.stops.rest_offset(direction, phase_index, heading, level)
+
+    def _last_cycle(self, pose: Pose2D) -> tuple[np.ndarray, float] | None:
+        """The move (m) and turn (rad) from the pose a cycle ago (the same gait phase) to ``pose``, or None.
+
+        None unless the gait played one direction all that cycle and a pose was seen then (within a frame).
+        """
+        period_s = 1.0 / max(self._command.frequency_hz, 1e-3)
+        if pose.time_s - self._direction_since_s < period_s * (1.0 + SETTLE_CYCLES):
+            return None
+        rows = self.history.window(period_s + 0.05)
+        if not len(rows):
+            return None
+        then = rows[int(np.argmin(np.abs(rows[:, 0] - (pose.time_s - period_s))))]
+        if abs(then[0] - (pose.time_s - period_s)) > 0.04:
+            return None
+        now_row = self.history.window(0.0)[-1]
+        return now_row[1:3] - then[1:3], float(now_row[3] - then[3])
 
     def _rest_error_m(self, pose: Pose2D, phase_index: int) -> float:
-        """How far from the goal the robot would rest if stopped now."""
-        direction = self._command.direction
-        offset = self.stops.rest_offset(direction, phase_index, self._travel_heading_rad(direction))
-        gx, gy = self.goal
-        return math.hypot(gx - pose.x_m - offset[0], gy - pose.y_m - offset[1])
+        """How far from the goal the robot would rest if stopped at the phase just passed (or a cycle later)."""
+        rest = self._predicted_rest(pose, phase_index)
+        return math.hypot(self.goal[0] - rest[0], self.goal[1] - rest[1])
 
     def _begin_stop(self, pose: Pose2D, phase_index: int) -> None:
-        direction = self._command.direction
+        direction, ahead = self._command.direction, self.settings.stop_cycle_ahead
         self.state = NavigationState.STOPPING
-        self._stop = (pose, direction, self._travel_heading_rad(direction), phase_index)
-        self._message = f"stopping at {self._distance(pose):.3f} m from the goal; waiting for the robot to rest"
-        self._command = self._stop_command(self._message)
+        predicted = self._predicted_rest(pose, phase_index)
+        self._stop = StopPlan(pose, direction, self._level, phase_index, ahead,
+                              (float(predicted[0]), float(predicted[1])))
+        if ahead:
+            self._message = (f"stopping a cycle ahead, {self._distance(pose):.3f} m from the goal, as the gait "
+                             f"passes phase {STOP_PHASES[phase_index]:g}; then waiting for the robot to rest")
+            self._command = dataclasses.replace(self._stop_command(self._message),
+                                                stop_phase=float(STOP_PHASES[phase_index]))
+        else:
+            self._stop.stopped, self._stop.heading_rad = pose, self._travel_heading_rad(direction)
+            self._message = f"stopping at {self._distance(pose):.3f} m from the goal; waiting for the robot to rest"
+            self._command = self._stop_command(self._message)
         self._level = None
 
     def _settle(self, pose: Pose2D) -> None:
-        """After ``settle_s`` at rest: learn where the robot came to rest, then reached or drive on."""
-        start, direction, heading, phase_index = self._stop
-        if pose.time_s - start.time_s < self.settings.settle_s:
+        """Wait for the stop a cycle ahead; after ``settle_s`` at rest learn the resting point, then reached or on."""
+        plan = self._stop
+        if plan.stopped is None:
+            period_s = 1.0 / max(self.settings.cruise_frequency_hz, 1e-3)
+            crossed = self._passed_stop_phase(plan.direction == DIRECTIONS[1])
+            if crossed == plan.phase_index or pose.time_s - plan.decided.time_s > 1.5 * period_s:
+                plan.stopped = pose if crossed == plan.phase_index else None
+                plan.heading_rad = self.history.smoothed_yaw_rad(period_s) + self.travel.offset(plan.direction,
+                                                                                                plan.level)
+                if plan.stopped is None:  # the phase was not seen: no learning from this stop
+                    plan.stopped, plan.phase_index = pose, -1
             return
-        self.stops.learn(direction, phase_index, heading, np.array([pose.x_m - start.x_m, pose.y_m - start.y_m]))
+        if pose.time_s - plan.stopped.time_s < self.settings.settle_s:
+            return
+        if plan.phase_index >= 0:
+            moved = np.array([pose.x_m - plan.stopped.x_m, pose.y_m - plan.stopped.y_m])
+            self.stops.learn(plan.direction, plan.phase_index, plan.heading_rad, moved, plan.level)
         distance = self._distance(pose)
         if distance <= self.settings.goal_tolerance_m:
             self._finish(NavigationState.REACHED, f"goal reached: resting {distance:.3f} m from it "

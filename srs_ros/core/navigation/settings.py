@@ -60,6 +60,9 @@ NAVIGATION_TABLE = Table("navigation", (
           "weight of a new per-cycle measurement in the online turn-rate and travel-direction estimates"),
     Field("settle_s", float, 1.5, 0.0, 30.0, "s",
           "after a stop near the goal, wait this long for the robot to rest before checking the tolerance"),
+    Field("stop_cycle_ahead", bool, True,
+          description="stop one cycle ahead at a set gait phase (the gait player ramps out as it passes the phase, "
+                      "however late the stop arrived); false: ramp out at once as the gait passes the phase"),
     Field("stall_timeout_s", float, 60.0, 1.0, 3600.0, "s",
           "the distance to go has not shrunk by stall_distance_m for this long: stop, state failed"),
     Field("stall_distance_m", float, 0.03, 0.001, 1.0, "m", "progress that resets the stall timer"),
@@ -77,9 +80,21 @@ class DirectionMap:
     turn_rate_deg_per_cycle: np.ndarray
     travel_m_per_cycle: np.ndarray
     #: Where the robot rests after a stop at each of :data:`STOP_PHASES` (rows), from where the stop was
-    #: commanded: (along, across) its travel (m).
+    #: commanded: (along, across) its travel (m); shape (phases, 2) for every turn level, or
+    #: (turn levels, phases, 2), one block per ``turn_phase_rad`` (a turning body rolls on elsewhere: measured,
+    #: inward rolling rests 24 cm to the left of its travel at -0.5 rad, 16 cm to the right at +0.5 rad).
     stop_offset_m: np.ndarray = dataclasses.field(
         default_factory=lambda: np.reshape(DEFAULT_STOP_OFFSET_M, (len(STOP_PHASES), 2)))
+
+    def stop_offset_at(self, turn_phase_rad) -> np.ndarray:
+        """The rest offsets (levels, phases, 2) at each of ``turn_phase_rad`` (linear between mapped levels)."""
+        levels = np.atleast_1d(np.asarray(turn_phase_rad, dtype=np.float64))
+        offsets = np.asarray(self.stop_offset_m, dtype=np.float64)
+        if offsets.ndim == 2:
+            return np.repeat(offsets[None], len(levels), axis=0)
+        flat = offsets.reshape(len(self.turn_phase_rad), -1)
+        columns = [np.interp(levels, self.turn_phase_rad, flat[:, j]) for j in range(flat.shape[1])]
+        return np.stack(columns, axis=1).reshape(len(levels), *offsets.shape[1:])
 
     def rate_at(self, turn_phase_rad) -> np.ndarray:
         """The mapped turn rate (deg per cycle) at ``turn_phase_rad`` (linear between points, flat outside)."""
@@ -115,8 +130,9 @@ _DIRECTION_TABLE = Table("turning_map.<direction>", (
           nonempty=True),
     Field("travel_m_per_cycle", list, item=float, minimum=0.0, maximum=10.0, unit="m", nonempty=True),
     Field("stop_offset_m", list, DEFAULT_STOP_OFFSET_M, -1.0, 1.0, "m",
-          f"rest point after a stop at each gait phase {list(STOP_PHASES)}: along, across the travel, in turn",
-          item=float, length=2 * len(STOP_PHASES)),
+          f"rest point after a stop at each gait phase {list(STOP_PHASES)}: along, across the travel, in turn; "
+          f"{2 * len(STOP_PHASES)} values for every turn level, or that many per turn_phase_rad, one after the other",
+          item=float, nonempty=True),
 ))
 
 
@@ -137,9 +153,16 @@ def turning_map_from_dict(data: Any, source: str = "<dict>") -> TurningMap:
             if len(values[name]) != len(phases):
                 raise refusal(source, table.key(name), list(values[name]),
                               f"{len(phases)} values, one per turn_phase_rad")
+        per_level = 2 * len(STOP_PHASES)
+        stops = list(values["stop_offset_m"])
+        if len(stops) not in (per_level, per_level * len(phases)):
+            raise refusal(source, table.key("stop_offset_m"), stops,
+                          f"{per_level} values (every turn level) or {per_level * len(phases)} "
+                          f"({per_level} per turn_phase_rad)")
+        shape = (len(STOP_PHASES), 2) if len(stops) == per_level else (len(phases), len(STOP_PHASES), 2)
         directions[direction] = DirectionMap(phases, np.asarray(values["turn_rate_deg_per_cycle"], dtype=np.float64),
                                              np.asarray(values["travel_m_per_cycle"], dtype=np.float64),
-                                             np.reshape(values["stop_offset_m"], (len(STOP_PHASES), 2)))
+                                             np.reshape(stops, shape))
     return TurningMap(head["amplitude_bar"], head["frequency_hz"], head["conditions"], directions, source)
 
 
@@ -168,6 +191,7 @@ class NavigationSettings:
     direction_hysteresis_rad: float
     learning_rate: float
     settle_s: float
+    stop_cycle_ahead: bool
     stall_timeout_s: float
     stall_distance_m: float
     turning_map_file: str

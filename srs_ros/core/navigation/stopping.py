@@ -15,6 +15,9 @@ import numpy as np
 
 from srs_ros.core.navigation.settings import DIRECTIONS, STOP_PHASES, TurningMap
 
+#: Spread of one turn level's correction to its unmeasured neighbours (rad of turn_phase).
+NEIGHBOUR_SPREAD_RAD = 0.2
+
 
 def crossed_phase(before: float, after: float, reverse: bool) -> int | None:
     """The index of the stop phase passed going from phase ``before`` to ``after`` (backward if ``reverse``)."""
@@ -36,23 +39,50 @@ def rotate(along_across: np.ndarray, heading_rad: float) -> np.ndarray:
 
 
 class StopModel:
-    """Per direction and stop phase, where the robot rests after a stop: (along, across) its travel (m)."""
+    """Per direction, turn level and stop phase, where the robot rests after a stop: (along, across) its travel (m).
 
-    def __init__(self, turning_map: TurningMap, learning_rate: float):
+    Starts from the turn map (per level when the map has them) and learns from every stop; a level's
+    correction is shared with the levels not measured yet (as :class:`~srs_ros.core.navigation.motion.TurnModel`).
+    """
+
+    def __init__(self, turning_map: TurningMap, learning_rate: float, levels_rad=(0.0,)):
         self.learning_rate = float(learning_rate)
-        self.offset_m = {d: np.array(turning_map[d].stop_offset_m, dtype=np.float64) for d in DIRECTIONS}
+        self.levels_rad = np.asarray(levels_rad, dtype=np.float64)
+        self.offset_m = {d: turning_map[d].stop_offset_at(self.levels_rad) for d in DIRECTIONS}
+        self.measured = {d: np.zeros((len(self.levels_rad), len(STOP_PHASES)), dtype=int) for d in DIRECTIONS}
 
-    def rest_offset(self, direction: str, phase_index: int, heading_rad: float) -> np.ndarray:
-        """Where the robot will rest, relative to its pose (floor frame, m), if stopped now at the phase."""
-        return rotate(self.offset_m[direction][phase_index], heading_rad)
+    def rest_offset(self, direction: str, phase_index: int, heading_rad: float,
+                    level_index: int | None = None) -> np.ndarray:
+        """Where the robot will rest, relative to its pose (floor frame, m), if stopped now at the phase.
 
-    def learn(self, direction: str, phase_index: int, heading_rad: float, moved_m: np.ndarray) -> None:
-        """Take the measured move from the stop to the rest (floor frame) into the phase's estimate."""
+        ``level_index`` None: the mean over the turn levels.
+        """
+        offsets = self.offset_m[direction][:, phase_index]
+        return rotate(offsets.mean(axis=0) if level_index is None else offsets[level_index], heading_rad)
+
+    def learn(self, direction: str, phase_index: int, heading_rad: float, moved_m: np.ndarray,
+              level_index: int | None = None) -> None:
+        """Take the measured move from the stop to the rest (floor frame) into the level's and phase's estimate.
+
+        ``level_index`` None: every level; otherwise the unmeasured levels near it get a share.
+        """
         cos, sin = math.cos(heading_rad), math.sin(heading_rad)
         measured = np.array([moved_m[0] * cos + moved_m[1] * sin, -moved_m[0] * sin + moved_m[1] * cos])
         offsets = self.offset_m[direction]
-        offsets[phase_index] += self.learning_rate * (measured - offsets[phase_index])
+        if level_index is None:
+            weight = np.ones(len(self.levels_rad))
+        else:
+            spread = np.exp(-np.abs(self.levels_rad - self.levels_rad[level_index]) / NEIGHBOUR_SPREAD_RAD)
+            weight = np.where(self.measured[direction][:, phase_index] == 0, spread, 0.0)
+            weight[level_index] = 1.0
+            self.measured[direction][level_index, phase_index] += 1
+        offsets[:, phase_index] += self.learning_rate * weight[:, None] * (measured - offsets[:, phase_index])
 
-    def mean_rest_offset(self, direction: str, heading_rad: float) -> np.ndarray:
-        """:meth:`rest_offset` averaged over the stop phases (where to aim before knowing the phase)."""
-        return rotate(self.offset_m[direction].mean(axis=0), heading_rad)
+    def mean_rest_offset(self, direction: str, heading_rad: float, level_index: int | None = None) -> np.ndarray:
+        """:meth:`rest_offset` averaged over the stop phases (where to aim before knowing the phase).
+
+        At the turn level ``level_index`` (None: averaged over the levels too).
+        """
+        offsets = self.offset_m[direction]
+        return rotate((offsets.mean(axis=(0, 1)) if level_index is None else offsets[level_index].mean(axis=0)),
+                      heading_rad)

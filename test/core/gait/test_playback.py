@@ -110,6 +110,40 @@ def test_cycles_ramp_out_after_that_many():
     assert trace[-1].state is PlaybackState.IDLE
 
 
+@pytest.mark.parametrize("reverse", [False, True])
+@pytest.mark.parametrize("stop_phase", [0.0, 0.25, 0.6])
+def test_a_stop_at_a_phase_ramps_out_as_the_phase_passes_it_whenever_it_was_asked(stop_phase, reverse):
+    player = started(frequency_hz=1.0)
+    player.set_reverse(reverse)
+    run(player, 2.0)
+    asked_at = player.phase
+    player.stop_at_phase(stop_phase)
+    assert player.pending_stop_phase == stop_phase
+    trace = run(player, 2.5)
+    stop_at = next(i for i, s in enumerate(trace) if s.state is PlaybackState.STOPPING)
+    played = (stop_phase - asked_at if not reverse else asked_at - stop_phase) % 1.0
+    assert stop_at * DT_S == pytest.approx(played, abs=1.5 * DT_S)  # within the next cycle, not at once
+    assert trace[stop_at].phase == pytest.approx(stop_phase, abs=1.5 * DT_S) or \
+        abs(trace[stop_at].phase - stop_phase) == pytest.approx(1.0, abs=1.5 * DT_S)
+    assert trace[-1].state is PlaybackState.IDLE and not np.any(trace[-1].positions_m)
+    assert player.pending_stop_phase is None
+
+
+def test_a_stop_overrides_a_pending_stop_at_a_phase_and_a_restart_forgets_it():
+    player = started(frequency_hz=1.0)
+    run(player, 2.0)
+    player.stop_at_phase((player.phase + 0.9) % 1.0)
+    player.stop()
+    assert player.step(DT_S).state is PlaybackState.STOPPING and player.pending_stop_phase is None
+    player.stop_at_phase(0.5)  # armed while ramping out: ramps out anyway, and a start from rest forgets it
+    run(player, 2.0)
+    player.start()
+    trace = run(player, 3.0)
+    assert all(s.state is not PlaybackState.STOPPING for s in trace)
+    with pytest.raises(InvalidInputError, match="stop phase"):
+        player.stop_at_phase(1.0)
+
+
 @pytest.mark.parametrize("new_hz", [0.25, 2.5])
 def test_live_frequency_change_is_phase_continuous(new_hz):
     player = started(frequency_hz=1.0)

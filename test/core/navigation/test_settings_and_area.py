@@ -13,7 +13,8 @@ from srs_ros.core.vision.camera_calibration import load_calibration
 def test_the_package_turning_map_loads_with_both_directions():
     mapped = load_turning_map()
     for direction in DIRECTIONS:
-        assert mapped[direction].stop_offset_m.shape == (len(STOP_PHASES), 2)
+        levels = len(mapped[direction].turn_phase_rad)
+        assert mapped[direction].stop_offset_m.shape == (levels, len(STOP_PHASES), 2)  # measured per turn level
         assert len(mapped[direction].turn_phase_rad) == len(mapped[direction].turn_rate_deg_per_cycle)
     assert load_navigation_settings().goal_tolerance_m == 0.05
 
@@ -30,6 +31,25 @@ def test_a_bad_turning_map_is_refused_with_the_key():
         turning_map_from_dict({"turning_map": block}, "m.yaml")
     block["outward_rolling"] = {**good, "turn_phase_rad": [0.2, 0.0]}
     with pytest.raises(ConfigurationError, match="increasing values"):
+        turning_map_from_dict({"turning_map": block}, "m.yaml")
+
+
+def test_stop_offsets_per_turn_level_are_read_in_order_and_interpolated_between_levels():
+    good = {"turn_phase_rad": [-0.4, 0.0, 0.4], "turn_rate_deg_per_cycle": [10.0, 0.0, -10.0],
+            "travel_m_per_cycle": [0.1, 0.1, 0.1]}
+    per_level = [[0.1, 0.2] * len(STOP_PHASES), [0.2, 0.0] * len(STOP_PHASES), [0.1, -0.2] * len(STOP_PHASES)]
+    block = {"amplitude_bar": 4.0, "frequency_hz": 1.0,
+             "inward_rolling": {**good, "stop_offset_m": sum(per_level, [])},
+             "outward_rolling": {**good, "stop_offset_m": [0.03, 0.0] * len(STOP_PHASES)}}
+    mapped = turning_map_from_dict({"turning_map": block}, "m.yaml")
+    inward = mapped["inward_rolling"].stop_offset_at([-0.4, -0.2, 0.4])
+    assert inward.shape == (3, len(STOP_PHASES), 2)
+    np.testing.assert_allclose(inward[:, 0], [[0.1, 0.2], [0.15, 0.1], [0.1, -0.2]])
+    outward = mapped["outward_rolling"].stop_offset_at([-0.4, 0.3])
+    np.testing.assert_allclose(outward, np.tile([0.03, 0.0], (2, len(STOP_PHASES), 1)))
+    block["outward_rolling"] = {**good, "stop_offset_m": [0.1] * 10}
+    with pytest.raises(ConfigurationError, match=r"stop_offset_m is .*; expected 8 values \(every turn level\) "
+                                                 r"or 24"):
         turning_map_from_dict({"turning_map": block}, "m.yaml")
 
 

@@ -1,0 +1,250 @@
+"""Plays the navigator's gait commands through the existing gait interfaces, never around them.
+
+A :class:`GaitDriver` turns each new :class:`~srs_ros.core.navigation.GaitCommand` into the calls an operator
+would make (relative names, resolved in the navigator's namespace)::
+
+    trajectory_server/set_parameters_atomically   gait, amplitude_bar, <gait>.turn_phase_rad (one call)
+    trajectory_server/regenerate                  the new cycle is fitted and latched; gait_player cross-fades
+    gait_player/set_parameters                    frequency_hz and reverse (live; the signed frequency ramps,
+                                                  through 0 for a reversal: outward rolling = inward backward)
+    gait_player/start                             ramp in when the robot was stopped; then again every quarter
+                                                  of ``keepalive_s`` (a dead man's handle, below)
+    gait_player/stop                              ramp out to 0 (all lengths 0 = every muscle vented)
+    gait_player/set_parameters  stop_at_phase     a stop near the goal: ramp out as the phase passes it (the
+                                                  navigator decides a cycle ahead; a late call stops as exactly)
+
+A dead man's handle made of the player's own interface: the driver sets gait_player's ``cycles`` so that a
+``~/start`` lets it play ``keepalive_s`` (2 s by default) more, and calls ``~/start`` again every quarter of
+that while the robot is to move ("already running" only pushes the end on). A navigator that dies or hangs
+stops calling: the player ramps out by itself after at most ``keepalive_s`` plus one cycle.
+
+So every pressure still goes through gait_player's ramps and the hardware node's one clamp; the driver never
+arms, never touches the e-stop and never publishes a setpoint. Calls are asynchronous (a callback never
+blocks the node), one at a time in that order, the newest command wins; a stop goes out at once, even while
+another call is pending. A refused or unanswered call is retried after :data:`RETRY_S` and said in
+:attr:`GaitDriver.error` (the navigator publishes it).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable
+from typing import Any
+
+from rcl_interfaces.srv import SetParameters, SetParametersAtomically
+from rclpy.node import Node
+from rclpy.parameter import Parameter
+from std_srvs.srv import Trigger
+
+#: Wait before a failed call is made again (s).
+RETRY_S = 1.0
+#: A call without an answer for this long is given up (and retried), s.
+CALL_TIMEOUT_S = 5.0
+#: gait_player's parameters the driver sets, in the order of its player key.
+PLAYER_VALUES = ("frequency_hz", "reverse", "cycles", "stop_at_phase")
+#: gait_player's ``stop_at_phase`` for none pending.
+NO_STOP_PHASE = -1.0
+
+
+class GaitDriver:
+    """Drives ``trajectory_server`` and ``gait_player`` (node names, relative) from gait commands.
+
+    :meth:`drive` takes a new command; :meth:`pump` (from the navigator's timer and after every answer) makes
+    the next call. ``_playing`` is True from a ``~/start`` sent until a ``~/stop`` answered: a start and a stop
+    in flight together (two services, no order between them) end with another stop.
+    """
+
+    def __init__(self, node: Node, trajectory_server: str, gait_player: str, keepalive_s: float = 2.0,
+                 clock: Callable[[], float] = time.monotonic):
+        self._node = node
+        self._clock = clock
+        self.keepalive_s = float(keepalive_s)  # 0: no dead man's handle (the gait plays until stopped)
+        self._started_s = -math.inf  # when the last ~/start was sent
+        self._clients = {
+            "set_gait": node.create_client(SetParametersAtomically, f"{trajectory_server}/set_parameters_atomically"),
+            "regenerate": node.create_client(Trigger, f"{trajectory_server}/regenerate"),
+            "set_player": node.create_client(SetParameters, f"{gait_player}/set_parameters"),
+            "start": node.create_client(Trigger, f"{gait_player}/start"),
+            "stop": node.create_client(Trigger, f"{gait_player}/stop"),
+        }
+        self.wanted = None  # the newest GaitCommand
+        self._cycle_key: tuple | None = None  # latched by trajectory_server (its regenerate answered success)
+        self._sent_key: tuple | None = None  # parameters set, regenerate not yet answered
+        self._player_key: tuple | None = None  # gait_player's (frequency_hz, reverse, cycles, stop_at_phase) as set
+        self._playing = False
+        self._pending: dict[str, tuple[Any, float]] = {}  # what -> (future, sent at)
+        self._retry_at = 0.0
+        self.error = ""  # the last failure ('' once a call succeeds again)
+        self.calls: dict[str, int] = {name: 0 for name in self._clients}  # calls made, by kind
+
+    # ------------------------------------------------------------- the interface
+    def drive(self, command) -> None:
+        """Take ``command`` (a GaitCommand); a stop is sent at once, anything else by :meth:`pump`."""
+        if command != self.wanted:
+            self._retry_at = 0.0  # a new command is tried at once; the same one after RETRY_S
+        self.wanted = command
+        self.pump()
+
+    def stop(self, command):
+        """Take the stop ``command`` and call ``gait_player/stop`` whether or not this driver started it.
+
+        Returns the call's future (None when the service is not available).
+        """
+        self.wanted = command
+        self._playing = False
+        self._call("stop", Trigger.Request(), self._on_stop)
+        return self._pending.get("stop", (None,))[0]
+
+    @property
+    def playing(self) -> bool:
+        """True while the player was started by this driver and no stop has been answered since."""
+        return self._playing
+
+    @property
+    def busy(self) -> bool:
+        """True while a call is waiting for its answer."""
+        return bool(self._pending)
+
+    def services(self) -> list[str]:
+        """The full names of the services the driver calls."""
+        return [self._node.resolve_service_name(client.srv_name) for client in self._clients.values()]
+
+    def missing_services(self) -> list[str]:
+        """The services not (yet) available."""
+        return [client.srv_name for client in self._clients.values() if not client.service_is_ready()]
+
+    def pump(self) -> None:
+        """Give up unanswered calls, then make the next call the newest command needs (if none is pending)."""
+        now = self._clock()
+        for what, (future, sent_s) in list(self._pending.items()):
+            if now - sent_s > CALL_TIMEOUT_S:
+                self._clients[what].remove_pending_request(future)
+                del self._pending[what]
+                self._failed(what, f"no answer for {CALL_TIMEOUT_S:g} s (is the node running?)")
+        command = self.wanted
+        if command is None:
+            return
+        if not command.moving:
+            if command.stop_phase is not None and self._playing:
+                self._stop_at_phase(float(command.stop_phase), now)
+            elif self._playing and "stop" not in self._pending:
+                self._call("stop", Trigger.Request(), self._on_stop)
+            return
+        keepalive = self.keepalive_s > 0 and now - self._started_s >= self.keepalive_s / 4
+        if self._playing and keepalive and "start" not in self._pending:
+            self._start(now)  # the dead man's handle, whatever else is pending
+        if self._pending or now < self._retry_at:
+            return
+        if command.cycle_key != self._cycle_key:
+            self._set_gait(command)
+        elif self._player_key != self._player_values(command):
+            self._set_player(self._player_values(command))
+        elif not self._playing:
+            self._playing = True
+            self._start(now)
+
+    def _player_values(self, command) -> tuple[float, bool, int, float]:
+        """gait_player's (frequency_hz, reverse, cycles, stop_at_phase) for a moving ``command``.
+
+        cycles: keepalive_s of them (0 = none); no stop at a phase pending.
+        """
+        cycles = max(1, math.ceil(self.keepalive_s * command.frequency_hz)) if self.keepalive_s > 0 else 0
+        return (float(command.frequency_hz), bool(command.reverse), cycles, NO_STOP_PHASE)
+
+    def _stop_at_phase(self, phase: float, now: float) -> None:
+        """A stop at a gait phase: gait_player's ``stop_at_phase`` set (it ramps out as the phase passes it).
+
+        No ``~/start`` meanwhile (a start after the ramp-out began would ramp in again): the ``cycles`` of the
+        last start (``keepalive_s`` of them) outlast the one cycle to the phase at 1 Hz, and a navigator that
+        dies now leaves a gait that ramps out by itself at the phase.
+        """
+        key = (*(self._player_key or (math.nan, False, 0, NO_STOP_PHASE))[:3], phase)
+        if self._player_key == key or "set_player" in self._pending or now < self._retry_at:
+            return
+        self._set_player(key, names=("stop_at_phase",))
+
+    # ------------------------------------------------------------- the calls
+    def _set_gait(self, command) -> None:
+        values = {"gait": command.gait, "amplitude_bar": float(command.amplitude_bar),
+                  f"{command.gait}.turn_phase_rad": float(command.turn_phase_rad)}
+        request = SetParametersAtomically.Request(
+            parameters=[Parameter(name, value=value).to_parameter_msg() for name, value in values.items()])
+        self._sent_key = command.cycle_key
+        self._call("set_gait", request, self._on_set_gait)
+
+    def _start(self, now: float) -> None:
+        self._started_s = now
+        self._call("start", Trigger.Request(), self._on_start)
+
+    def _set_player(self, key: tuple[float, bool, int, float], names: tuple[str, ...] = PLAYER_VALUES) -> None:
+        """Set gait_player's ``names`` (of :data:`PLAYER_VALUES`) to their values in ``key``; ``key`` once done."""
+        values = {name: value for name, value in zip(PLAYER_VALUES, key) if name in names}
+        request = SetParameters.Request(
+            parameters=[Parameter(name, value=value).to_parameter_msg() for name, value in values.items()])
+        self._call("set_player", request, lambda response: self._on_set_player(response, values, key))
+
+    def _call(self, what: str, request, on_answer: Callable[[Any], None]) -> None:
+        client = self._clients[what]
+        if not client.service_is_ready():
+            self._failed(what, f"service {client.srv_name} is not available (is the node running?)")
+            if what == "start":
+                self._playing = False
+            return
+        future = client.call_async(request)
+        self._pending[what] = (future, self._clock())
+        self.calls[what] += 1
+
+        def answered(done) -> None:
+            if self._pending.get(what, (None,))[0] is not done:
+                return  # given up meanwhile
+            del self._pending[what]
+            try:
+                response = done.result()
+            except Exception as exc:  # the client was destroyed at shutdown, or rclpy raised
+                self._failed(what, f"{type(exc).__name__}: {exc}")
+                return
+            on_answer(response)
+            self.pump()
+
+        future.add_done_callback(answered)
+
+    # ------------------------------------------------------------- the answers
+    def _on_set_gait(self, response) -> None:
+        if not response.result.successful:
+            self._failed("set_gait", f"trajectory_server refused the parameters: {response.result.reason}")
+            return
+        self._call("regenerate", Trigger.Request(), self._on_regenerate)
+
+    def _on_regenerate(self, response) -> None:
+        if not response.success:
+            self._failed("regenerate", f"trajectory_server could not regenerate: {response.message}")
+            return
+        self._cycle_key, self.error = self._sent_key, ""
+
+    def _on_set_player(self, response, values: dict[str, Any], key: tuple) -> None:
+        refused = [f"{name} {value}: {result.reason}" for (name, value), result in zip(values.items(), response.results)
+                   if not result.successful]
+        if refused or len(response.results) != len(values):
+            self._failed("set_player", "gait_player refused " + ("; ".join(refused) or "the parameters (no result)"))
+            return
+        self._player_key, self.error = key, ""
+
+    def _on_start(self, response) -> None:
+        if not response.success:
+            self._playing = False
+            self._failed("start", f"gait_player did not start: {response.message}")
+            return
+        self._playing, self.error = True, ""  # also when a stop was sent meanwhile: pump stops it again
+
+    def _on_stop(self, response) -> None:
+        if not response.success:
+            self._failed("stop", f"gait_player did not stop: {response.message}")
+            return
+        self._playing = "start" in self._pending  # a start still in flight may arrive after this stop
+
+    def _failed(self, what: str, reason: str) -> None:
+        self.error = f"{what}: {reason}"
+        self._retry_at = self._clock() + RETRY_S
+        self._node.get_logger().error(f"gait command not applied, retrying in {RETRY_S:g} s: {self.error}",
+                                      throttle_duration_sec=2.0)
