@@ -31,6 +31,7 @@ from concurrent.futures import (
     ProcessPoolExecutor,
     wait,
 )
+from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
@@ -200,6 +201,19 @@ def _lost_with_worker(error: BaseException) -> bool:
     return distributed is not None and isinstance(error, distributed.KilledWorker)
 
 
+def _lost_at_start(error: BaseException) -> Future:
+    """A run that the local pool could not take: its pool broke (a worker died) before or while it started one.
+
+    CPython's pool raises ``BrokenProcessPool`` once it knows, but a worker that dies while the pool spawns the
+    next one can make the spawn fail with ``ValueError: bad value(s) in fds_to_keep`` or an ``OSError`` (the
+    pool's pipes are being closed). Either way the run is lost with a worker: a future failed with
+    ``BrokenProcessPool``, so that it is counted and submitted again to a new pool like any other lost run.
+    """
+    future: Future = Future()
+    future.set_exception(BrokenProcessPool(f"the local pool broke while it took the run ({error_line(error)})"))
+    return future
+
+
 def error_line(error: BaseException) -> str:
     """An error in one short line: its type and first sentence."""
     text = " ".join(str(error).split()).split(". ")[0].rstrip(".")
@@ -289,13 +303,12 @@ class OfflineRunner:
         executor = self._executor()
         try:
             return executor.submit(_run_task, cell, *job, attempt), executor
-        except BrokenExecutor as exc:
-            if executor is self._given:
-                raise self.unusable(error_line(exc)) from None
-            self._drop_pool(executor)
-            return self._executor().submit(_run_task, cell, *job, attempt), self._executor()
-        except (RuntimeError, OSError) as exc:  # a shut down executor, a lost connection: it takes no more runs
-            raise self.unusable(error_line(exc)) from None
+        except (BrokenExecutor, RuntimeError, OSError, ValueError) as exc:
+            if executor is not self._given and not isinstance(exc, RuntimeError):
+                return _lost_at_start(exc), executor
+            if executor is not self._given or isinstance(exc, ValueError):
+                raise  # a local pool shut down, or a given executor's own complaint
+            raise self.unusable(error_line(exc)) from None  # a shut down executor, a lost connection
 
     def check_usable(self) -> None:
         """Raise :meth:`unusable` if the executor is known to take no more runs (the local pool always does)."""
