@@ -94,6 +94,12 @@ VARIANTS = [Variant(*v) for v in (
      "muscle_tendons_authors with the spin restrained"),
     ("spin_restrained_twist", {"contact.roll_damping_nms_per_rad": 0.3, "servo.twist_stiffness_nm_per_rad": 0.02},
      "the spin restrained at the tail, the body free to twist: does the twist relax what would force a tumble?"),
+    # Issue 19, the supply tubes: a restraint on the body's spin that grows with its turns, not their rate.
+    ("tether_loose", {"tether.enabled": True},
+     "the nine supply tubes as one bundle on the floor, clamped 1.25 m behind the tail (loose tubes: GJ 1.9e-3, "
+     "EI 2.9e-3 N m^2, config/sim.yaml estimates)"),
+    ("tether_tied", {"tether.enabled": True, "tether.twist_stiffness_nm2": 0.024, "tether.bend_stiffness_nm2": 0.03},
+     "the same bundle tied together (the outer tubes stretch helically: GJ 2.4e-2, EI 3e-2 N m^2, estimate)"),
     ("axis_points", {"contact.floor_contact": "points"},
      "floor contact at one sphere per segment (5 per module) on the axis instead of continuous capsules"),
     ("lobed_points", {"contact.floor_contact": "points", "contact.points_around": 3},
