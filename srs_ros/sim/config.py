@@ -100,7 +100,8 @@ class TetherConfig:
     """The nine supply tubes as one bundle from the tail to an anchor behind the robot (off by default).
 
     A chain of ``links`` capsules lying on the floor, from a clamp at the anchor (``length_m`` behind the
-    tail along the robot's axis, the regulators) to the tail, where it is welded on. Its joints bend and
+    tail along the robot's axis, the regulators) to the tail, where it is welded on; ``slack_fraction``
+    longer than that distance, laid as an S, so the robot can move away from the anchor. Its joints bend and
     twist with the bundle's stiffness (``EI / l``, ``GJ / l`` per link of length ``l``), so the bundle's
     twist, and its torque on the tail, grows with the turns the body spins, whatever their rate.
     ``anchor_slip_torque_nm`` > 0 lets the clamp slip (Coulomb) above that torque: a torsional spring in
@@ -109,6 +110,7 @@ class TetherConfig:
 
     enabled: bool
     length_m: float
+    slack_fraction: float
     links: int
     radius_m: float
     mass_per_m_kg: float
@@ -117,12 +119,6 @@ class TetherConfig:
     damping_nms_per_rad: float
     friction_coefficient: float
     anchor_slip_torque_nm: float
-
-    @property
-    def link_m(self) -> float:
-        """Length of one link of the chain."""
-        return self.length_m / self.links
-
 
 @dataclass(frozen=True)
 class PhysicsConfig:
@@ -244,6 +240,8 @@ SIM_TABLES: dict[str, Table] = {table.path.split(".")[1]: table for table in (
         Field("enabled", bool, description="model the supply tubes as a bundle from the tail to an anchor"),
         Field("length_m", float, minimum=0.05, maximum=10.0, unit="m",
               description="from the tail to the anchor (the regulators), along the robot's axis"),
+        Field("slack_fraction", float, minimum=0.0, maximum=2.0, unit="-",
+              description="the chain is this much longer than the anchor's distance, laid as an S on the floor"),
         Field("links", int, minimum=1, maximum=100, unit="links", description="capsules in the bundle's chain"),
         Field("radius_m", float, minimum=0.001, maximum=0.05, unit="m", description="the bundle's outer radius"),
         Field("mass_per_m_kg", float, minimum=1e-4, maximum=10.0, unit="kg/m", description="the bundle's mass"),

@@ -131,13 +131,16 @@ def test_mass_per_module_overrides_the_robot_mass():
     assert model.body_mass[layout.node_body].sum() == pytest.approx(0.2 * ROBOT.module_count)
 
 
-TETHER = CONFIG.replace("tether", enabled=True)
+TETHER = CONFIG.replace("tether", enabled=True, slack_fraction=0.0)        # straight: a twist of GJ / L exactly
+
+
+def _tether_links(model) -> list:
+    return [model.body(f"tether_{i}") for i in range(TETHER.tether.links)]
 
 
 def test_the_tether_is_a_chain_of_links_from_an_anchor_behind_the_tail_welded_to_it():
     model, layout = build_model(TETHER, ROBOT)
     tether = TETHER.tether
-    links = [model.body(f"tether_{i}") for i in range(tether.links)]
     data = mujoco.MjData(model)
     mujoco.mj_forward(model, data)
     anchor = data.xpos[model.body("tether_anchor").id]
@@ -147,7 +150,8 @@ def test_the_tether_is_a_chain_of_links_from_an_anchor_behind_the_tail_welded_to
     assert (tail - anchor) @ heading == pytest.approx(tether.length_m, abs=1e-3)
     assert anchor[2] == pytest.approx(tether.radius_m)
     link_m = float(np.linalg.norm(tail - anchor)) / tether.links
-    assert sum(model.body_mass[b.id] for b in links) == pytest.approx(tether.mass_per_m_kg * tether.links * link_m)
+    assert sum(model.body_mass[b.id] for b in _tether_links(model)) == pytest.approx(
+        tether.mass_per_m_kg * tether.links * link_m)
     assert model.jnt_stiffness[model.joint("tether_twist_3").id] == pytest.approx(tether.twist_stiffness_nm2 / link_m)
     assert model.jnt_stiffness[model.joint("tether_x_3").id] == pytest.approx(tether.bend_stiffness_nm2 / link_m)
     assert model.neq == 1 and model.eq_type[0] == mujoco.mjtEq.mjEQ_WELD
@@ -157,6 +161,25 @@ def test_the_tether_is_a_chain_of_links_from_an_anchor_behind_the_tail_welded_to
     world.step(0.3)
     contacts = world.state().contacts
     assert contacts.floor_count >= 1 and np.all(contacts.segments[:, 1] >= 0)
+
+
+def test_tether_slack_lays_a_longer_chain_as_an_s_on_the_floor_at_rest():
+    config = TETHER.replace("tether", slack_fraction=0.5)
+    model, layout = build_model(config, ROBOT)
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    joints = np.array([data.xpos[b.id] for b in _tether_links(model)] + [data.xpos[layout.segment_body[0]]])
+    path_m = np.linalg.norm(np.diff(joints, axis=0), axis=1).sum()
+    straight_m = np.linalg.norm(joints[-1] - joints[0])
+    assert path_m == pytest.approx(1.5 * straight_m, rel=0.02)
+    side = np.cross([0.0, 0.0, 1.0], joints[-1] - joints[0]) / straight_m
+    lateral = (joints - joints[0]) @ side
+    assert lateral.max() > 0.1 and lateral.min() < -0.1                # one lobe to each side
+    # Its laid shape is its rest shape: a vented robot is not pushed around by it.
+    world = SimWorld(config, ROBOT)
+    start = world.state().reference_xy_m
+    world.step(1.0)
+    assert np.linalg.norm(world.state().reference_xy_m - start) < 0.003
 
 
 def _tail_spin_under_torque(config, torque_nm: float, duration_s: float) -> float:
