@@ -313,7 +313,6 @@ def _tether_path(tail: np.ndarray, heading: np.ndarray, tether) -> np.ndarray:
     so the path is ``1 + slack_fraction`` times the straight distance.
     """
     anchor = tail - tether.length_m * heading
-    anchor[2] = tether.radius_m
     side = np.cross([0.0, 0.0, 1.0], heading)
     u = np.linspace(0.0, 1.0, 2001)
     shape = np.sin(2 * np.pi * u) - 0.5 * np.sin(4 * np.pi * u)
@@ -330,7 +329,12 @@ def _tether_path(tail: np.ndarray, heading: np.ndarray, tether) -> np.ndarray:
     points = path(low)
     s = arc(points)
     stations = np.linspace(0.0, s[-1], tether.links + 1)
-    return np.column_stack([np.interp(stations, s, points[:, i]) for i in range(3)])
+    joints = np.column_stack([np.interp(stations, s, points[:, i]) for i in range(3)])
+    # Every link lies on the floor, the last one rises to the tail's axis: the laid shape is where gravity
+    # leaves it, so the tubes push nothing at rest.
+    joints[:-1, 2] = tether.radius_m
+    joints[-1] = tail
+    return joints
 
 
 def _link_frame(along: np.ndarray) -> np.ndarray:

@@ -149,9 +149,12 @@ def test_the_tether_is_a_chain_of_links_from_an_anchor_behind_the_tail_welded_to
     # length_m behind the tail along the robot's axis, on the floor.
     assert (tail - anchor) @ heading == pytest.approx(tether.length_m, abs=1e-3)
     assert anchor[2] == pytest.approx(tether.radius_m)
-    link_m = float(np.linalg.norm(tail - anchor)) / tether.links
+    joints = np.array([data.xpos[b.id] for b in _tether_links(model)] + [tail])
+    lengths = np.linalg.norm(np.diff(joints, axis=0), axis=1)
     assert sum(model.body_mass[b.id] for b in _tether_links(model)) == pytest.approx(
-        tether.mass_per_m_kg * tether.links * link_m)
+        tether.mass_per_m_kg * lengths.sum())
+    assert np.all(joints[:-1, 2] == pytest.approx(tether.radius_m))     # on the floor, the last link rises to the tail
+    link_m = lengths[3]
     assert model.jnt_stiffness[model.joint("tether_twist_3").id] == pytest.approx(tether.twist_stiffness_nm2 / link_m)
     assert model.jnt_stiffness[model.joint("tether_x_3").id] == pytest.approx(tether.bend_stiffness_nm2 / link_m)
     assert model.neq == 1 and model.eq_type[0] == mujoco.mjtEq.mjEQ_WELD
@@ -178,8 +181,8 @@ def test_tether_slack_lays_a_longer_chain_as_an_s_on_the_floor_at_rest():
     # Its laid shape is its rest shape: a vented robot is not pushed around by it.
     world = SimWorld(config, ROBOT)
     start = world.state().reference_xy_m
-    world.step(1.0)
-    assert np.linalg.norm(world.state().reference_xy_m - start) < 0.003
+    world.step(3.0)
+    assert np.linalg.norm(world.state().reference_xy_m - start) < 1e-4    # 1 bar runs stay still
 
 
 def _tail_spin_under_torque(config, torque_nm: float, duration_s: float) -> float:
@@ -199,7 +202,7 @@ def _tail_spin_under_torque(config, torque_nm: float, duration_s: float) -> floa
         if i >= steps // 2:
             late.append(angle)
     if config.tether.enabled:
-        assert data.xmat[tail].reshape(3, 3)[:, 2] @ axis0 > 0.99  # it spun about its axis, it did not swing
+        assert data.xmat[tail].reshape(3, 3)[:, 2] @ axis0 > 0.98  # it spun about its axis, it did not swing
     return float(np.mean(late))
 
 
