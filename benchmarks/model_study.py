@@ -103,8 +103,10 @@ VARIANTS = [Variant(*v) for v in (
      "the same bundle tied together (the outer tubes stretch helically: GJ 2.4e-2, EI 3e-2 N m^2, estimate)"),
     ("tether_rigid", {"tether.enabled": True, "tether.twist_stiffness_nm2": 0.2, "tether.bend_stiffness_nm2": 0.3,
                       "tether.damping_nms_per_rad": 0.01},
-     "the limit of a spin held by the tubes: ten times the tied bundle's GJ and EI (0.2, 0.3 N m^2; not a tube estimate)"),
-    ("tether_rigid_far", {"tether.enabled": True, "tether.twist_stiffness_nm2": 0.2, "tether.bend_stiffness_nm2": 0.3,
+     "the limit of a spin held by the tubes: ten times the tied bundle's GJ and EI (0.2, 0.3 N m^2; "
+     "not a tube estimate)"),
+    ("tether_rigid_far", {"tether.enabled": True, "tether.twist_stiffness_nm2": 0.2,
+                          "tether.bend_stiffness_nm2": 0.3,
                           "tether.damping_nms_per_rad": 0.01, "tether.length_m": 3.0, "tether.links": 30},
      "tether_rigid anchored 3 m away: how much of its pattern is the leash guiding the robot round the anchor?"),
     ("tether_tied_slip", {"tether.enabled": True, "tether.twist_stiffness_nm2": 0.024,
