@@ -94,6 +94,30 @@ VARIANTS = [Variant(*v) for v in (
      "muscle_tendons_authors with the spin restrained"),
     ("spin_restrained_twist", {"contact.roll_damping_nms_per_rad": 0.3, "servo.twist_stiffness_nm_per_rad": 0.02},
      "the spin restrained at the tail, the body free to twist: does the twist relax what would force a tumble?"),
+    # Issue 19, the supply tubes: a restraint on the body's spin that grows with its turns, not their rate.
+    ("tether_loose", {"tether.enabled": True},
+     "the nine supply tubes as one bundle on the floor, clamped 1.25 m behind the tail (loose tubes: GJ 1.9e-3, "
+     "EI 2.9e-3 N m^2, config/sim.yaml estimates)"),
+    ("tether_tied", {"tether.enabled": True, "tether.twist_stiffness_nm2": 0.024, "tether.bend_stiffness_nm2": 0.03,
+                     "tether.damping_nms_per_rad": 0.002},
+     "the same bundle tied together (the outer tubes stretch helically: GJ 2.4e-2, EI 3e-2 N m^2, estimate)"),
+    ("tether_rigid", {"tether.enabled": True, "tether.twist_stiffness_nm2": 0.2, "tether.bend_stiffness_nm2": 0.3,
+                      "tether.damping_nms_per_rad": 0.01},
+     "the limit of a spin held by the tubes: ten times the tied bundle's GJ and EI (0.2, 0.3 N m^2; "
+     "not a tube estimate)"),
+    ("tether_rigid_far", {"tether.enabled": True, "tether.twist_stiffness_nm2": 0.2,
+                          "tether.bend_stiffness_nm2": 0.3,
+                          "tether.damping_nms_per_rad": 0.01, "tether.length_m": 3.0, "tether.links": 30},
+     "tether_rigid anchored 3 m away: how much of its pattern is the leash guiding the robot round the anchor?"),
+    ("tether_tied_slip", {"tether.enabled": True, "tether.twist_stiffness_nm2": 0.024,
+                          "tether.bend_stiffness_nm2": 0.03, "tether.damping_nms_per_rad": 0.002,
+                          "tether.anchor_slip_torque_nm": 0.005},
+     "the tied bundle's twist slips above 5 mN m (the bundle turning on the floor about its axis: 0.5 x 0.83 N/m x "
+     "1.9 m x 6 mm, estimate)"),
+    ("tether_rigid_slip", {"tether.enabled": True, "tether.twist_stiffness_nm2": 0.2, "tether.bend_stiffness_nm2": 0.3,
+                           "tether.damping_nms_per_rad": 0.01, "tether.anchor_slip_torque_nm": 0.1},
+     "stiff but bounded: tether_rigid slipping above 0.1 N m (a third of the torque at which the tied bundle "
+     "tumbled the body; not an estimate)"),
     ("axis_points", {"contact.floor_contact": "points"},
      "floor contact at one sphere per segment (5 per module) on the axis instead of continuous capsules"),
     ("lobed_points", {"contact.floor_contact": "points", "contact.points_around": 3},

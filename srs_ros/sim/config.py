@@ -96,6 +96,31 @@ class ContactConfig:
 
 
 @dataclass(frozen=True)
+class TetherConfig:
+    """The nine supply tubes as one bundle from the tail to an anchor behind the robot (off by default).
+
+    A chain of ``links`` capsules lying on the floor, from a clamp at the anchor (``length_m`` behind the
+    tail along the robot's axis, the regulators) to the tail, where it is welded on; ``slack_fraction``
+    longer than that distance, laid as an S, so the robot can move away from the anchor. Its joints bend and
+    twist with the bundle's stiffness (``EI / l``, ``GJ / l`` per link of length ``l``), so the bundle's
+    twist, and its torque on the tail, grows with the turns the body spins, whatever their rate.
+    ``anchor_slip_torque_nm`` > 0 lets the clamp slip (Coulomb) above that torque: a torsional spring in
+    series with a slip clutch.
+    """
+
+    enabled: bool
+    length_m: float
+    slack_fraction: float
+    links: int
+    radius_m: float
+    mass_per_m_kg: float
+    twist_stiffness_nm2: float
+    bend_stiffness_nm2: float
+    damping_nms_per_rad: float
+    friction_coefficient: float
+    anchor_slip_torque_nm: float
+
+@dataclass(frozen=True)
 class PhysicsConfig:
     """Time step, control period, gravity, solver and the divergence limit."""
 
@@ -141,6 +166,7 @@ class SimConfig:
     body: BodyConfig
     servo: ServoConfig
     contact: ContactConfig
+    tether: TetherConfig
     physics: PhysicsConfig
     start: StartConfig
     muscles: MuscleParameters
@@ -210,6 +236,25 @@ SIM_TABLES: dict[str, Table] = {table.path.split(".")[1]: table for table in (
         Field("point_radius_m", float, minimum=0.001, maximum=0.1, unit="m",
               description="radius of an off-axis contact sphere"),
     )),
+    Table("sim.tether", (
+        Field("enabled", bool, description="model the supply tubes as a bundle from the tail to an anchor"),
+        Field("length_m", float, minimum=0.05, maximum=10.0, unit="m",
+              description="from the tail to the anchor (the regulators), along the robot's axis"),
+        Field("slack_fraction", float, minimum=0.0, maximum=2.0, unit="-",
+              description="the chain is this much longer than the anchor's distance, laid as an S on the floor"),
+        Field("links", int, minimum=1, maximum=100, unit="links", description="capsules in the bundle's chain"),
+        Field("radius_m", float, minimum=0.001, maximum=0.05, unit="m", description="the bundle's outer radius"),
+        Field("mass_per_m_kg", float, minimum=1e-4, maximum=10.0, unit="kg/m", description="the bundle's mass"),
+        Field("twist_stiffness_nm2", float, minimum=0.0, maximum=100.0, unit="N m^2",
+              description="the bundle's torsional rigidity GJ"),
+        Field("bend_stiffness_nm2", float, minimum=0.0, maximum=100.0, unit="N m^2",
+              description="the bundle's bending rigidity EI"),
+        Field("damping_nms_per_rad", float, minimum=0.0, maximum=10.0, unit="N m s/rad",
+              description="damping of every joint of the chain"),
+        Field("friction_coefficient", float, minimum=0.0, maximum=10.0, description="the tubes on the floor"),
+        Field("anchor_slip_torque_nm", float, minimum=0.0, maximum=100.0, unit="N m",
+              description="0 = clamped; > 0 = the bundle's twist slips at the anchor above this torque"),
+    )),
     Table("sim.physics", (
         Field("time_step_s", float, minimum=1e-5, maximum=0.02, unit="s"),
         Field("control_period_s", float, minimum=1e-5, maximum=0.1, unit="s",
@@ -236,7 +281,8 @@ SIM_TABLES: dict[str, Table] = {table.path.split(".")[1]: table for table in (
 )}
 #: The sections of ``sim:``, in the file's order.
 SECTIONS = (*SIM_TABLES, "muscles")
-_SECTION_TYPES = {"body": BodyConfig, "servo": ServoConfig, "contact": ContactConfig, "physics": PhysicsConfig,
+_SECTION_TYPES = {"body": BodyConfig, "servo": ServoConfig, "contact": ContactConfig, "tether": TetherConfig,
+                  "physics": PhysicsConfig,
                   "start": StartConfig, "camera": CameraConfig}
 
 

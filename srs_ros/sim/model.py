@@ -26,6 +26,7 @@ import numpy as np
 from srs_ros.core.kinematics import bending_vectors, shape_functions
 from srs_ros.core.robot import RobotDescription
 from srs_ros.sim.config import SimConfig
+from srs_ros.sim.tether import add_tether
 
 
 @dataclass(frozen=True)
@@ -108,6 +109,8 @@ def build_spec(config: SimConfig, robot: RobotDescription) -> mujoco.MjSpec:
     _add_contacts(spec, config, robot, chain, solref)
     if config.servo.drive == "muscle_tendons":
         _add_muscle_tendons(spec, config, robot, chain)
+    if config.tether.enabled:
+        add_tether(spec, config.tether, *_start_frame(config, robot), solref, config.physics.time_step_s)
     return spec
 
 

@@ -293,7 +293,8 @@ class SimWorld:
             force[i] = wrench[0]
             pair = sorted(segment_of.get(int(g), -1) for g in contact.geom)
             segments[i] = pair
-        return Contacts(position, force, segments)
+        body = segments[:, 1] >= 0              # not the tether's links on the floor (tether.enabled)
+        return Contacts(position[body], force[body], segments[body])
 
 
 def _point_at_distance(nodes: np.ndarray, distance_m: float) -> np.ndarray:
