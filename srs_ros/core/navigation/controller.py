@@ -25,6 +25,7 @@ import numpy as np
 from srs_ros.core.errors import InvalidInputError
 from srs_ros.core.navigation.area import FloorArea
 from srs_ros.core.navigation.commands import GaitCommand, GoalDecision, NavigationProgress, NavigationState
+from srs_ros.core.navigation.fine import FINE_LINE_WITHIN, FineApproach, next_stop_phase
 from srs_ros.core.navigation.motion import Pose2D, PoseHistory, TravelModel, TurnModel, measure_cycle, wrap_rad
 from srs_ros.core.navigation.settings import DIRECTIONS, STOP_PHASES, NavigationSettings
 from srs_ros.core.navigation.stopping import StopModel, crossed_phase
@@ -39,6 +40,16 @@ STOP_WITHIN = 0.8
 STOP_AFTER_CYCLES = 1.0
 #: The cycle ahead of a stop moves as the last whole cycle did (True) or by the learned travel and turn (False).
 CYCLE_AHEAD_FROM_LAST_CYCLE = True
+#: The fine approach takes the body's yaw from a line fit over this long (s): a nearly straight body hardly wobbles.
+FINE_YAW_WINDOW_S = 1.0
+#: With the fine approach the cruise gait also stops where the robot is predicted to rest on the goal's line:
+#: the goal this close across its travel (times goal_tolerance_m) and this close along it (times fine_distance_m).
+FINE_STOP_ACROSS = 0.5
+FINE_STOP_ALONG = 0.6
+#: The fine approach turns on the spot toward the goal's line at most this many times per goal, each time only
+#: when the line needs at most this much turn (rad); otherwise the cruise gait drives round.
+FINE_MAX_PIVOTS = 4
+FINE_PIVOT_MAX_RAD = math.radians(60.0)
 #: A straight line passing this close to the goal (times the tolerance) needs no three-point turn.
 STRAIGHT_WITHIN = 0.7
 
@@ -59,6 +70,10 @@ class StopPlan:
     predicted_xy_m: tuple[float, float]
     stopped: Pose2D | None = None
     heading_rad: float = 0.0
+    #: A stop of the fine approach (:mod:`srs_ros.core.navigation.fine`): its resting points are learned there.
+    fine: bool = False
+    #: The gait's period when the stop was decided (s): the stop phase comes within it.
+    period_s: float = 1.0
 
 
 def _other(direction: str) -> str:
@@ -76,6 +91,7 @@ class NavigationController:
         self.turns = TurnModel(settings.turning_map, settings.turn_levels_rad, settings.learning_rate)
         self.travel = TravelModel(settings.turn_levels_rad, settings.learning_rate, settings.turning_map)
         self.stops = StopModel(settings.turning_map, settings.learning_rate, settings.turn_levels_rad)
+        self.fine = FineApproach(settings.learning_rate)
         self.state = NavigationState.IDLE
         self._goals: list[tuple[float, float]] = []
         self._index = 0
@@ -133,6 +149,7 @@ class NavigationController:
             if reason:
                 return self._refuse(reason if len(points) == 1 else f"waypoint {i + 1} of {len(points)}: {reason}")
         self._goals, self._index, self._backing_from, self._fresh_goal = points, 0, None, True
+        self.fine.reset()
         self.state, self._started_s = NavigationState.DRIVING, float(now_s)
         self._best = (math.inf, float(now_s))
         self._last_pose_s = max(self._last_pose_s, float(now_s))
@@ -191,10 +208,13 @@ class NavigationController:
             self._message = f"waypoint reached; driving to goal {self._index + 1} of {len(self._goals)}"
             distance = self._distance(pose)
         self._learn(pose.time_s)
+        passed = self._passed_stop_phase(self._command.reverse)
+        if self._index == len(self._goals) - 1 and self._creep(pose, distance, passed):
+            return
         errors, distances = self._aims(pose)
-        crossed = self._crossed_stop_phase(pose.time_s)
+        crossed = self._crossed_stop_phase(pose.time_s, passed)
         if self._backing_from is None and self._index == len(self._goals) - 1 and crossed is not None \
-                and self._rest_error_m(pose, crossed) <= STOP_WITHIN * self.settings.goal_tolerance_m:
+                and self._stop_here(pose, crossed):
             self._begin_stop(pose, crossed)
             return
         direction, wanted_deg = self._steer(pose.time_s, errors, distances)
@@ -203,6 +223,57 @@ class NavigationController:
         level = self._choose_level(pose.time_s, direction, wanted_deg)
         self._set_command(pose.time_s, GaitCommand(direction, float(self.settings.turn_levels_rad[level]),
                                                    self.settings.amplitude_bar, frequency, self._message), level)
+
+    def _creep(self, pose: Pose2D, distance: float, passed: int | None) -> bool:
+        """The fine approach (:mod:`srs_ros.core.navigation.fine`): True when it gave the command for this pose."""
+        settings, fine = self.settings, self.fine
+        if fine.pivot_sense:
+            self._pivot(pose)
+            return True
+        if not fine.active or settings.fine_distance_m <= 0.0:
+            fine.leave()
+            return False
+        now_s, command = pose.time_s, self._command
+        creeping = command.moving and command.amplitude_bar == settings.fine_amplitude_bar
+        if not creeping:
+            fine.start(now_s)  # the body straightens from the cruise gait's C, or starts from rest
+        settled = creeping and fine.settled(now_s, self._changed_s)
+        yaw = self.history.smoothed_yaw_rad(FINE_YAW_WINDOW_S)
+        if settled:  # the line the robot is seen to creep on (a nearly straight body still skews by up to 10 deg)
+            yaw = FineApproach.line_yaw_rad(self.history, yaw, command.direction)
+        along, across = FineApproach.line(pose, self.goal, yaw)
+        if settled and abs(across) > FINE_LINE_WITHIN * settings.goal_tolerance_m:
+            fine.leave()
+            self._message = (f"the goal lies {100 * abs(across):.1f} cm off the line the robot creeps on: "
+                             "driving round to come at it again")
+            return False
+        direction = command.direction
+        speed = FineApproach.speed_m_s(self.history, FineApproach.heading_rad(yaw, direction)) if settled else None
+        if speed is not None or not creeping:
+            runup = fine.runup_m(direction, speed or 0.0, settings.fine_frequency_hz, settings.goal_tolerance_m) \
+                if creeping else 0.0
+            direction = FineApproach.direction(along, direction if creeping else None, runup)
+        heading = FineApproach.heading_rad(yaw, direction)
+        self._heading_error_rad = math.atan2(across, along if direction == DIRECTIONS[0] else -along)
+        if speed is not None and passed is not None and direction == command.direction:
+            target = next_stop_phase(passed, command.reverse)
+            rest = fine.predicted_rest(pose, direction, heading, speed, 0.25 / command.frequency_hz, target)
+            if math.dist(rest, self.goal) <= STOP_WITHIN * settings.goal_tolerance_m:
+                self._begin_fine_stop(pose, direction, target, rest)
+                return True
+        self._message = f"creeping to the goal ({distance:.3f} m to go, {100 * abs(across):.1f} cm off the line)"
+        self._set_command(now_s, GaitCommand(direction, 0.0, settings.fine_amplitude_bar, settings.fine_frequency_hz,
+                                             "creeping to the goal (fine approach)"), None)
+        return True
+
+    def _begin_fine_stop(self, pose: Pose2D, direction: str, phase_index: int, rest: np.ndarray) -> None:
+        self.state = NavigationState.STOPPING
+        self._stop = StopPlan(pose, direction, None, phase_index, True, (float(rest[0]), float(rest[1])),
+                              fine=True, period_s=1.0 / self._command.frequency_hz)
+        self._message = (f"creeping: stopping {self._distance(pose):.3f} m from the goal as the gait reaches phase "
+                         f"{STOP_PHASES[phase_index]:g}; then waiting for the robot to rest")
+        self._command = dataclasses.replace(self._stop_command(self._message), stop_phase=float(STOP_PHASES[phase_index]))
+        self._level = None
 
     def _distance(self, pose: Pose2D) -> float:
         gx, gy = self.goal
@@ -300,7 +371,8 @@ class NavigationController:
         old = self._command
         if command.direction != old.direction:
             self._direction_since_s = now_s
-        if (command.direction, command.turn_phase_rad) != (old.direction, old.turn_phase_rad):
+        if (command.direction, command.turn_phase_rad, command.amplitude_bar) != \
+                (old.direction, old.turn_phase_rad, old.amplitude_bar):
             self._changed_s = self._measured_s = now_s
             self._settle_cycles = START_SETTLE_CYCLES if command.direction != old.direction else SETTLE_CYCLES
         elif command.frequency_hz != old.frequency_hz:
@@ -319,16 +391,16 @@ class NavigationController:
             return
         cycle = measure_cycle(self.history, period)
         self._measured_s = now_s
-        if cycle is None or abs(command.frequency_hz - self.settings.cruise_frequency_hz) > 1e-9:
+        if cycle is None or abs(command.frequency_hz - self.settings.cruise_frequency_hz) > 1e-9 or \
+                command.amplitude_bar != self.settings.amplitude_bar:
             return                       # the map and the estimates are per cycle at the cruise frequency
         self.turns.learn(command.direction, self._level, cycle.turn_deg)
         self.travel.learn(command.direction, self._level, cycle)
 
     # ------------------------------------------------------------------ stopping
-    def _crossed_stop_phase(self, now_s: float) -> int | None:
-        """The stop phase the gait passed since the last pose, once the direction has played long enough."""
+    def _crossed_stop_phase(self, now_s: float, crossed: int | None) -> int | None:
+        """The stop phase the gait passed since the last pose (``crossed``), once the direction has played long enough."""
         command = self._command
-        crossed = self._passed_stop_phase(command.reverse)
         if not command.moving or now_s - self._direction_since_s < STOP_AFTER_CYCLES / command.frequency_hz:
             return None
         return crossed
@@ -340,8 +412,9 @@ class NavigationController:
             return None
         return crossed_phase(before, self._phase, reverse)
 
-    def _predicted_rest(self, pose: Pose2D, phase_index: int) -> np.ndarray:
-        """Where the robot would rest (floor x, y) if stopped at the stop phase just passed, or a cycle later.
+    def _predicted_rest(self, pose: Pose2D, phase_index: int) -> tuple[np.ndarray, float]:
+        """Where the robot would rest (floor x, y) if stopped at the stop phase just passed, or a cycle later,
+        and its travel heading then (rad).
 
         A cycle ahead: the pose then is this one moved by a cycle's learned travel at the level played, along
         the travel heading turned by half the cycle's learned turn; the rest offset is that of the phase, in
@@ -363,7 +436,7 @@ class NavigationController:
                 turn = turned
             where = where + step
             heading += turn
-        return where + self.stops.rest_offset(direction, phase_index, heading, level)
+        return where + self.stops.rest_offset(direction, phase_index, heading, level), heading
 
     def _last_cycle(self, pose: Pose2D) -> tuple[np.ndarray, float] | None:
         """The move (m) and turn (rad) from the pose a cycle ago (the same gait phase) to ``pose``, or None.
@@ -382,17 +455,25 @@ class NavigationController:
         now_row = self.history.window(0.0)[-1]
         return now_row[1:3] - then[1:3], float(now_row[3] - then[3])
 
-    def _rest_error_m(self, pose: Pose2D, phase_index: int) -> float:
-        """How far from the goal the robot would rest if stopped at the phase just passed (or a cycle later)."""
-        rest = self._predicted_rest(pose, phase_index)
-        return math.hypot(self.goal[0] - rest[0], self.goal[1] - rest[1])
+    def _stop_here(self, pose: Pose2D, phase_index: int) -> bool:
+        """True to stop at the phase just passed (or a cycle later): the robot would rest within the stop window
+        of the goal or, with the fine approach, on the goal's line (across its travel) short of the goal."""
+        rest, heading = self._predicted_rest(pose, phase_index)
+        tolerance = self.settings.goal_tolerance_m
+        if math.dist(rest, self.goal) <= STOP_WITHIN * tolerance:
+            return True
+        along, across = FineApproach.line(Pose2D(float(rest[0]), float(rest[1]), 0.0, pose.time_s), self.goal,
+                                          heading - math.pi / 2)
+        return (self.settings.fine_distance_m > 0.0 and abs(across) <= FINE_STOP_ACROSS * tolerance
+                and abs(along) <= FINE_STOP_ALONG * self.settings.fine_distance_m)
 
     def _begin_stop(self, pose: Pose2D, phase_index: int) -> None:
         direction, ahead = self._command.direction, self.settings.stop_cycle_ahead
         self.state = NavigationState.STOPPING
-        predicted = self._predicted_rest(pose, phase_index)
+        predicted, _ = self._predicted_rest(pose, phase_index)
         self._stop = StopPlan(pose, direction, self._level, phase_index, ahead,
-                              (float(predicted[0]), float(predicted[1])))
+                              (float(predicted[0]), float(predicted[1])),
+                              period_s=1.0 / max(self.settings.cruise_frequency_hz, 1e-3))
         if ahead:
             self._message = (f"stopping a cycle ahead, {self._distance(pose):.3f} m from the goal, as the gait "
                              f"passes phase {STOP_PHASES[phase_index]:g}; then waiting for the robot to rest")
@@ -408,12 +489,14 @@ class NavigationController:
         """Wait for the stop a cycle ahead; after ``settle_s`` at rest learn the resting point, then reached or on."""
         plan = self._stop
         if plan.stopped is None:
-            period_s = 1.0 / max(self.settings.cruise_frequency_hz, 1e-3)
+            period_s = plan.period_s
             crossed = self._passed_stop_phase(plan.direction == DIRECTIONS[1])
             if crossed == plan.phase_index or pose.time_s - plan.decided.time_s > 1.5 * period_s:
                 plan.stopped = pose if crossed == plan.phase_index else None
-                plan.heading_rad = self.history.smoothed_yaw_rad(period_s) + self.travel.offset(plan.direction,
-                                                                                                plan.level)
+                plan.heading_rad = (
+                    FineApproach.heading_rad(self.history.smoothed_yaw_rad(FINE_YAW_WINDOW_S), plan.direction)
+                    if plan.fine else
+                    self.history.smoothed_yaw_rad(period_s) + self.travel.offset(plan.direction, plan.level))
                 if plan.stopped is None:  # the phase was not seen: no learning from this stop
                     plan.stopped, plan.phase_index = pose, -1
             return
@@ -421,7 +504,10 @@ class NavigationController:
             return
         if plan.phase_index >= 0:
             moved = np.array([pose.x_m - plan.stopped.x_m, pose.y_m - plan.stopped.y_m])
-            self.stops.learn(plan.direction, plan.phase_index, plan.heading_rad, moved, plan.level)
+            if plan.fine:
+                self.fine.learn(plan.direction, plan.phase_index, plan.heading_rad, moved)
+            else:
+                self.stops.learn(plan.direction, plan.phase_index, plan.heading_rad, moved, plan.level)
         distance = self._distance(pose)
         if distance <= self.settings.goal_tolerance_m:
             self._finish(NavigationState.REACHED, f"goal reached: resting {distance:.3f} m from it "
@@ -429,9 +515,59 @@ class NavigationController:
             return
         self.state = NavigationState.DRIVING
         self._message = f"came to rest {distance:.3f} m from the goal; driving on"
+        if self._index == len(self._goals) - 1 and self._on_the_line(pose, distance):
+            self.fine.start(pose.time_s)
+            self._message = f"came to rest {distance:.3f} m from the goal, on its line: creeping to it"
+        elif self._index == len(self._goals) - 1 and self._pivot_toward(pose, distance):
+            self._message = (f"came to rest {distance:.3f} m from the goal, off its line: turning on the spot "
+                             f"({'counter-' if self.fine.pivot_sense > 0 else ''}clockwise) to put it on the line")
+
+    def _pivot_toward(self, pose: Pose2D, distance: float) -> bool:
+        """Near the goal but off its line: start a turn on the spot (an inward and an outward stroke turning the same
+        way) when the line needs at most FINE_PIVOT_MAX_RAD of turn; False when it cannot or should not."""
+        settings, fine = self.settings, self.fine
+        if settings.fine_distance_m <= 0.0 or distance >= settings.fine_distance_m or \
+                fine.pivots >= FINE_MAX_PIVOTS:
+            return False
+        along, across = FineApproach.line(pose, self.goal, self.history.smoothed_yaw_rad(FINE_YAW_WINDOW_S))
+        turn_rad = math.atan2(across, along) if along >= 0.0 else math.atan2(-across, -along)
+        if abs(turn_rad) > FINE_PIVOT_MAX_RAD:
+            return False
+        sign = 1 if turn_rad > 0.0 else -1
+        levels = {d: self.turns.fastest_deg(d, sign) for d in DIRECTIONS}
+        if all(rate * sign <= 1.0 for _, rate in levels.values()):
+            return False
+        first = DIRECTIONS[0] if along >= 0.0 else DIRECTIONS[1]
+        fine.start_pivot(pose.time_s, sign, [(first, levels[first][0]), (_other(first), levels[_other(first)][0])])
+        return True
+
+    def _pivot(self, pose: Pose2D) -> None:
+        """Play the turn on the spot: one cycle each of its two strokes, then stop and rest (then look again)."""
+        stroke = self.fine.pivot_stroke(pose.time_s, 1.0 / self.settings.cruise_frequency_hz)
+        if stroke is None:
+            self.fine.pivot_sense = 0
+            self.state = NavigationState.STOPPING
+            self._stop = StopPlan(pose, self._command.direction or DIRECTIONS[0], None, -1, False,
+                                  (pose.x_m, pose.y_m), stopped=pose)
+            self._command = self._stop_command("turned on the spot; waiting for the robot to rest")
+            self._level = None
+            return
+        direction, level = stroke
+        self._set_command(pose.time_s, GaitCommand(direction, float(self.settings.turn_levels_rad[level]),
+                                                   self.settings.amplitude_bar, self.settings.cruise_frequency_hz,
+                                                   "turning on the spot toward the goal's line"), level)
+
+    def _on_the_line(self, pose: Pose2D, distance: float) -> bool:
+        """True when the resting robot can creep to the goal: near it, the goal on the line square to its body."""
+        settings = self.settings
+        if settings.fine_distance_m <= 0.0 or distance >= settings.fine_distance_m:
+            return False
+        _, across = FineApproach.line(pose, self.goal, self.history.smoothed_yaw_rad(FINE_YAW_WINDOW_S))
+        return abs(across) <= FINE_LINE_WITHIN * settings.goal_tolerance_m
 
     def _finish(self, state: NavigationState, message: str) -> None:
         self.state, self._message = state, message
+        self.fine.leave()
         self._command = self._stop_command(message)
         self._level = None
         self._backing_from = None
