@@ -23,64 +23,31 @@ from collections.abc import Iterable, Sequence
 import numpy as np
 
 from srs_ros.core.errors import InvalidInputError
+from srs_ros.core.navigation.approach import FINE_STOP_ACROSS, FINE_STOP_ALONG, FINE_YAW_WINDOW_S, FineDriving
 from srs_ros.core.navigation.area import FloorArea
 from srs_ros.core.navigation.commands import GaitCommand, GoalDecision, NavigationProgress, NavigationState
-from srs_ros.core.navigation.fine import FINE_LINE_WITHIN, FineApproach, next_stop_phase
+from srs_ros.core.navigation.fine import FineApproach
 from srs_ros.core.navigation.motion import Pose2D, PoseHistory, TravelModel, TurnModel, measure_cycle, wrap_rad
-from srs_ros.core.navigation.settings import DIRECTIONS, STOP_PHASES, NavigationSettings
-from srs_ros.core.navigation.stopping import StopModel, crossed_phase
+from srs_ros.core.navigation.settings import DIRECTIONS, STOP_PHASES, NavigationSettings, other_direction
+from srs_ros.core.navigation.stopping import STOP_WITHIN, StopModel, StopPlan, crossed_phase
 
 #: Cycles after a gait change before the camera's cycle measurements count (the cross-fade and the body settle).
 SETTLE_CYCLES = 0.5
 #: The same after a start from rest (the soft start and the body's first roll are not the steady gait).
 START_SETTLE_CYCLES = 1.5
-#: A predicted resting point this close to the goal (times the tolerance) triggers the stop.
-STOP_WITHIN = 0.8
 #: Cycles a direction must have been played before a stop counts on its learned resting point.
 STOP_AFTER_CYCLES = 1.0
 #: The cycle ahead of a stop moves as the last whole cycle did (True) or by the learned travel and turn (False).
 CYCLE_AHEAD_FROM_LAST_CYCLE = True
-#: The fine approach takes the body's yaw from a line fit over this long (s): a nearly straight body hardly wobbles.
-FINE_YAW_WINDOW_S = 1.0
-#: With the fine approach the cruise gait also stops where the robot is predicted to rest on the goal's line:
-#: the goal this close across its travel (times goal_tolerance_m) and this close along it (times fine_distance_m).
-FINE_STOP_ACROSS = 0.5
-FINE_STOP_ALONG = 0.6
-#: The fine approach turns on the spot toward the goal's line at most this many times per goal, each time only
-#: when the line needs at most this much turn (rad); otherwise the cruise gait drives round.
-FINE_MAX_PIVOTS = 4
-FINE_PIVOT_MAX_RAD = math.radians(60.0)
 #: A straight line passing this close to the goal (times the tolerance) needs no three-point turn.
 STRAIGHT_WITHIN = 0.7
 
 
-@dataclasses.dataclass
-class StopPlan:
-    """A stop near the goal: how it was decided, where the robot is predicted to rest, where it stopped.
-
-    Decided at ``decided`` (as the gait passed stop phase ``phase_index``), done at ``stopped`` (the pose as the
-    gait passes that phase a cycle later, or at once), learned from after ``settle_s``.
-    """
-
-    decided: Pose2D
-    direction: str
-    level: int | None
-    phase_index: int
-    ahead: bool
-    predicted_xy_m: tuple[float, float]
-    stopped: Pose2D | None = None
-    heading_rad: float = 0.0
-    #: A stop of the fine approach (:mod:`srs_ros.core.navigation.fine`): its resting points are learned there.
-    fine: bool = False
-    #: The gait's period when the stop was decided (s): the stop phase comes within it.
-    period_s: float = 1.0
-
-
 def _other(direction: str) -> str:
-    return DIRECTIONS[1 - DIRECTIONS.index(direction)]
+    return other_direction(direction)
 
 
-class NavigationController:
+class NavigationController(FineDriving):
     """Goals and camera poses in, :class:`GaitCommand` out; see the module docstring and docs/navigation.md."""
 
     def __init__(self, settings: NavigationSettings, area: FloorArea | None = None):
@@ -224,57 +191,6 @@ class NavigationController:
         self._set_command(pose.time_s, GaitCommand(direction, float(self.settings.turn_levels_rad[level]),
                                                    self.settings.amplitude_bar, frequency, self._message), level)
 
-    def _creep(self, pose: Pose2D, distance: float, passed: int | None) -> bool:
-        """The fine approach (:mod:`srs_ros.core.navigation.fine`): True when it gave the command for this pose."""
-        settings, fine = self.settings, self.fine
-        if fine.pivot_sense:
-            self._pivot(pose)
-            return True
-        if not fine.active or settings.fine_distance_m <= 0.0:
-            fine.leave()
-            return False
-        now_s, command = pose.time_s, self._command
-        creeping = command.moving and command.amplitude_bar == settings.fine_amplitude_bar
-        if not creeping:
-            fine.start(now_s)  # the body straightens from the cruise gait's C, or starts from rest
-        settled = creeping and fine.settled(now_s, self._changed_s)
-        yaw = self.history.smoothed_yaw_rad(FINE_YAW_WINDOW_S)
-        if settled:  # the line the robot is seen to creep on (a nearly straight body still skews by up to 10 deg)
-            yaw = FineApproach.line_yaw_rad(self.history, yaw, command.direction)
-        along, across = FineApproach.line(pose, self.goal, yaw)
-        if settled and abs(across) > FINE_LINE_WITHIN * settings.goal_tolerance_m:
-            fine.leave()
-            self._message = (f"the goal lies {100 * abs(across):.1f} cm off the line the robot creeps on: "
-                             "driving round to come at it again")
-            return False
-        direction = command.direction
-        speed = FineApproach.speed_m_s(self.history, FineApproach.heading_rad(yaw, direction)) if settled else None
-        if speed is not None or not creeping:
-            runup = fine.runup_m(direction, speed or 0.0, settings.fine_frequency_hz, settings.goal_tolerance_m) \
-                if creeping else 0.0
-            direction = FineApproach.direction(along, direction if creeping else None, runup)
-        heading = FineApproach.heading_rad(yaw, direction)
-        self._heading_error_rad = math.atan2(across, along if direction == DIRECTIONS[0] else -along)
-        if speed is not None and passed is not None and direction == command.direction:
-            target = next_stop_phase(passed, command.reverse)
-            rest = fine.predicted_rest(pose, direction, heading, speed, 0.25 / command.frequency_hz, target)
-            if math.dist(rest, self.goal) <= STOP_WITHIN * settings.goal_tolerance_m:
-                self._begin_fine_stop(pose, direction, target, rest)
-                return True
-        self._message = f"creeping to the goal ({distance:.3f} m to go, {100 * abs(across):.1f} cm off the line)"
-        self._set_command(now_s, GaitCommand(direction, 0.0, settings.fine_amplitude_bar, settings.fine_frequency_hz,
-                                             "creeping to the goal (fine approach)"), None)
-        return True
-
-    def _begin_fine_stop(self, pose: Pose2D, direction: str, phase_index: int, rest: np.ndarray) -> None:
-        self.state = NavigationState.STOPPING
-        self._stop = StopPlan(pose, direction, None, phase_index, True, (float(rest[0]), float(rest[1])),
-                              fine=True, period_s=1.0 / self._command.frequency_hz)
-        self._message = (f"creeping: stopping {self._distance(pose):.3f} m from the goal as the gait reaches phase "
-                         f"{STOP_PHASES[phase_index]:g}; then waiting for the robot to rest")
-        self._command = dataclasses.replace(self._stop_command(self._message), stop_phase=float(STOP_PHASES[phase_index]))
-        self._level = None
-
     def _distance(self, pose: Pose2D) -> float:
         gx, gy = self.goal
         return math.hypot(gx - pose.x_m, gy - pose.y_m)
@@ -399,7 +315,7 @@ class NavigationController:
 
     # ------------------------------------------------------------------ stopping
     def _crossed_stop_phase(self, now_s: float, crossed: int | None) -> int | None:
-        """The stop phase the gait passed since the last pose (``crossed``), once the direction has played long enough."""
+        """The stop phase passed since the last pose (``crossed``), once the direction has played long enough."""
         command = self._command
         if not command.moving or now_s - self._direction_since_s < STOP_AFTER_CYCLES / command.frequency_hz:
             return None
@@ -413,8 +329,9 @@ class NavigationController:
         return crossed_phase(before, self._phase, reverse)
 
     def _predicted_rest(self, pose: Pose2D, phase_index: int) -> tuple[np.ndarray, float]:
-        """Where the robot would rest (floor x, y) if stopped at the stop phase just passed, or a cycle later,
-        and its travel heading then (rad).
+        """Where the robot would rest (floor x, y) and its travel heading then (rad), stopped now or a cycle later.
+
+        Stopped at the stop phase just passed, or (``stop_cycle_ahead``) as the gait passes it a cycle later.
 
         A cycle ahead: the pose then is this one moved by a cycle's learned travel at the level played, along
         the travel heading turned by half the cycle's learned turn; the rest offset is that of the phase, in
@@ -456,8 +373,11 @@ class NavigationController:
         return now_row[1:3] - then[1:3], float(now_row[3] - then[3])
 
     def _stop_here(self, pose: Pose2D, phase_index: int) -> bool:
-        """True to stop at the phase just passed (or a cycle later): the robot would rest within the stop window
-        of the goal or, with the fine approach, on the goal's line (across its travel) short of the goal."""
+        """True to stop at the phase just passed (or a cycle later).
+
+        The robot would rest within the stop window of the goal or, with the fine approach, on the goal's line
+        (across its travel) near the goal.
+        """
         rest, heading = self._predicted_rest(pose, phase_index)
         tolerance = self.settings.goal_tolerance_m
         if math.dist(rest, self.goal) <= STOP_WITHIN * tolerance:
@@ -515,55 +435,8 @@ class NavigationController:
             return
         self.state = NavigationState.DRIVING
         self._message = f"came to rest {distance:.3f} m from the goal; driving on"
-        if self._index == len(self._goals) - 1 and self._on_the_line(pose, distance):
-            self.fine.start(pose.time_s)
-            self._message = f"came to rest {distance:.3f} m from the goal, on its line: creeping to it"
-        elif self._index == len(self._goals) - 1 and self._pivot_toward(pose, distance):
-            self._message = (f"came to rest {distance:.3f} m from the goal, off its line: turning on the spot "
-                             f"({'counter-' if self.fine.pivot_sense > 0 else ''}clockwise) to put it on the line")
-
-    def _pivot_toward(self, pose: Pose2D, distance: float) -> bool:
-        """Near the goal but off its line: start a turn on the spot (an inward and an outward stroke turning the same
-        way) when the line needs at most FINE_PIVOT_MAX_RAD of turn; False when it cannot or should not."""
-        settings, fine = self.settings, self.fine
-        if settings.fine_distance_m <= 0.0 or distance >= settings.fine_distance_m or \
-                fine.pivots >= FINE_MAX_PIVOTS:
-            return False
-        along, across = FineApproach.line(pose, self.goal, self.history.smoothed_yaw_rad(FINE_YAW_WINDOW_S))
-        turn_rad = math.atan2(across, along) if along >= 0.0 else math.atan2(-across, -along)
-        if abs(turn_rad) > FINE_PIVOT_MAX_RAD:
-            return False
-        sign = 1 if turn_rad > 0.0 else -1
-        levels = {d: self.turns.fastest_deg(d, sign) for d in DIRECTIONS}
-        if all(rate * sign <= 1.0 for _, rate in levels.values()):
-            return False
-        first = DIRECTIONS[0] if along >= 0.0 else DIRECTIONS[1]
-        fine.start_pivot(pose.time_s, sign, [(first, levels[first][0]), (_other(first), levels[_other(first)][0])])
-        return True
-
-    def _pivot(self, pose: Pose2D) -> None:
-        """Play the turn on the spot: one cycle each of its two strokes, then stop and rest (then look again)."""
-        stroke = self.fine.pivot_stroke(pose.time_s, 1.0 / self.settings.cruise_frequency_hz)
-        if stroke is None:
-            self.fine.pivot_sense = 0
-            self.state = NavigationState.STOPPING
-            self._stop = StopPlan(pose, self._command.direction or DIRECTIONS[0], None, -1, False,
-                                  (pose.x_m, pose.y_m), stopped=pose)
-            self._command = self._stop_command("turned on the spot; waiting for the robot to rest")
-            self._level = None
-            return
-        direction, level = stroke
-        self._set_command(pose.time_s, GaitCommand(direction, float(self.settings.turn_levels_rad[level]),
-                                                   self.settings.amplitude_bar, self.settings.cruise_frequency_hz,
-                                                   "turning on the spot toward the goal's line"), level)
-
-    def _on_the_line(self, pose: Pose2D, distance: float) -> bool:
-        """True when the resting robot can creep to the goal: near it, the goal on the line square to its body."""
-        settings = self.settings
-        if settings.fine_distance_m <= 0.0 or distance >= settings.fine_distance_m:
-            return False
-        _, across = FineApproach.line(pose, self.goal, self.history.smoothed_yaw_rad(FINE_YAW_WINDOW_S))
-        return abs(across) <= FINE_LINE_WITHIN * settings.goal_tolerance_m
+        if self._index == len(self._goals) - 1:
+            self._fine_from_rest(pose, distance)
 
     def _finish(self, state: NavigationState, message: str) -> None:
         self.state, self._message = state, message

@@ -79,8 +79,11 @@ class FineApproach:
         return self._strokes[index] if index < len(self._strokes) else None
 
     def settled(self, now_s: float, changed_s: float) -> bool:
-        """True once the fine gait has played :data:`FINE_SETTLE_S` since it started (from rest or from the cruise
-        gait) and :data:`FINE_REVERSE_SETTLE_S` since its direction last changed (``changed_s``)."""
+        """True once the fine gait has played long enough to measure its line and speed.
+
+        :data:`FINE_SETTLE_S` since it started (from rest or from the cruise gait) and
+        :data:`FINE_REVERSE_SETTLE_S` since its direction last changed (``changed_s``).
+        """
         return now_s - self.since_s >= FINE_SETTLE_S and now_s - changed_s >= FINE_REVERSE_SETTLE_S
 
     @staticmethod
@@ -97,8 +100,11 @@ class FineApproach:
 
     @staticmethod
     def direction(along_m: float, current: str | None, runup_m: float) -> str:
-        """Inward rolling when the goal lies ahead along the line, outward when behind; the current direction is
-        kept until the goal lies ``runup_m`` behind (a stop needs that run-up: the next stop phase and the roll-on)."""
+        """Inward rolling when the goal lies ahead along the line, outward when behind.
+
+        The current direction is kept until the goal lies ``runup_m`` behind (a stop needs that run-up: the next
+        stop phase and the roll-on).
+        """
         if current in DIRECTIONS:
             ahead = along_m if current == DIRECTIONS[0] else -along_m
             if ahead > -runup_m:
@@ -106,16 +112,20 @@ class FineApproach:
         return DIRECTIONS[0] if along_m >= 0.0 else DIRECTIONS[1]
 
     def runup_m(self, direction: str, speed_m_s: float, frequency_hz: float, tolerance_m: float) -> float:
-        """How far before the goal a stop must be decided: a quarter cycle of creeping (to the next stop phase), the
-        learned roll-on and the stop window."""
+        """How far before the goal a stop must be decided (m).
+
+        A quarter cycle of creeping (to the next stop phase), the learned roll-on and the stop window.
+        """
         quarter = max(speed_m_s, 0.0) * 0.25 / max(frequency_hz, 1e-3)
         return max(FINE_REVERSE_BEYOND * tolerance_m,
                    quarter + float(np.max(self.offset_m[direction][:, 0])) + tolerance_m)
 
     @staticmethod
     def line_yaw_rad(history: PoseHistory, yaw_rad: float, direction: str) -> float:
-        """The body yaw whose square is the way the robot was seen to creep over the last
-        :data:`FINE_SPEED_WINDOW_S` (``yaw_rad`` when it moved less than :data:`FINE_MIN_MOVE_M`)."""
+        """The body yaw whose square is the way the robot was seen to creep.
+
+        Over the last :data:`FINE_SPEED_WINDOW_S`; ``yaw_rad`` when it moved less than :data:`FINE_MIN_MOVE_M`.
+        """
         rows = history.window(FINE_SPEED_WINDOW_S)
         if len(rows) < 3 or float(np.linalg.norm(rows[-1, 1:3] - rows[0, 1:3])) < FINE_MIN_MOVE_M:
             return yaw_rad
@@ -134,8 +144,10 @@ class FineApproach:
 
     def predicted_rest(self, pose: Pose2D, direction: str, heading_rad: float, speed_m_s: float, ahead_s: float,
                        phase_index: int) -> np.ndarray:
-        """Where the robot rests (floor x, y) if it stops as the gait reaches stop phase ``phase_index``,
-        ``ahead_s`` from now, rolling on at ``speed_m_s`` along ``heading_rad`` until then."""
+        """Where the robot rests (floor x, y) if it stops as the gait reaches stop phase ``phase_index``.
+
+        That is ``ahead_s`` from now; it rolls on at ``speed_m_s`` along ``heading_rad`` until then.
+        """
         where = np.array([pose.x_m, pose.y_m]) + max(speed_m_s, 0.0) * ahead_s * np.array(
             [math.cos(heading_rad), math.sin(heading_rad)])
         return where + rotate(self.offset_m[direction][phase_index], heading_rad)

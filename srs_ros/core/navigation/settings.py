@@ -24,6 +24,13 @@ from srs_ros.core.schema import Field, Table, check_known, refusal, section
 
 #: The two rolling directions the navigator drives (the robot rolls roughly across its body axis).
 DIRECTIONS = ("inward_rolling", "outward_rolling")
+
+
+def other_direction(direction: str) -> str:
+    """The other rolling direction."""
+    return DIRECTIONS[1 - DIRECTIONS.index(direction)]
+
+
 #: Gait phases at which the navigator stops the robot: stopped at one phase, it comes to rest at the same
 #: place relative to its pose every time (within millimetres); stopped anywhere, within +-10 cm.
 STOP_PHASES = (0.0, 0.25, 0.5, 0.75)
