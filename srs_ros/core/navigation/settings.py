@@ -53,8 +53,9 @@ NAVIGATION_TABLE = Table("navigation", (
     Field("approach_distance_m", float, 0.2, 0.0, 5.0, "m",
           "closer than this the gait slows to approach_frequency_hz and a rolling direction is held a whole cycle"),
     Field("fine_distance_m", float, 0.25, 0.0, 5.0, "m",
-          "within this distance of the last goal the robot creeps at fine_amplitude_bar along the line square to "
-          "its body and stops at the next stop phase (the fine approach); 0: off"),
+          "the fine approach: at rest within this distance of the last goal, the robot creeps at fine_amplitude_bar "
+          "along the line square to its body when the goal lies on it (else turns on the spot toward it) and stops "
+          "at the next stop phase; the cruise gait also stops where it will rest on the goal's line; 0: off"),
     Field("fine_amplitude_bar", float, 2.0, 0.5, 4.0, "bar",
           "amplitude of the fine approach: just above the muscles' deadzone the body bends little, so it rests "
           "within a few cm of where it stopped (at 4 bar: 10-35 cm)"),
