@@ -32,7 +32,7 @@ FINE_STOP_ALONG = 0.6
 #: when the line needs at most this much turn (rad); otherwise the cruise gait drives round.
 FINE_MAX_PIVOTS = 6
 FINE_PIVOT_MAX_RAD = math.radians(60.0)
-#: A robot whose pose moved less than FINE_REST_M over this long (s) is at rest (a goal given at rest).
+#: A robot whose pose moved less than 5 mm over this long (s) is at rest (a goal given at rest).
 FINE_REST_WINDOW_S = 0.5
 
 
@@ -90,7 +90,6 @@ class FineDriving:
                                              "creeping to the goal (fine approach)"), None)
         return True
 
-
     def _begin_fine_stop(self, pose: Pose2D, direction: str, phase_index: int, rest: np.ndarray) -> None:
         self.state = NavigationState.STOPPING
         self._stop = StopPlan(pose, direction, None, phase_index, True, (float(rest[0]), float(rest[1])),
@@ -100,7 +99,6 @@ class FineDriving:
         self._command = dataclasses.replace(self._stop_command(self._message),
                                             stop_phase=float(STOP_PHASES[phase_index]))
         self._level = None
-
 
     def _fine_from_rest(self, pose: Pose2D, distance: float) -> bool:
         """At rest near the last goal: creep when it lies on the line, else turn on the spot toward it if it can."""
@@ -113,7 +111,6 @@ class FineDriving:
         else:
             return False
         return True
-
 
     def _pivot_toward(self, pose: Pose2D, distance: float) -> bool:
         """Near the goal but off its line: start a turn on the spot; False when it cannot or should not.
@@ -138,7 +135,6 @@ class FineDriving:
         fine.start_pivot(pose.time_s, sign, [(first, levels[first][0]), (second, levels[second][0])])
         return True
 
-
     def _pivot(self, pose: Pose2D) -> None:
         """Play the turn on the spot: one cycle each of its two strokes, then stop and rest (then look again)."""
         stroke = self.fine.pivot_stroke(pose.time_s, 1.0 / self.settings.cruise_frequency_hz)
@@ -154,7 +150,6 @@ class FineDriving:
         self._set_command(pose.time_s, GaitCommand(direction, float(self.settings.turn_levels_rad[level]),
                                                    self.settings.amplitude_bar, self.settings.cruise_frequency_hz,
                                                    "turning on the spot toward the goal's line"), level)
-
 
     def _on_the_line(self, pose: Pose2D, distance: float) -> bool:
         """True when the resting robot can creep to the goal: near it, the goal on the line square to its body."""
