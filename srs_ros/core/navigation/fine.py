@@ -4,13 +4,14 @@ At 4 bar the rolling body lies as a C (about 200 deg of bend) and the tracked po
 markers) sits in the C's mouth; when the gait stops the body straightens and that point moves 10-35 cm. At an
 amplitude a little above the deadzone (``fine_amplitude_bar``, 2 bar) the body bends little: it still rolls
 about a skin circumference per cycle (12-18 cm) but, slowly (``fine_frequency_hz``, 0.25 Hz), it comes to rest
-within 1-7 cm along its travel and under 1 cm across it, repeatably at one gait phase (measured on the default,
+-2 to +7 cm along its travel and under 1 cm across it, repeatably at one gait phase (measured on the default,
 anisotropic and calibrated physics: docs/navigation.md). It hardly turns (under 1 deg per cycle) and it rolls
-both ways, so near the goal the robot moves on a line, square to its body: it creeps along that line toward
-the goal, inward or outward rolling (back and forth if it overshoots), and stops at the next stop phase when
-it is predicted to rest on the goal. A goal that lies off the line (farther across it than
-:data:`FINE_LINE_WITHIN` x the tolerance) cannot be crept to: the controller drives on with the cruise gait
-(steering) and comes back. :class:`FineApproach` holds that state and the resting points it learns.
+both ways, so near the goal the robot moves on a line, square to its body: at rest near the goal it creeps along
+that line toward the goal, inward or outward rolling (back and forth with a run-up if it went past), and stops
+at the next stop phase when it is predicted to rest on the goal. A goal that lies off the line (farther across
+it than :data:`FINE_LINE_WITHIN` x the tolerance) is turned to on the spot first, or driven round to with the
+cruise gait (:mod:`srs_ros.core.navigation.approach` decides). :class:`FineApproach` holds that state and the
+resting points it learns.
 """
 
 from __future__ import annotations
