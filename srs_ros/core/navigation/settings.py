@@ -52,7 +52,7 @@ NAVIGATION_TABLE = Table("navigation", (
     Field("approach_frequency_hz", float, 1.0, 0.1, 2.0, "Hz", "cycle frequency within approach_distance_m"),
     Field("approach_distance_m", float, 0.2, 0.0, 5.0, "m",
           "closer than this the gait slows to approach_frequency_hz and a rolling direction is held a whole cycle"),
-    Field("fine_distance_m", float, 0.25, 0.0, 5.0, "m",
+    Field("fine_distance_m", float, 0.35, 0.0, 5.0, "m",
           "the fine approach: at rest within this distance of the last goal, the robot creeps at fine_amplitude_bar "
           "along the line square to its body when the goal lies on it (else turns on the spot toward it) and stops "
           "at the next stop phase; the cruise gait also stops where it will rest on the goal's line; 0: off"),

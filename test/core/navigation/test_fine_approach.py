@@ -39,7 +39,8 @@ class AmplitudeRoller(Roller):
 
 
 def run(fine_distance_m, goal, until_s=120.0):
-    settings = load_navigation_settings({"fine_distance_m": fine_distance_m}, turning_map=MAP)
+    overrides = {} if fine_distance_m is None else {"fine_distance_m": fine_distance_m}  # None: the default
+    settings = load_navigation_settings(overrides, turning_map=MAP)
     controller, roller = NavigationController(settings, AREA), AmplitudeRoller()
     controller.set_goal(*goal, now_s=0.0)
     amplitudes, now = set(), 0.0
@@ -62,7 +63,7 @@ GOALS = [(0.0, 0.6), (0.5, 0.5), (-0.3, -0.6)]
 def test_a_robot_resting_far_from_the_maps_guess_creeps_onto_the_goal():
     crept = 0
     for goal in GOALS:
-        controller, roller, amplitudes = run(0.25, goal)
+        controller, roller, amplitudes = run(None, goal)
         assert controller.state is NavigationState.REACHED, (goal, controller.progress(0.0).message)
         assert math.dist(goal, (roller.x, roller.y)) <= 0.05
         assert amplitudes <= {4.0, 2.0}  # cruising at 4 bar, creeping at fine_amplitude_bar
