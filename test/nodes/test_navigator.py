@@ -41,7 +41,8 @@ def robot(ros_sessions):
 
 
 # Reaching a goal within the 5 cm tolerance is issue 20's acceptance figure, not reached yet on the physics
-# (2 of 4 goals over DDS): it is measured by benchmarks/bench_navigation_ros.py, not asserted here.
+# (3 of 4 goals over DDS with the fine approach): it is measured by benchmarks/bench_navigation_ros.py, not
+# asserted here.
 
 
 def test_a_new_goal_replaces_the_current_one_mid_way(robot):

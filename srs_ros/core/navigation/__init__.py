@@ -4,7 +4,9 @@
 ``area`` (the camera's calibrated floor area where goals may lie), ``commands`` (the state, the gait command
 for the nodes, the answer to a goal, the progress), ``motion`` (poses, and the turn rates and
 travel directions learned online from them), ``controller`` (:class:`NavigationController`: goals, waypoints,
-cancel, lost pose, progress; it chooses the rolling direction, the turn level and the frequency).
+cancel, lost pose, progress; it chooses the rolling direction, the turn level and the frequency), ``stopping``
+(where the robot rests after a stop), ``fine`` and ``approach`` (the fine approach near the goal: creeping just
+above the deadzone along the line square to the body, turning on the spot toward it).
 A ROS node wires it to topics (docs/navigation.md); ``srs_ros.sim.navigation`` runs it on the simulated robot.
 """
 

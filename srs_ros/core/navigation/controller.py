@@ -23,18 +23,18 @@ from collections.abc import Iterable, Sequence
 import numpy as np
 
 from srs_ros.core.errors import InvalidInputError
+from srs_ros.core.navigation.approach import FINE_STOP_ACROSS, FINE_STOP_ALONG, FINE_YAW_WINDOW_S, FineDriving
 from srs_ros.core.navigation.area import FloorArea
 from srs_ros.core.navigation.commands import GaitCommand, GoalDecision, NavigationProgress, NavigationState
+from srs_ros.core.navigation.fine import FineApproach
 from srs_ros.core.navigation.motion import Pose2D, PoseHistory, TravelModel, TurnModel, measure_cycle, wrap_rad
-from srs_ros.core.navigation.settings import DIRECTIONS, STOP_PHASES, NavigationSettings
-from srs_ros.core.navigation.stopping import StopModel, crossed_phase
+from srs_ros.core.navigation.settings import DIRECTIONS, STOP_PHASES, NavigationSettings, other_direction
+from srs_ros.core.navigation.stopping import STOP_WITHIN, StopModel, StopPlan, crossed_phase
 
 #: Cycles after a gait change before the camera's cycle measurements count (the cross-fade and the body settle).
 SETTLE_CYCLES = 0.5
 #: The same after a start from rest (the soft start and the body's first roll are not the steady gait).
 START_SETTLE_CYCLES = 1.5
-#: A predicted resting point this close to the goal (times the tolerance) triggers the stop.
-STOP_WITHIN = 0.8
 #: Cycles a direction must have been played before a stop counts on its learned resting point.
 STOP_AFTER_CYCLES = 1.0
 #: The cycle ahead of a stop moves as the last whole cycle did (True) or by the learned travel and turn (False).
@@ -43,29 +43,11 @@ CYCLE_AHEAD_FROM_LAST_CYCLE = True
 STRAIGHT_WITHIN = 0.7
 
 
-@dataclasses.dataclass
-class StopPlan:
-    """A stop near the goal: how it was decided, where the robot is predicted to rest, where it stopped.
-
-    Decided at ``decided`` (as the gait passed stop phase ``phase_index``), done at ``stopped`` (the pose as the
-    gait passes that phase a cycle later, or at once), learned from after ``settle_s``.
-    """
-
-    decided: Pose2D
-    direction: str
-    level: int | None
-    phase_index: int
-    ahead: bool
-    predicted_xy_m: tuple[float, float]
-    stopped: Pose2D | None = None
-    heading_rad: float = 0.0
-
-
 def _other(direction: str) -> str:
-    return DIRECTIONS[1 - DIRECTIONS.index(direction)]
+    return other_direction(direction)
 
 
-class NavigationController:
+class NavigationController(FineDriving):
     """Goals and camera poses in, :class:`GaitCommand` out; see the module docstring and docs/navigation.md."""
 
     def __init__(self, settings: NavigationSettings, area: FloorArea | None = None):
@@ -76,6 +58,7 @@ class NavigationController:
         self.turns = TurnModel(settings.turning_map, settings.turn_levels_rad, settings.learning_rate)
         self.travel = TravelModel(settings.turn_levels_rad, settings.learning_rate, settings.turning_map)
         self.stops = StopModel(settings.turning_map, settings.learning_rate, settings.turn_levels_rad)
+        self.fine = FineApproach(settings.learning_rate)
         self.state = NavigationState.IDLE
         self._goals: list[tuple[float, float]] = []
         self._index = 0
@@ -133,6 +116,7 @@ class NavigationController:
             if reason:
                 return self._refuse(reason if len(points) == 1 else f"waypoint {i + 1} of {len(points)}: {reason}")
         self._goals, self._index, self._backing_from, self._fresh_goal = points, 0, None, True
+        self.fine.reset()
         self.state, self._started_s = NavigationState.DRIVING, float(now_s)
         self._best = (math.inf, float(now_s))
         self._last_pose_s = max(self._last_pose_s, float(now_s))
@@ -191,10 +175,13 @@ class NavigationController:
             self._message = f"waypoint reached; driving to goal {self._index + 1} of {len(self._goals)}"
             distance = self._distance(pose)
         self._learn(pose.time_s)
+        passed = self._passed_stop_phase(self._command.reverse)
+        if self._index == len(self._goals) - 1 and self._creep(pose, distance, passed):
+            return
         errors, distances = self._aims(pose)
-        crossed = self._crossed_stop_phase(pose.time_s)
+        crossed = self._crossed_stop_phase(pose.time_s, passed)
         if self._backing_from is None and self._index == len(self._goals) - 1 and crossed is not None \
-                and self._rest_error_m(pose, crossed) <= STOP_WITHIN * self.settings.goal_tolerance_m:
+                and self._stop_here(pose, crossed):
             self._begin_stop(pose, crossed)
             return
         direction, wanted_deg = self._steer(pose.time_s, errors, distances)
@@ -300,7 +287,8 @@ class NavigationController:
         old = self._command
         if command.direction != old.direction:
             self._direction_since_s = now_s
-        if (command.direction, command.turn_phase_rad) != (old.direction, old.turn_phase_rad):
+        if (command.direction, command.turn_phase_rad, command.amplitude_bar) != \
+                (old.direction, old.turn_phase_rad, old.amplitude_bar):
             self._changed_s = self._measured_s = now_s
             self._settle_cycles = START_SETTLE_CYCLES if command.direction != old.direction else SETTLE_CYCLES
         elif command.frequency_hz != old.frequency_hz:
@@ -319,16 +307,16 @@ class NavigationController:
             return
         cycle = measure_cycle(self.history, period)
         self._measured_s = now_s
-        if cycle is None or abs(command.frequency_hz - self.settings.cruise_frequency_hz) > 1e-9:
+        if cycle is None or abs(command.frequency_hz - self.settings.cruise_frequency_hz) > 1e-9 or \
+                command.amplitude_bar != self.settings.amplitude_bar:
             return                       # the map and the estimates are per cycle at the cruise frequency
         self.turns.learn(command.direction, self._level, cycle.turn_deg)
         self.travel.learn(command.direction, self._level, cycle)
 
     # ------------------------------------------------------------------ stopping
-    def _crossed_stop_phase(self, now_s: float) -> int | None:
-        """The stop phase the gait passed since the last pose, once the direction has played long enough."""
+    def _crossed_stop_phase(self, now_s: float, crossed: int | None) -> int | None:
+        """The stop phase passed since the last pose (``crossed``), once the direction has played long enough."""
         command = self._command
-        crossed = self._passed_stop_phase(command.reverse)
         if not command.moving or now_s - self._direction_since_s < STOP_AFTER_CYCLES / command.frequency_hz:
             return None
         return crossed
@@ -340,8 +328,10 @@ class NavigationController:
             return None
         return crossed_phase(before, self._phase, reverse)
 
-    def _predicted_rest(self, pose: Pose2D, phase_index: int) -> np.ndarray:
-        """Where the robot would rest (floor x, y) if stopped at the stop phase just passed, or a cycle later.
+    def _predicted_rest(self, pose: Pose2D, phase_index: int) -> tuple[np.ndarray, float]:
+        """Where the robot would rest (floor x, y) and its travel heading then (rad), stopped now or a cycle later.
+
+        Stopped at the stop phase just passed, or (``stop_cycle_ahead``) as the gait passes it a cycle later.
 
         A cycle ahead: the pose then is this one moved by a cycle's learned travel at the level played, along
         the travel heading turned by half the cycle's learned turn; the rest offset is that of the phase, in
@@ -363,7 +353,7 @@ class NavigationController:
                 turn = turned
             where = where + step
             heading += turn
-        return where + self.stops.rest_offset(direction, phase_index, heading, level)
+        return where + self.stops.rest_offset(direction, phase_index, heading, level), heading
 
     def _last_cycle(self, pose: Pose2D) -> tuple[np.ndarray, float] | None:
         """The move (m) and turn (rad) from the pose a cycle ago (the same gait phase) to ``pose``, or None.
@@ -382,17 +372,28 @@ class NavigationController:
         now_row = self.history.window(0.0)[-1]
         return now_row[1:3] - then[1:3], float(now_row[3] - then[3])
 
-    def _rest_error_m(self, pose: Pose2D, phase_index: int) -> float:
-        """How far from the goal the robot would rest if stopped at the phase just passed (or a cycle later)."""
-        rest = self._predicted_rest(pose, phase_index)
-        return math.hypot(self.goal[0] - rest[0], self.goal[1] - rest[1])
+    def _stop_here(self, pose: Pose2D, phase_index: int) -> bool:
+        """True to stop at the phase just passed (or a cycle later).
+
+        The robot would rest within the stop window of the goal or, with the fine approach, on the goal's line
+        (across its travel) near the goal.
+        """
+        rest, heading = self._predicted_rest(pose, phase_index)
+        tolerance = self.settings.goal_tolerance_m
+        if math.dist(rest, self.goal) <= STOP_WITHIN * tolerance:
+            return True
+        along, across = FineApproach.line(Pose2D(float(rest[0]), float(rest[1]), 0.0, pose.time_s), self.goal,
+                                          heading - math.pi / 2)
+        return (self.settings.fine_distance_m > 0.0 and abs(across) <= FINE_STOP_ACROSS * tolerance
+                and abs(along) <= FINE_STOP_ALONG * self.settings.fine_distance_m)
 
     def _begin_stop(self, pose: Pose2D, phase_index: int) -> None:
         direction, ahead = self._command.direction, self.settings.stop_cycle_ahead
         self.state = NavigationState.STOPPING
-        predicted = self._predicted_rest(pose, phase_index)
+        predicted, _ = self._predicted_rest(pose, phase_index)
         self._stop = StopPlan(pose, direction, self._level, phase_index, ahead,
-                              (float(predicted[0]), float(predicted[1])))
+                              (float(predicted[0]), float(predicted[1])),
+                              period_s=1.0 / max(self.settings.cruise_frequency_hz, 1e-3))
         if ahead:
             self._message = (f"stopping a cycle ahead, {self._distance(pose):.3f} m from the goal, as the gait "
                              f"passes phase {STOP_PHASES[phase_index]:g}; then waiting for the robot to rest")
@@ -408,12 +409,14 @@ class NavigationController:
         """Wait for the stop a cycle ahead; after ``settle_s`` at rest learn the resting point, then reached or on."""
         plan = self._stop
         if plan.stopped is None:
-            period_s = 1.0 / max(self.settings.cruise_frequency_hz, 1e-3)
+            period_s = plan.period_s
             crossed = self._passed_stop_phase(plan.direction == DIRECTIONS[1])
             if crossed == plan.phase_index or pose.time_s - plan.decided.time_s > 1.5 * period_s:
                 plan.stopped = pose if crossed == plan.phase_index else None
-                plan.heading_rad = self.history.smoothed_yaw_rad(period_s) + self.travel.offset(plan.direction,
-                                                                                                plan.level)
+                plan.heading_rad = (
+                    FineApproach.heading_rad(self.history.smoothed_yaw_rad(FINE_YAW_WINDOW_S), plan.direction)
+                    if plan.fine else
+                    self.history.smoothed_yaw_rad(period_s) + self.travel.offset(plan.direction, plan.level))
                 if plan.stopped is None:  # the phase was not seen: no learning from this stop
                     plan.stopped, plan.phase_index = pose, -1
             return
@@ -421,7 +424,10 @@ class NavigationController:
             return
         if plan.phase_index >= 0:
             moved = np.array([pose.x_m - plan.stopped.x_m, pose.y_m - plan.stopped.y_m])
-            self.stops.learn(plan.direction, plan.phase_index, plan.heading_rad, moved, plan.level)
+            if plan.fine:
+                self.fine.learn(plan.direction, plan.phase_index, plan.heading_rad, moved)
+            else:
+                self.stops.learn(plan.direction, plan.phase_index, plan.heading_rad, moved, plan.level)
         distance = self._distance(pose)
         if distance <= self.settings.goal_tolerance_m:
             self._finish(NavigationState.REACHED, f"goal reached: resting {distance:.3f} m from it "
@@ -429,9 +435,12 @@ class NavigationController:
             return
         self.state = NavigationState.DRIVING
         self._message = f"came to rest {distance:.3f} m from the goal; driving on"
+        if self._index == len(self._goals) - 1:
+            self._fine_from_rest(pose, distance)
 
     def _finish(self, state: NavigationState, message: str) -> None:
         self.state, self._message = state, message
+        self.fine.leave()
         self._command = self._stop_command(message)
         self._level = None
         self._backing_from = None

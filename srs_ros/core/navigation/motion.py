@@ -82,6 +82,13 @@ class PoseHistory:
         rows = np.array(self._rows)
         return rows[rows[:, 0] >= rows[-1, 0] - duration_s]
 
+    def at_rest(self, duration_s: float, within_m: float = 0.005) -> bool:
+        """True when poses cover the last ``duration_s`` and the reference point stayed within ``within_m``."""
+        rows = self.window(duration_s)
+        if len(rows) < 3 or rows[-1, 0] - rows[0, 0] < 0.8 * duration_s:
+            return False
+        return float(np.max(np.linalg.norm(rows[:, 1:3] - rows[-1, 1:3], axis=1))) <= within_m
+
     def smoothed_yaw_rad(self, duration_s: float) -> float:
         """The yaw now from a line fit over the last ``duration_s`` (a rolling body's yaw wobbles within a cycle)."""
         rows = self.window(duration_s)

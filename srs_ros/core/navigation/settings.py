@@ -24,6 +24,13 @@ from srs_ros.core.schema import Field, Table, check_known, refusal, section
 
 #: The two rolling directions the navigator drives (the robot rolls roughly across its body axis).
 DIRECTIONS = ("inward_rolling", "outward_rolling")
+
+
+def other_direction(direction: str) -> str:
+    """The other rolling direction."""
+    return DIRECTIONS[1 - DIRECTIONS.index(direction)]
+
+
 #: Gait phases at which the navigator stops the robot: stopped at one phase, it comes to rest at the same
 #: place relative to its pose every time (within millimetres); stopped anywhere, within +-10 cm.
 STOP_PHASES = (0.0, 0.25, 0.5, 0.75)
@@ -45,6 +52,15 @@ NAVIGATION_TABLE = Table("navigation", (
     Field("approach_frequency_hz", float, 1.0, 0.1, 2.0, "Hz", "cycle frequency within approach_distance_m"),
     Field("approach_distance_m", float, 0.2, 0.0, 5.0, "m",
           "closer than this the gait slows to approach_frequency_hz and a rolling direction is held a whole cycle"),
+    Field("fine_distance_m", float, 0.35, 0.0, 5.0, "m",
+          "the fine approach: at rest within this distance of the last goal, the robot creeps at fine_amplitude_bar "
+          "along the line square to its body when the goal lies on it (else turns on the spot toward it) and stops "
+          "at the next stop phase; the cruise gait also stops where it will rest on the goal's line; 0: off"),
+    Field("fine_amplitude_bar", float, 2.0, 0.5, 4.0, "bar",
+          "amplitude of the fine approach: just above the muscles' deadzone the body bends little, so it rests "
+          "within a few cm of where it stopped (at 4 bar: 10-35 cm)"),
+    Field("fine_frequency_hz", float, 0.25, 0.1, 2.0, "Hz",
+          "cycle frequency of the fine approach (slow: the 1 s ramp-out is a quarter cycle of roll-on)"),
     Field("pursuit_gain", float, 1.5, 0.2, 5.0, "",
           "turn rate asked = this x the rate of the arc through the goal (pure pursuit)"),
     Field("max_turn_rate_deg_per_cycle", float, 30.0, 1.0, 180.0, "deg per cycle", "largest turn rate asked"),
@@ -183,6 +199,9 @@ class NavigationSettings:
     cruise_frequency_hz: float
     approach_frequency_hz: float
     approach_distance_m: float
+    fine_distance_m: float
+    fine_amplitude_bar: float
+    fine_frequency_hz: float
     pursuit_gain: float
     max_turn_rate_deg_per_cycle: float
     turn_levels_rad: tuple[float, ...]

@@ -9,14 +9,41 @@ resting point from the offset learned at that phase.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
 
+from srs_ros.core.navigation.motion import Pose2D
 from srs_ros.core.navigation.settings import DIRECTIONS, STOP_PHASES, TurningMap
+
+#: A predicted resting point this close to the goal (times the tolerance) triggers the stop.
+STOP_WITHIN = 0.8
 
 #: Spread of one turn level's correction to its unmeasured neighbours (rad of turn_phase).
 NEIGHBOUR_SPREAD_RAD = 0.2
+
+
+@dataclasses.dataclass
+class StopPlan:
+    """A stop near the goal: how it was decided, where the robot is predicted to rest, where it stopped.
+
+    Decided at ``decided`` (as the gait passed stop phase ``phase_index``), done at ``stopped`` (the pose as the
+    gait passes that phase a cycle later, or at once), learned from after ``settle_s``.
+    """
+
+    decided: Pose2D
+    direction: str
+    level: int | None
+    phase_index: int
+    ahead: bool
+    predicted_xy_m: tuple[float, float]
+    stopped: Pose2D | None = None
+    heading_rad: float = 0.0
+    #: A stop of the fine approach (:mod:`srs_ros.core.navigation.fine`): its resting points are learned there.
+    fine: bool = False
+    #: The gait's period when the stop was decided (s): the stop phase comes within it.
+    period_s: float = 1.0
 
 
 def crossed_phase(before: float, after: float, reverse: bool) -> int | None:

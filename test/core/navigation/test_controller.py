@@ -248,7 +248,8 @@ def test_the_stop_is_sent_a_cycle_ahead_at_a_stop_phase_and_late_commands_still_
             controller.update_gait_phase(roller.phase)
             controller.update_pose(roller.pose(now))
             command = controller.tick(now)
-            if state is NavigationState.DRIVING and controller.state is NavigationState.STOPPING:
+            if state is NavigationState.DRIVING and controller.state is NavigationState.STOPPING and \
+                    controller.stop_plan.phase_index >= 0:  # not the fine approach's stops to rest and look again
                 stops.append((now, command))
             roller.step(command, now)
             now += FRAME_S
@@ -267,7 +268,9 @@ PHASE_MAP = TurningMap(4.0, 1.0, "test", {
 def test_with_late_poses_and_late_commands_the_robot_rests_where_the_stop_was_predicted():
     misses = []
     for goal in [(0.0, 0.6), (0.5, 0.5), (-0.3, -0.6), (0.6, -0.2)]:
-        controller = NavigationController(load_navigation_settings(turning_map=PHASE_MAP), AREA)
+        # the cruise gait's stop a cycle ahead alone: the fine approach (off here) widens where it stops
+        controller = NavigationController(load_navigation_settings({"fine_distance_m": 0.0}, turning_map=PHASE_MAP),
+                                          AREA)
         roller = Roller(rest_m=PHASE_REST_M)
         controller.set_goal(*goal, now_s=0.0)
         plans = []

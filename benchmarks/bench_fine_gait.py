@@ -1,0 +1,74 @@
+"""The gait near the deadzone for the navigator's fine approach (issue 20): travel, turn and roll-on after a stop.
+
+For each physics (default isotropic, anisotropic, the calibrated one), amplitude and frequency, the navigator's
+rolling cycle (inward rolling, turn_phase_rad 0; outward = played backward) is played from rest through the gait
+player's logic (soft start), stopped after 3 cycles at each of 8 gait phases, and left 3 s to rest. It prints the
+travel per cycle (the last cycle before the stop), the turn per cycle, and where the robot rested from where the
+stop was commanded, along and across its travel (mean, sd and range over the 8 stop phases).
+
+Run: python benchmarks/bench_fine_gait.py [--amplitudes 2 4] [--frequencies 0.25 1] [--physics default calibrated]
+"""
+
+import argparse
+import math
+
+import numpy as np
+
+from srs_ros.core.robot import default_robot
+from srs_ros.experiments.turning import play_cycle, rolling_cycle
+from srs_ros.sim.config import load_sim_config
+
+PHASES = np.arange(8) / 8.0
+
+
+def config_for(physics: str, robot):
+    if physics == "calibrated":
+        return load_sim_config("config/sim_calibrated_paper.yaml", robot=robot).replace("contact", friction="isotropic")
+    friction = "anisotropic" if physics == "anisotropic" else "isotropic"
+    return load_sim_config(robot=robot).replace("contact", friction=friction)
+
+
+def measure(config, robot, amplitude_bar, frequency_hz, reverse):
+    cycle, period = rolling_cycle(amplitude_bar, frequency_hz, 0.0, robot), 1.0 / frequency_hz
+    offsets, travel, turns = [], [], []
+    for phase in PHASES:
+        stop_s = (3 + phase) * period
+        rows = play_cycle(cycle, stop_s + 3.0, config, robot, (lambda t: True) if reverse else None,
+                          sample_every_s=0.01, stop_at_s=stop_s)
+        at = int(np.argmin(np.abs(rows[:, 0] - stop_s)))
+        before = int(np.argmin(np.abs(rows[:, 0] - (stop_s - period))))
+        moved_cycle = rows[at, 1:3] - rows[before, 1:3]
+        travel.append(float(np.linalg.norm(moved_cycle)))
+        turns.append(math.degrees(rows[at, 3] - rows[before, 3]))
+        heading = math.atan2(moved_cycle[1], moved_cycle[0])
+        rest = rows[-1, 1:3] - rows[at, 1:3]
+        offsets.append((rest[0] * math.cos(heading) + rest[1] * math.sin(heading),
+                        -rest[0] * math.sin(heading) + rest[1] * math.cos(heading)))
+    return np.array(offsets), float(np.mean(travel)), float(np.mean(turns))
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--amplitudes", type=float, nargs="+", default=[2.0, 4.0])
+    parser.add_argument("--frequencies", type=float, nargs="+", default=[0.25, 1.0])
+    parser.add_argument("--physics", nargs="+", default=["default", "anisotropic", "calibrated"],
+                        choices=("default", "anisotropic", "calibrated"))
+    args = parser.parse_args()
+    robot = default_robot()
+    print("| physics | A (bar) | f (Hz) | direction | travel (cm/cycle) | turn (deg/cycle) | rest along: mean, sd, "
+          "range over 8 stop phases (cm) | rest across: mean, sd (cm) |")
+    print("| --- | --- | --- | --- | --- | --- | --- | --- |")
+    for physics in args.physics:
+        config = config_for(physics, robot)
+        for frequency in args.frequencies:
+            for amplitude in args.amplitudes:
+                for reverse in (False, True):
+                    offsets, travel, turn = measure(config, robot, amplitude, frequency, reverse)
+                    along, across = 100 * offsets[:, 0], 100 * offsets[:, 1]
+                    print(f"| {physics} | {amplitude:g} | {frequency:g} | {'outward' if reverse else 'inward'} | "
+                          f"{100 * travel:.1f} | {turn:+.1f} | {along.mean():+.1f}, {along.std():.1f}, "
+                          f"{np.ptp(along):.1f} | {across.mean():+.1f}, {across.std():.1f} |", flush=True)
+
+
+if __name__ == "__main__":
+    main()

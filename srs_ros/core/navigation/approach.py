@@ -1,0 +1,160 @@
+"""The fine approach as the controller drives it: creep along the goal's line, turn on the spot toward it.
+
+:class:`FineDriving` is the part of :class:`~srs_ros.core.navigation.controller.NavigationController` that
+plays :mod:`srs_ros.core.navigation.fine` (why and what was measured: there and docs/navigation.md). At rest
+near the last goal (after a stop, or given the goal at rest) the robot creeps at ``fine_amplitude_bar`` and
+``fine_frequency_hz`` when the goal lies on the line square to its body, else it turns on the spot (an
+inward and an outward stroke of the cruise gait at the turn levels that turn fastest the same way) and looks
+again; while creeping it stops at the next stop phase where it is predicted to rest on the goal, reverses
+with a run-up when it went past, and stops when the goal drifts off the line.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+
+from srs_ros.core.navigation.commands import GaitCommand, NavigationState
+from srs_ros.core.navigation.fine import FINE_LINE_WITHIN, FineApproach, next_stop_phase
+from srs_ros.core.navigation.motion import Pose2D
+from srs_ros.core.navigation.settings import DIRECTIONS, STOP_PHASES, other_direction
+from srs_ros.core.navigation.stopping import STOP_WITHIN, StopPlan
+
+#: The fine approach takes the body's yaw from a line fit over this long (s): a nearly straight body hardly wobbles.
+FINE_YAW_WINDOW_S = 1.0
+#: With the fine approach the cruise gait also stops where the robot is predicted to rest on the goal's line:
+#: the goal this close across its travel (times goal_tolerance_m) and this close along it (times fine_distance_m).
+FINE_STOP_ACROSS = 0.5
+FINE_STOP_ALONG = 0.6
+#: The fine approach turns on the spot toward the goal's line at most this many times per goal, each time only
+#: when the line needs at most this much turn (rad); otherwise the cruise gait drives round.
+FINE_MAX_PIVOTS = 6
+FINE_PIVOT_MAX_RAD = math.radians(60.0)
+#: A robot whose pose moved less than 5 mm over this long (s) is at rest (a goal given at rest).
+FINE_REST_WINDOW_S = 0.5
+
+
+class FineDriving:
+    """The fine approach's decisions, mixed into the controller (its state: ``self.fine``)."""
+
+    def _creep(self, pose: Pose2D, distance: float, passed: int | None) -> bool:
+        """The fine approach (:mod:`srs_ros.core.navigation.fine`): True when it gave the command for this pose."""
+        settings, fine = self.settings, self.fine
+        if fine.pivot_sense:
+            self._pivot(pose)
+            return True
+        if not fine.active and not self._command.moving and distance < settings.fine_distance_m:
+            if self.history.window(FINE_REST_WINDOW_S)[0, 0] > pose.time_s - 0.8 * FINE_REST_WINDOW_S:
+                self._message = "a goal near the robot: watching whether it is at rest"
+                return True  # too few poses yet to tell (a new goal given while the robot rests)
+            if self.history.at_rest(FINE_REST_WINDOW_S) and self._fine_from_rest(pose, distance) and fine.pivot_sense:
+                self._pivot(pose)
+                return True
+        if not fine.active or settings.fine_distance_m <= 0.0:
+            fine.leave()
+            return False
+        now_s, command = pose.time_s, self._command
+        creeping = command.moving and command.amplitude_bar == settings.fine_amplitude_bar
+        if not creeping:
+            fine.start(now_s)  # the body straightens from the cruise gait's C, or starts from rest
+        settled = creeping and fine.settled(now_s, self._changed_s)
+        yaw = self.history.smoothed_yaw_rad(FINE_YAW_WINDOW_S)
+        if settled:  # the line the robot is seen to creep on (a nearly straight body still skews by up to 10 deg)
+            yaw = FineApproach.line_yaw_rad(self.history, yaw, command.direction)
+        along, across = FineApproach.line(pose, self.goal, yaw)
+        if settled and abs(across) > FINE_LINE_WITHIN * settings.goal_tolerance_m:
+            fine.leave()
+            self._message = f"the goal lies {100 * abs(across):.1f} cm off the line the robot creeps on: stopping"
+            self.state = NavigationState.STOPPING  # at rest, it turns on the spot toward the goal or drives round
+            self._stop = StopPlan(pose, command.direction, None, -1, False, (pose.x_m, pose.y_m), stopped=pose)
+            self._command = self._stop_command(self._message)
+            return True
+        direction = command.direction
+        speed = FineApproach.speed_m_s(self.history, FineApproach.heading_rad(yaw, direction)) if settled else None
+        if speed is not None or not creeping:
+            runup = fine.runup_m(direction, speed or 0.0, settings.fine_frequency_hz, settings.goal_tolerance_m) \
+                if creeping else 0.0
+            direction = FineApproach.direction(along, direction if creeping else None, runup)
+        heading = FineApproach.heading_rad(yaw, direction)
+        self._heading_error_rad = math.atan2(across, along if direction == DIRECTIONS[0] else -along)
+        if speed is not None and passed is not None and direction == command.direction:
+            target = next_stop_phase(passed, command.reverse)
+            rest = fine.predicted_rest(pose, direction, heading, speed, 0.25 / command.frequency_hz, target)
+            if math.dist(rest, self.goal) <= STOP_WITHIN * settings.goal_tolerance_m:
+                self._begin_fine_stop(pose, direction, target, rest)
+                return True
+        self._message = f"creeping to the goal ({distance:.3f} m to go, {100 * abs(across):.1f} cm off the line)"
+        self._set_command(now_s, GaitCommand(direction, 0.0, settings.fine_amplitude_bar, settings.fine_frequency_hz,
+                                             "creeping to the goal (fine approach)"), None)
+        return True
+
+    def _begin_fine_stop(self, pose: Pose2D, direction: str, phase_index: int, rest: np.ndarray) -> None:
+        self.state = NavigationState.STOPPING
+        self._stop = StopPlan(pose, direction, None, phase_index, True, (float(rest[0]), float(rest[1])),
+                              fine=True, period_s=1.0 / self._command.frequency_hz)
+        self._message = (f"creeping: stopping {self._distance(pose):.3f} m from the goal as the gait reaches phase "
+                         f"{STOP_PHASES[phase_index]:g}; then waiting for the robot to rest")
+        self._command = dataclasses.replace(self._stop_command(self._message),
+                                            stop_phase=float(STOP_PHASES[phase_index]))
+        self._level = None
+
+    def _fine_from_rest(self, pose: Pose2D, distance: float) -> bool:
+        """At rest near the last goal: creep when it lies on the line, else turn on the spot toward it if it can."""
+        if self._on_the_line(pose, distance):
+            self.fine.start(pose.time_s)
+            self._message = f"at rest {distance:.3f} m from the goal, on its line: creeping to it"
+        elif self._pivot_toward(pose, distance):
+            self._message = (f"at rest {distance:.3f} m from the goal, off its line: turning on the spot "
+                             f"({'counter-' if self.fine.pivot_sense > 0 else ''}clockwise) to put it on the line")
+        else:
+            return False
+        return True
+
+    def _pivot_toward(self, pose: Pose2D, distance: float) -> bool:
+        """Near the goal but off its line: start a turn on the spot; False when it cannot or should not.
+
+        The turn on the spot is an inward and an outward stroke turning the same way; it is started when the line
+        needs at most FINE_PIVOT_MAX_RAD of turn, at most FINE_MAX_PIVOTS times per goal.
+        """
+        settings, fine = self.settings, self.fine
+        if settings.fine_distance_m <= 0.0 or distance >= settings.fine_distance_m or \
+                fine.pivots >= FINE_MAX_PIVOTS:
+            return False
+        along, across = FineApproach.line(pose, self.goal, self.history.smoothed_yaw_rad(FINE_YAW_WINDOW_S))
+        turn_rad = math.atan2(across, along) if along >= 0.0 else math.atan2(-across, -along)
+        if abs(turn_rad) > FINE_PIVOT_MAX_RAD:
+            return False
+        sign = 1 if turn_rad > 0.0 else -1
+        levels = {d: self.turns.fastest_deg(d, sign) for d in DIRECTIONS}
+        if all(rate * sign <= 1.0 for _, rate in levels.values()):
+            return False
+        first = DIRECTIONS[0] if along >= 0.0 else DIRECTIONS[1]
+        second = other_direction(first)
+        fine.start_pivot(pose.time_s, sign, [(first, levels[first][0]), (second, levels[second][0])])
+        return True
+
+    def _pivot(self, pose: Pose2D) -> None:
+        """Play the turn on the spot: one cycle each of its two strokes, then stop and rest (then look again)."""
+        stroke = self.fine.pivot_stroke(pose.time_s, 1.0 / self.settings.cruise_frequency_hz)
+        if stroke is None:
+            self.fine.pivot_sense = 0
+            self.state = NavigationState.STOPPING
+            self._stop = StopPlan(pose, self._command.direction or DIRECTIONS[0], None, -1, False,
+                                  (pose.x_m, pose.y_m), stopped=pose)
+            self._command = self._stop_command("turned on the spot; waiting for the robot to rest")
+            self._level = None
+            return
+        direction, level = stroke
+        self._set_command(pose.time_s, GaitCommand(direction, float(self.settings.turn_levels_rad[level]),
+                                                   self.settings.amplitude_bar, self.settings.cruise_frequency_hz,
+                                                   "turning on the spot toward the goal's line"), level)
+
+    def _on_the_line(self, pose: Pose2D, distance: float) -> bool:
+        """True when the resting robot can creep to the goal: near it, the goal on the line square to its body."""
+        settings = self.settings
+        if settings.fine_distance_m <= 0.0 or distance >= settings.fine_distance_m:
+            return False
+        _, across = FineApproach.line(pose, self.goal, self.history.smoothed_yaw_rad(FINE_YAW_WINDOW_S))
+        return abs(across) <= FINE_LINE_WITHIN * settings.goal_tolerance_m

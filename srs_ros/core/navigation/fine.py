@@ -1,0 +1,168 @@
+"""The fine approach: the last centimetres to a goal, crept just above the muscles' deadzone.
+
+At 4 bar the rolling body lies as a C (about 200 deg of bend) and the tracked point (the midpoint of the end
+markers) sits in the C's mouth; when the gait stops the body straightens and that point moves 10-35 cm. At an
+amplitude a little above the deadzone (``fine_amplitude_bar``, 2 bar) the body bends little: it still rolls
+about a skin circumference per cycle (12-18 cm) but, slowly (``fine_frequency_hz``, 0.25 Hz), it comes to rest
+-2 to +7 cm along its travel and under 1 cm across it, repeatably at one gait phase (measured on the default,
+anisotropic and calibrated physics: docs/navigation.md). It hardly turns (under 1 deg per cycle) and it rolls
+both ways, so near the goal the robot moves on a line, square to its body: at rest near the goal it creeps along
+that line toward the goal, inward or outward rolling (back and forth with a run-up if it went past), and stops
+at the next stop phase when it is predicted to rest on the goal. A goal that lies off the line (farther across
+it than :data:`FINE_LINE_WITHIN` x the tolerance) is turned to on the spot first, or driven round to with the
+cruise gait (:mod:`srs_ros.core.navigation.approach` decides). :class:`FineApproach` holds that state and the
+resting points it learns.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from srs_ros.core.navigation.motion import Pose2D, PoseHistory
+from srs_ros.core.navigation.settings import DIRECTIONS, STOP_PHASES
+from srs_ros.core.navigation.stopping import rotate
+
+#: A goal farther across the creeping line than this (times goal_tolerance_m) is not crept to.
+FINE_LINE_WITHIN = 0.7
+#: Seconds after the fine gait starts (a cross-fade from the cruise gait, a start from rest or a reversal)
+#: before the line and the speed are taken from the camera: the body straightens and settles meanwhile.
+FINE_SETTLE_S = 2.0
+#: The same after a reversal while creeping: the signed frequency ramps through 0 (gait_player's 1 s ramp).
+FINE_REVERSE_SETTLE_S = 1.0
+#: The speed along the line is measured over this long (s).
+FINE_SPEED_WINDOW_S = 0.5
+#: The creeping line is taken from the robot's motion once it moved this far within FINE_SPEED_WINDOW_S (m).
+FINE_MIN_MOVE_M = 0.01
+#: First guess of where the robot rests after a stop at each stop phase: (along, across) its travel (m);
+#: measured 2 bar 0.25 Hz: -4 .. +10 cm along (direction and phase), under 1 cm across; learned at every stop.
+FINE_REST_GUESS_M = (0.02, 0.0)
+#: A reversal needs the goal at least this far behind (times goal_tolerance_m), and the run-up a stop needs.
+FINE_REVERSE_BEYOND = 0.3
+
+
+class FineApproach:
+    """Whether the robot creeps, on which line, and where it rests after a stop per direction and stop phase."""
+
+    def __init__(self, learning_rate: float):
+        self.learning_rate = float(learning_rate)
+        self.active = False
+        self.since_s = 0.0
+        self.pivot_sense, self.pivot_since_s, self.pivots = 0, 0.0, 0
+        self._strokes: list[tuple[str, int]] = []
+        self.offset_m = {d: np.tile(np.asarray(FINE_REST_GUESS_M, dtype=np.float64), (len(STOP_PHASES), 1))
+                         for d in DIRECTIONS}
+        self.measured = {d: np.zeros(len(STOP_PHASES), dtype=int) for d in DIRECTIONS}
+
+    def start(self, now_s: float) -> None:
+        """Begin creeping (from rest: the controller starts it after a stop near the goal, on the goal's line)."""
+        self.active, self.since_s = True, float(now_s)
+
+    def leave(self) -> None:
+        """Stop creeping or turning on the spot (the goal off the line, a cancel, a stop)."""
+        self.active = False
+        self.pivot_sense = 0
+
+    def reset(self) -> None:
+        """A new goal: neither creeping nor turning, no turn on the spot done yet (what was learned is kept)."""
+        self.leave()
+        self.pivots = 0
+
+    def start_pivot(self, now_s: float, sense: int, strokes: list[tuple[str, int]]) -> None:
+        """Turn on the spot, ``sense`` +1 counter-clockwise: ``strokes`` (direction, turn level index), a cycle each."""
+        self.pivot_sense, self.pivot_since_s, self._strokes = int(sense), float(now_s), list(strokes)
+        self.pivots += 1
+
+    def pivot_stroke(self, now_s: float, period_s: float) -> tuple[str, int] | None:
+        """The stroke to play now (a cycle each), None once both are played."""
+        index = int((now_s - self.pivot_since_s) // period_s)
+        return self._strokes[index] if index < len(self._strokes) else None
+
+    def settled(self, now_s: float, changed_s: float) -> bool:
+        """True once the fine gait has played long enough to measure its line and speed.
+
+        :data:`FINE_SETTLE_S` since it started (from rest or from the cruise gait) and
+        :data:`FINE_REVERSE_SETTLE_S` since its direction last changed (``changed_s``).
+        """
+        return now_s - self.since_s >= FINE_SETTLE_S and now_s - changed_s >= FINE_REVERSE_SETTLE_S
+
+    @staticmethod
+    def heading_rad(yaw_rad: float, direction: str) -> float:
+        """The travel heading of a nearly straight body: square to its axis, to the left rolling inward."""
+        return yaw_rad + (math.pi / 2 if direction == DIRECTIONS[0] else -math.pi / 2)
+
+    @staticmethod
+    def line(pose: Pose2D, goal: tuple[float, float], yaw_rad: float) -> tuple[float, float]:
+        """The goal from the pose (m): along the inward-rolling travel, and across it (left positive)."""
+        heading = yaw_rad + math.pi / 2
+        dx, dy = goal[0] - pose.x_m, goal[1] - pose.y_m
+        return (dx * math.cos(heading) + dy * math.sin(heading), -dx * math.sin(heading) + dy * math.cos(heading))
+
+    @staticmethod
+    def direction(along_m: float, current: str | None, runup_m: float) -> str:
+        """Inward rolling when the goal lies ahead along the line, outward when behind.
+
+        The current direction is kept until the goal lies ``runup_m`` behind (a stop needs that run-up: the next
+        stop phase and the roll-on).
+        """
+        if current in DIRECTIONS:
+            ahead = along_m if current == DIRECTIONS[0] else -along_m
+            if ahead > -runup_m:
+                return current
+        return DIRECTIONS[0] if along_m >= 0.0 else DIRECTIONS[1]
+
+    def runup_m(self, direction: str, speed_m_s: float, frequency_hz: float, tolerance_m: float) -> float:
+        """How far before the goal a stop must be decided (m).
+
+        A quarter cycle of creeping (to the next stop phase), the learned roll-on and the stop window.
+        """
+        quarter = max(speed_m_s, 0.0) * 0.25 / max(frequency_hz, 1e-3)
+        return max(FINE_REVERSE_BEYOND * tolerance_m,
+                   quarter + float(np.max(self.offset_m[direction][:, 0])) + tolerance_m)
+
+    @staticmethod
+    def line_yaw_rad(history: PoseHistory, yaw_rad: float, direction: str) -> float:
+        """The body yaw whose square is the way the robot was seen to creep.
+
+        Over the last :data:`FINE_SPEED_WINDOW_S`; ``yaw_rad`` when it moved less than :data:`FINE_MIN_MOVE_M`.
+        """
+        rows = history.window(FINE_SPEED_WINDOW_S)
+        if len(rows) < 3 or float(np.linalg.norm(rows[-1, 1:3] - rows[0, 1:3])) < FINE_MIN_MOVE_M:
+            return yaw_rad
+        dx, dy = rows[-1, 1:3] - rows[0, 1:3]
+        return math.atan2(dy, dx) - (math.pi / 2 if direction == DIRECTIONS[0] else -math.pi / 2)
+
+    @staticmethod
+    def speed_m_s(history: PoseHistory, heading_rad: float) -> float | None:
+        """Speed along ``heading_rad`` over the last :data:`FINE_SPEED_WINDOW_S` (None: too few poses)."""
+        rows = history.window(FINE_SPEED_WINDOW_S)
+        if len(rows) < 3 or rows[-1, 0] - rows[0, 0] < 0.5 * FINE_SPEED_WINDOW_S:
+            return None
+        moved = rows[-1, 1:3] - rows[0, 1:3]
+        along = moved[0] * math.cos(heading_rad) + moved[1] * math.sin(heading_rad)
+        return float(along / (rows[-1, 0] - rows[0, 0]))
+
+    def predicted_rest(self, pose: Pose2D, direction: str, heading_rad: float, speed_m_s: float, ahead_s: float,
+                       phase_index: int) -> np.ndarray:
+        """Where the robot rests (floor x, y) if it stops as the gait reaches stop phase ``phase_index``.
+
+        That is ``ahead_s`` from now; it rolls on at ``speed_m_s`` along ``heading_rad`` until then.
+        """
+        where = np.array([pose.x_m, pose.y_m]) + max(speed_m_s, 0.0) * ahead_s * np.array(
+            [math.cos(heading_rad), math.sin(heading_rad)])
+        return where + rotate(self.offset_m[direction][phase_index], heading_rad)
+
+    def learn(self, direction: str, phase_index: int, heading_rad: float, moved_m: np.ndarray) -> None:
+        """Take a measured move from the stop to the rest (floor frame) into that phase's estimate."""
+        cos, sin = math.cos(heading_rad), math.sin(heading_rad)
+        measured = np.array([moved_m[0] * cos + moved_m[1] * sin, -moved_m[0] * sin + moved_m[1] * cos])
+        offsets = self.offset_m[direction]
+        rate = 1.0 if self.measured[direction][phase_index] == 0 and self.learning_rate > 0.0 else self.learning_rate
+        offsets[phase_index] += rate * (measured - offsets[phase_index])
+        self.measured[direction][phase_index] += 1
+
+
+def next_stop_phase(phase_index: int, reverse: bool) -> int:
+    """The stop phase the gait reaches after ``phase_index`` (backward when ``reverse``)."""
+    return (phase_index + (-1 if reverse else 1)) % len(STOP_PHASES)

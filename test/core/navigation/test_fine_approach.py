@@ -1,0 +1,114 @@
+"""The fine approach (srs_ros.core.navigation.fine): creeping just above the deadzone along the body's line.
+
+The stand-in is the kinematic roller of test_controller.py made amplitude-aware as the physics is (measured at
+2 bar 0.25 Hz, docs/navigation.md): at the fine amplitude it rolls square to its body, hardly turns and rests
+2 cm past where it stopped; at 4 bar it rests far from where the controller's map says (12-20 cm ahead
+against the map's 5 cm), so the cruise gait's stop alone misses the goal.
+"""
+
+import math
+
+import numpy as np
+import pytest
+
+from srs_ros.core.navigation import NavigationController, NavigationState, Pose2D, load_navigation_settings
+from srs_ros.core.navigation.fine import FineApproach, next_stop_phase
+from srs_ros.core.navigation.motion import PoseHistory
+from srs_ros.core.navigation.settings import DIRECTIONS
+
+from .test_controller import AREA, FRAME_S, MAP, Roller
+
+#: Where the 4-bar stand-in rests after a stop, per stop phase (m ahead): far from the map's 5 cm.
+FAR_REST_M = (0.12, 0.20, 0.15, 0.18)
+FINE_REST_M = 0.02
+
+
+class AmplitudeRoller(Roller):
+    """Roller whose gait at <= 2.5 bar bends little: 5 % of the turn, rests FINE_REST_M past the stop."""
+
+    def __init__(self):
+        super().__init__(rest_m=FAR_REST_M)
+        self._far = FAR_REST_M
+
+    def step(self, command, now_s):
+        if command.moving:
+            fine = command.amplitude_bar <= 2.5
+            self.scale, self.bias_deg = (0.035, 0.3) if fine else (0.7, 6.0)
+            self.rest_m = (FINE_REST_M,) * 4 if fine else self._far
+        super().step(command, now_s)
+
+
+def run(fine_distance_m, goal, until_s=120.0):
+    overrides = {} if fine_distance_m is None else {"fine_distance_m": fine_distance_m}  # None: the default
+    settings = load_navigation_settings(overrides, turning_map=MAP)
+    controller, roller = NavigationController(settings, AREA), AmplitudeRoller()
+    controller.set_goal(*goal, now_s=0.0)
+    amplitudes, now = set(), 0.0
+    while now < until_s:
+        controller.update_gait_phase(roller.phase)
+        controller.update_pose(roller.pose(now))
+        command = controller.tick(now)
+        roller.step(command, now)
+        if command.moving:
+            amplitudes.add(command.amplitude_bar)
+        now += FRAME_S
+        if not controller.state.active and not roller.moving_or_settling(now):
+            break
+    return controller, roller, amplitudes
+
+
+GOALS = [(0.0, 0.6), (0.5, 0.5), (-0.3, -0.6)]
+
+
+def test_a_robot_resting_far_from_the_maps_guess_creeps_onto_the_goal():
+    crept = 0
+    for goal in GOALS:
+        controller, roller, amplitudes = run(None, goal)
+        assert controller.state is NavigationState.REACHED, (goal, controller.progress(0.0).message)
+        assert math.dist(goal, (roller.x, roller.y)) <= 0.05
+        assert amplitudes <= {4.0, 2.0}  # cruising at 4 bar, creeping at fine_amplitude_bar
+        crept += controller.stop_plan.fine  # the last stop was the fine approach's
+    assert crept >= 1
+
+
+def test_without_the_fine_approach_the_same_robot_misses_the_goal():
+    misses = 0
+    for goal in GOALS:
+        controller, roller, amplitudes = run(0.0, goal, until_s=70.0)
+        assert amplitudes == {4.0}
+        misses += controller.state is not NavigationState.REACHED
+    assert misses >= 2
+
+
+def test_the_creeping_line_and_the_direction_with_its_run_up():
+    pose = Pose2D(1.0, 2.0, 0.0, 0.0)
+    # body along x: inward rolling travels +y; the goal 10 cm ahead of it and 2 cm to the right of the line
+    along, across = FineApproach.line(pose, (1.02, 2.10), 0.0)
+    assert along == pytest.approx(0.10) and across == pytest.approx(-0.02)
+    assert FineApproach.direction(0.10, None, 0.05) == "inward_rolling"
+    assert FineApproach.direction(-0.10, None, 0.05) == "outward_rolling"
+    # rolling inward past the goal: kept until the goal lies a run-up behind, then reversed
+    assert FineApproach.direction(-0.04, "inward_rolling", 0.05) == "inward_rolling"
+    assert FineApproach.direction(-0.06, "inward_rolling", 0.05) == "outward_rolling"
+    assert FineApproach.direction(0.06, "outward_rolling", 0.05) == "inward_rolling"
+    fine = FineApproach(0.5)
+    # a quarter cycle at 3 cm/s and 0.25 Hz (3 cm), the roll-on guess (2 cm), the tolerance (5 cm)
+    assert fine.runup_m("inward_rolling", 0.03, 0.25, 0.05) == pytest.approx(0.10)
+    assert next_stop_phase(3, reverse=False) == 0 and next_stop_phase(0, reverse=True) == 3
+
+
+def test_the_line_is_taken_from_the_motion_and_the_roll_on_is_learned():
+    history = PoseHistory()
+    for k in range(20):  # creeping inward along a line 10 deg off square to a body whose yaw is 0
+        t = k / 30.0
+        history.add(Pose2D(0.04 * t * math.cos(math.radians(100)), 0.04 * t * math.sin(math.radians(100)), 0.0, t))
+    assert math.degrees(FineApproach.line_yaw_rad(history, 0.0, "inward_rolling")) == pytest.approx(10.0)
+    assert FineApproach.speed_m_s(history, math.radians(100)) == pytest.approx(0.04)
+    fine = FineApproach(0.5)
+    fine.learn("outward_rolling", 2, math.pi / 2, np.array([0.0, 0.06]))  # rolled on 6 cm along +y
+    np.testing.assert_allclose(fine.offset_m["outward_rolling"][2], [0.06, 0.0], atol=1e-12)  # first: taken whole
+    fine.learn("outward_rolling", 2, math.pi / 2, np.array([0.0, 0.02]))
+    np.testing.assert_allclose(fine.offset_m["outward_rolling"][2], [0.04, 0.0], atol=1e-12)
+    np.testing.assert_allclose(fine.offset_m[DIRECTIONS[0]][2], [0.02, 0.0])  # the other direction untouched
+    rest = fine.predicted_rest(Pose2D(0.0, 0.0, 0.0, 0.0), "outward_rolling", math.pi / 2, 0.04, 1.0, 2)
+    np.testing.assert_allclose(rest, [0.0, 0.08], atol=1e-12)
