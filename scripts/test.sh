@@ -7,4 +7,5 @@ set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 source "$root/scripts/setup.sh"
 cd "$root"
+"$SRS_VENV/bin/python" -m srs_testing.opencv46  # the OpenCV 4.6 venv of test/test_opencv46.py, made once
 exec "$SRS_VENV/bin/python" -m pytest -n "${SRS_TEST_WORKERS:-3}" --dist loadfile --no-loadscope-reorder "$@"

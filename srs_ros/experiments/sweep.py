@@ -303,11 +303,12 @@ class OfflineRunner:
         executor = self._executor()
         try:
             return executor.submit(_run_task, cell, *job, attempt), executor
-        except (BrokenExecutor, RuntimeError, OSError, ValueError) as exc:
-            if executor is not self._given and not isinstance(exc, RuntimeError):
-                return _lost_at_start(exc), executor
-            if executor is not self._given or isinstance(exc, ValueError):
-                raise  # a local pool shut down, or a given executor's own complaint
+        except (RuntimeError, OSError, ValueError) as exc:  # BrokenExecutor is a RuntimeError
+            broke = isinstance(exc, BrokenExecutor) or not isinstance(exc, RuntimeError)
+            if executor is not self._given and broke:
+                return _lost_at_start(exc), executor  # the local pool broke: a lost run, for a new pool
+            if isinstance(exc, ValueError):
+                raise  # a given executor's own complaint
             raise self.unusable(error_line(exc)) from None  # a shut down executor, a lost connection
 
     def check_usable(self) -> None:

@@ -16,6 +16,7 @@ import subprocess
 import sys
 import threading
 import time
+from concurrent.futures.process import BrokenProcessPool
 from pathlib import Path
 
 import dask
@@ -147,18 +148,21 @@ def test_a_local_worker_process_killed_mid_sweep_has_its_runs_resubmitted_to_a_n
     assert killed and any("its worker was lost (BrokenProcessPool" in line for line in logs), logs
 
 
-@pytest.mark.slow(seconds=4)
+@pytest.mark.slow(seconds=8)
+@pytest.mark.parametrize("error", [ValueError("bad value(s) in fds_to_keep"),
+                                   BrokenProcessPool("A child process terminated abruptly")])
 def test_a_pool_that_breaks_while_it_starts_a_worker_loses_the_run_and_a_new_pool_runs_it(config, local_records,
-                                                                                         monkeypatch):
-    # CPython's pool, when a worker dies while it spawns the next one, can fail the submission itself with
-    # the ValueError below (seen in CI with workers killed every 10 ms): a lost run like any other.
+                                                                                         monkeypatch, error):
+    # A pool whose worker died refuses the next run (BrokenProcessPool), and CPython's pool, when a worker dies
+    # while it spawns the next one, can fail the submission itself with the ValueError (seen in CI with
+    # workers killed every 10 ms): either way a lost run like any other.
     failures = []
 
     class BreaksOnce(sweep.ProcessPoolExecutor):
         def submit(self, *args, **kwargs):
             if not failures:
                 failures.append(1)
-                raise ValueError("bad value(s) in fds_to_keep")
+                raise error
             return super().submit(*args, **kwargs)
 
     monkeypatch.setattr(sweep, "ProcessPoolExecutor", BreaksOnce)
@@ -166,7 +170,7 @@ def test_a_pool_that_breaks_while_it_starts_a_worker_loses_the_run_and_a_new_poo
     with OfflineRunner(2, log=logs.append) as runner:
         records = runner.run(CELLS[:2], DURATION_S, config)
     _assert_identical(records, local_records[:2])
-    lost = [line for line in logs if "while it took the run (ValueError: bad value(s) in fds_to_keep)" in line]
+    lost = [line for line in logs if f"while it took the run ({type(error).__name__}: {error}" in line]
     assert len(lost) == 1 and "submitted again (attempt 2 of" in lost[0], logs
 
 

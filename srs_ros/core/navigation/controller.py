@@ -435,6 +435,7 @@ class NavigationController(FineDriving):
             return
         self.state = NavigationState.DRIVING
         self._message = f"came to rest {distance:.3f} m from the goal; driving on"
+        self.fine.leave()  # creeping again only if the goal is still on the line, from where it rests now
         if self._index == len(self._goals) - 1:
             self._fine_from_rest(pose, distance)
 

@@ -112,3 +112,27 @@ def test_the_line_is_taken_from_the_motion_and_the_roll_on_is_learned():
     np.testing.assert_allclose(fine.offset_m[DIRECTIONS[0]][2], [0.02, 0.0])  # the other direction untouched
     rest = fine.predicted_rest(Pose2D(0.0, 0.0, 0.0, 0.0), "outward_rolling", math.pi / 2, 0.04, 1.0, 2)
     np.testing.assert_allclose(rest, [0.0, 0.08], atol=1e-12)
+
+
+def test_a_robot_pushed_off_the_line_after_a_creep_stop_is_not_crept_on():
+    """After a creep stop the robot rests far off the goal's line (pushed 0.4 m): the fine approach ends there,
+    so the controller drives round with the cruise gait, not on creeping along a line that misses the goal."""
+    settings = load_navigation_settings({}, turning_map=MAP)
+    controller, roller = NavigationController(settings, AREA), AmplitudeRoller()
+    controller.set_goal(0.0, 0.6, now_s=0.0)
+    now, pushed, after = 0.0, False, []
+    while now < 120.0 and len(after) < 50:
+        controller.update_gait_phase(roller.phase)
+        controller.update_pose(roller.pose(now))
+        command = controller.tick(now)
+        creep_stop = controller.state == NavigationState.STOPPING and controller._stop.fine
+        if creep_stop and not pushed and not command.moving:
+            roller.x += 0.4  # pushed sideways while it stops: 0.4 m off the line it crept on
+            pushed = True
+        elif pushed and controller.state != NavigationState.STOPPING:
+            after.append(command)
+        roller.step(command, now)
+        now += FRAME_S
+    assert pushed, "the stand-in never made a creep stop"
+    moving = [c for c in after if c.moving]
+    assert moving and moving[0].amplitude_bar != settings.fine_amplitude_bar, moving[:1]
