@@ -18,8 +18,8 @@ Modules:
 - :mod:`srs_testing.navigation`: the navigator on the simulated robot, every node a process
   (:class:`~srs_testing.navigation.NavigationSystem`); not imported here: ``from srs_testing.navigation import
   NavigationSystem``.
-- :mod:`srs_testing.opencv46`: the second virtual environment with OpenCV 4.6 (:func:`~srs_testing.opencv46.ensure_venv`;
-  scripts/test.sh makes it before pytest starts).
+- :mod:`srs_testing.opencv46`: the second virtual environment with OpenCV 4.6
+  (:func:`~srs_testing.opencv46.ensure_venv`; scripts/test.sh makes it before pytest starts).
 - :mod:`srs_testing.stream`: one measured run of the whole setpoint stream (soak, CPU-load and multi-host
   benchmarks and tests); it runs :mod:`srs_testing.stream_probe` as the observer process. Not imported here
   (it loads the synthetic camera): ``from srs_testing.stream import run_stream``.
