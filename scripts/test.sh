@@ -7,5 +7,8 @@ set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 source "$root/scripts/setup.sh"
 cd "$root"
+# The suite starts a few hundred Python processes (nodes, CLIs): let them cache the repo's bytecode in __pycache__
+# (git ignores it) instead of compiling srs_ros again in each, even where the environment turns caching off.
+unset PYTHONDONTWRITEBYTECODE
 "$SRS_VENV/bin/python" -m srs_testing.opencv46  # the OpenCV 4.6 venv of test/test_opencv46.py, made once
 exec "$SRS_VENV/bin/python" -m pytest -n "${SRS_TEST_WORKERS:-3}" --dist loadfile --no-loadscope-reorder "$@"

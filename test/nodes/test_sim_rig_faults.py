@@ -17,7 +17,14 @@ from srs_testing import ros_args
 from std_msgs.msg import Float64MultiArray
 
 from srs_ros.core.robot import config_dir, default_robot
-from srs_ros.ros.interfaces import SIM_BOARD_TIMEOUT_S, SIM_MONITOR_TOPIC, bus_qos, setpoint_qos
+from srs_ros.ros.interfaces import (
+    SIM_BOARD_TIMEOUT_S,
+    SIM_COMMAND_TOPIC,
+    SIM_MONITOR_TOPIC,
+    bus_qos,
+    setpoint_qos,
+    stamp_to_seconds,
+)
 from srs_ros.sim.config import load_sim_config
 
 SIM_RIG = str(config_dir() / "rigs" / "sim.yaml")
@@ -38,11 +45,18 @@ class Rig:
         node = client.node
         node.create_subscription(Float64MultiArray, "commanded_pressure_bar",
                                  lambda m: self.commanded.append((time.monotonic(), max(m.data))), 100)
-        node.create_subscription(JointState, SIM_MONITOR_TOPIC,
-                                 lambda m: self.readback.append((time.monotonic(), max(m.effort))), bus_qos())
+        self.board_stamped = []  # (stamp s, largest pressure bar) of the commands on the bus, as sent
+        self.readback_stamped = []  # (stamp s, largest read-back pressure bar), as sim_world sent them
+        node.create_subscription(JointState, SIM_MONITOR_TOPIC, self._on_readback, bus_qos())
+        node.create_subscription(JointState, SIM_COMMAND_TOPIC, lambda m: self.board_stamped.append(
+            (stamp_to_seconds(m.header.stamp), max(m.effort))), bus_qos())
         publisher = node.create_publisher(JointState, "joint_setpoints", setpoint_qos())
         setpoint = JointState(name=NAMES, position=[0.04] * 9)
         node.create_timer(0.01, lambda: publisher.publish(setpoint))
+
+    def _on_readback(self, msg: JointState) -> None:
+        self.readback.append((time.monotonic(), max(msg.effort)))
+        self.readback_stamped.append((stamp_to_seconds(msg.header.stamp), max(msg.effort)))
 
     def commanding(self) -> bool:
         return bool(self.commanded) and self.commanded[-1][1] >= FULL_BAR
@@ -122,14 +136,13 @@ def test_sim_world_vents_by_itself_when_the_hardware_node_dies(launch_node, ros_
     hardware.kill()  # SIGKILL while commanding 4 bar: no vent from the host
     ros_client.spin_until(lambda: rig.readback[-1][1] < 0.05, 10.0, "the read-back falling to 0 bar")
     # The board's hold counts from the last command it got, which may come before the kill (a node stalled by a
-    # busy machine just before it died): measure from the last command seen on the wire. The read-back decays
-    # from 4 to 0.05 bar in the muscles' delay + ln(80) lag time constants once the board vents.
+    # busy machine just before it died): measure from the last command on the bus, by the stamps the hardware
+    # node and sim_world put on them (this client, stalled by a busy machine, may take both late and together).
+    # The read-back decays from 4 to 0.05 bar in the muscles' delay + ln(80) lag time constants once it vents.
     muscles = load_sim_config().muscles
     decay_s = muscles.transport_delay_s + np.log(4.0 / 0.05) * muscles.pressure_time_constant_s
-    last_command_s = rig.commanded[-1][0]
-    times = np.array([t for t, _ in rig.readback if t > last_command_s])
-    bars = np.array([bar for t, bar in rig.readback if t > last_command_s])
-    vented_s = times[bars < 0.05].min() - last_command_s
+    last_command_s = rig.board_stamped[-1][0]
+    vented_s = min(t for t, bar in rig.readback_stamped if t > last_command_s and bar < 0.05) - last_command_s
     print(f"hardware_node SIGKILLed at 4 bar: read-back < 0.05 bar {vented_s:.2f} s after the last command (board "
           f"timeout {SIM_BOARD_TIMEOUT_S:g} s + the muscles' decay {decay_s:.2f} s)")
     # The board holds the last command for its timeout of world time, then vents. Without the hold the read-back
