@@ -80,7 +80,9 @@ def test_a_second_regenerate_during_a_fit_is_answered_busy(launch_node, ros_clie
     # Every sample of this request is poor, so each goes through the fitter's slow global retry.
     launch_node("trajectory_server", ros_args({"generate_on_start": False, "samples": 64, "gait": "serpentine",
                                                "serpentine.poor_fit_mm": 0.1}))
-    client = ros_client.client(Trigger, "trajectory_server/regenerate")
+    # The client keeps every response of the burst below: with rclpy's default depth of 10, a client stalled by a
+    # busy machine loses the oldest ones (a call waiting for ever on the client's side, not the server's).
+    client = ros_client.client(Trigger, "trajectory_server/regenerate", depth=100)
     ros_client.spin_until(client.service_is_ready, 10.0, "trajectory_server/regenerate")
     first = client.call_async(Trigger.Request())
     ros_client.spin_for(0.2)

@@ -227,10 +227,16 @@ class RosClient:
         self.node.create_subscription(msg_type, topic, received.append, qos if qos is not None else 100)
         return received
 
-    def client(self, srv_type, name: str):
+    def client(self, srv_type, name: str, depth: int | None = None):
+        """A service client (one per name and type); ``depth``: its response queue, for bursts of calls beyond
+        rclpy's default of 10 (a busy client keeps only the newest 10 responses it has not taken yet)."""
         key = (name, srv_type)
         if key not in self._clients:
-            self._clients[key] = self.node.create_client(srv_type, name)
+            from rclpy.qos import QoSProfile, ReliabilityPolicy
+
+            qos = {} if depth is None else {"qos_profile": QoSProfile(depth=depth,
+                                                                     reliability=ReliabilityPolicy.RELIABLE)}
+            self._clients[key] = self.node.create_client(srv_type, name, **qos)
         return self._clients[key]
 
     def call(self, srv_type, name: str, request=None, timeout_s: float = 10.0):
