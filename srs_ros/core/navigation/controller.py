@@ -43,10 +43,6 @@ CYCLE_AHEAD_FROM_LAST_CYCLE = True
 STRAIGHT_WITHIN = 0.7
 
 
-def _other(direction: str) -> str:
-    return other_direction(direction)
-
-
 class NavigationController(FineDriving):
     """Goals and camera poses in, :class:`GaitCommand` out; see the module docstring and docs/navigation.md."""
 
@@ -241,7 +237,7 @@ class NavigationController(FineDriving):
             self._heading_error_rad = error
             held = now_s - self._changed_s >= self._hold_s(settings.min_hold_cycles)
             if not held or self._out_of_reach(toward, error, distance_m, 1.2):
-                return _other(toward), math.copysign(limit, error)
+                return other_direction(toward), math.copysign(limit, error)
             self._backing_from = None
         direction = self._choose_direction(now_s, errors, settings.min_hold_cycles)
         error, distance_m = errors[direction], distances[direction]
@@ -249,7 +245,7 @@ class NavigationController(FineDriving):
         if self._out_of_reach(direction, error, distance_m, 1.0):
             self._backing_from = direction
             self._message = "the goal is too close to the side to turn to: backing away while turning"
-            return _other(direction), math.copysign(limit, error)
+            return other_direction(direction), math.copysign(limit, error)
         level = self._level if direction == self._command.direction and self._level is not None else None
         travel = self.travel.travel_m[direction][len(self.travel.levels_rad) // 2 if level is None else level]
         arc_deg = math.degrees(2.0 * math.sin(error) * float(travel) / max(distance_m, 1e-3))
