@@ -28,12 +28,32 @@ FINE_YAW_WINDOW_S = 1.0
 #: the goal this close across its travel (times goal_tolerance_m) and this close along it (times fine_distance_m).
 FINE_STOP_ACROSS = 0.5
 FINE_STOP_ALONG = 0.6
+#: ... or where it is predicted to rest this close to the goal (times fine_distance_m), on the line or not.
+FINE_STOP_NEAR = 0.6
 #: The fine approach turns on the spot toward the goal's line at most this many times per goal, each time only
 #: when the line needs at most this much turn (rad); otherwise the cruise gait drives round.
 FINE_MAX_PIVOTS = 6
 FINE_PIVOT_MAX_RAD = math.radians(60.0)
 #: A robot whose pose moved less than 5 mm over this long (s) is at rest (a goal given at rest).
 FINE_REST_WINDOW_S = 0.5
+
+
+def rests_near_enough(rest_xy_m, heading_rad: float, goal: tuple[float, float], settings) -> bool:
+    """True when a stop that rests at ``rest_xy_m`` (travelling along ``heading_rad``) is worth making.
+
+    It rests within the stop window of the goal or, with the fine approach on, near the goal: on the goal's line
+    (within FINE_STOP_ACROSS x the tolerance across the travel and FINE_STOP_ALONG x ``fine_distance_m`` along
+    it), or anywhere within FINE_STOP_NEAR x ``fine_distance_m`` (the fine approach goes on from rest; a cruise
+    gait that waited for the line circled some goals on its turning circle for a minute).
+    """
+    tolerance, fine_m = settings.goal_tolerance_m, settings.fine_distance_m
+    distance = math.dist(rest_xy_m, goal)
+    if distance <= STOP_WITHIN * tolerance:
+        return True
+    along, across = FineApproach.line(Pose2D(float(rest_xy_m[0]), float(rest_xy_m[1]), 0.0, 0.0), goal,
+                                      heading_rad - math.pi / 2)
+    return fine_m > 0.0 and (distance <= FINE_STOP_NEAR * fine_m or (
+        abs(across) <= FINE_STOP_ACROSS * tolerance and abs(along) <= FINE_STOP_ALONG * fine_m))
 
 
 class FineDriving:
@@ -116,7 +136,10 @@ class FineDriving:
         """Near the goal but off its line: start a turn on the spot; False when it cannot or should not.
 
         The turn on the spot is an inward and an outward stroke turning the same way; it is started when the line
-        needs at most FINE_PIVOT_MAX_RAD of turn, at most FINE_MAX_PIVOTS times per goal.
+        needs at most FINE_PIVOT_MAX_RAD of turn, at most FINE_MAX_PIVOTS times per goal. The stroke played last
+        is the direction that rolls on less after a stop (:meth:`StopModel.steadiest_direction`: at 4 bar 1 Hz
+        outward rolling rests within about 5 cm of where it stopped, inward rolling 14-27 cm ahead), so the turn
+        leaves the robot where it was.
         """
         settings, fine = self.settings, self.fine
         if settings.fine_distance_m <= 0.0 or distance >= settings.fine_distance_m or \
@@ -130,8 +153,8 @@ class FineDriving:
         levels = {d: self.turns.fastest_deg(d, sign) for d in DIRECTIONS}
         if all(rate * sign <= 1.0 for _, rate in levels.values()):
             return False
-        first = DIRECTIONS[0] if along >= 0.0 else DIRECTIONS[1]
-        second = other_direction(first)
+        second = self.stops.steadiest_direction()  # the stroke before the stop: the shorter roll-on
+        first = other_direction(second)
         fine.start_pivot(pose.time_s, sign, [(first, levels[first][0]), (second, levels[second][0])])
         return True
 

@@ -23,13 +23,13 @@ from collections.abc import Iterable, Sequence
 import numpy as np
 
 from srs_ros.core.errors import InvalidInputError
-from srs_ros.core.navigation.approach import FINE_STOP_ACROSS, FINE_STOP_ALONG, FINE_YAW_WINDOW_S, FineDriving
+from srs_ros.core.navigation.approach import FINE_YAW_WINDOW_S, FineDriving, rests_near_enough
 from srs_ros.core.navigation.area import FloorArea
 from srs_ros.core.navigation.commands import GaitCommand, GoalDecision, NavigationProgress, NavigationState
 from srs_ros.core.navigation.fine import FineApproach
 from srs_ros.core.navigation.motion import Pose2D, PoseHistory, TravelModel, TurnModel, measure_cycle, wrap_rad
 from srs_ros.core.navigation.settings import DIRECTIONS, STOP_PHASES, NavigationSettings, other_direction
-from srs_ros.core.navigation.stopping import STOP_WITHIN, StopModel, StopPlan, crossed_phase
+from srs_ros.core.navigation.stopping import StopModel, StopPlan, crossed_phase
 
 #: Cycles after a gait change before the camera's cycle measurements count (the cross-fade and the body settle).
 SETTLE_CYCLES = 0.5
@@ -372,16 +372,11 @@ class NavigationController(FineDriving):
         """True to stop at the phase just passed (or a cycle later).
 
         The robot would rest within the stop window of the goal or, with the fine approach, on the goal's line
-        (across its travel) near the goal.
+        (across its travel) near the goal, or anywhere near it (the fine approach goes on from rest: a cruise
+        gait that waited for the line could circle the goal on its turning circle for a minute).
         """
         rest, heading = self._predicted_rest(pose, phase_index)
-        tolerance = self.settings.goal_tolerance_m
-        if math.dist(rest, self.goal) <= STOP_WITHIN * tolerance:
-            return True
-        along, across = FineApproach.line(Pose2D(float(rest[0]), float(rest[1]), 0.0, pose.time_s), self.goal,
-                                          heading - math.pi / 2)
-        return (self.settings.fine_distance_m > 0.0 and abs(across) <= FINE_STOP_ACROSS * tolerance
-                and abs(along) <= FINE_STOP_ALONG * self.settings.fine_distance_m)
+        return rests_near_enough(rest, heading, self.goal, self.settings)
 
     def _begin_stop(self, pose: Pose2D, phase_index: int) -> None:
         direction, ahead = self._command.direction, self.settings.stop_cycle_ahead

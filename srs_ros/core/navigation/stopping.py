@@ -113,3 +113,7 @@ class StopModel:
         offsets = self.offset_m[direction]
         return rotate((offsets.mean(axis=(0, 1)) if level_index is None else offsets[level_index].mean(axis=0)),
                       heading_rad)
+
+    def steadiest_direction(self) -> str:
+        """The direction whose learned rest lies nearest where it stopped (mean over levels and phases)."""
+        return min(DIRECTIONS, key=lambda d: float(np.linalg.norm(self.offset_m[d].mean(axis=(0, 1)))))

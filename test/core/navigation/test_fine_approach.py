@@ -12,9 +12,10 @@ import numpy as np
 import pytest
 
 from srs_ros.core.navigation import NavigationController, NavigationState, Pose2D, load_navigation_settings
+from srs_ros.core.navigation.approach import rests_near_enough
 from srs_ros.core.navigation.fine import FineApproach, next_stop_phase
 from srs_ros.core.navigation.motion import PoseHistory
-from srs_ros.core.navigation.settings import DIRECTIONS
+from srs_ros.core.navigation.settings import DIRECTIONS, STOP_PHASES
 
 from .test_controller import AREA, FRAME_S, MAP, Roller
 
@@ -136,3 +137,52 @@ def test_a_robot_pushed_off_the_line_after_a_creep_stop_is_not_crept_on():
     assert pushed, "the stand-in never made a creep stop"
     moving = [c for c in after if c.moving]
     assert moving and moving[0].amplitude_bar != settings.fine_amplitude_bar, moving[:1]
+
+
+def test_the_cruise_gait_stops_where_it_would_rest_near_the_goal_even_off_its_line():
+    """A cruise stop predicted to rest 15 cm from the goal, 10 cm across the line, is made: the fine approach goes
+    on from rest. Waiting for the line let the physics' robot circle such goals on its turning circle for 60 s."""
+    settings = load_navigation_settings({}, turning_map=MAP)
+    goal, heading = (0.0, 0.0), math.pi / 2  # travelling along +y
+    near_off_line = (0.10, -0.11)             # 10 cm across, 11 cm short: 0.149 m from the goal
+    assert rests_near_enough(near_off_line, heading, goal, settings)
+    assert not rests_near_enough((0.25, -0.05), heading, goal, settings)  # 0.255 m away, off the line
+    assert rests_near_enough((0.01, -0.18), heading, goal, settings)      # on the line, 18 cm short
+    assert rests_near_enough((0.02, 0.02), heading, goal, settings)       # within the stop window
+    without = load_navigation_settings({"fine_distance_m": 0.0}, turning_map=MAP)
+    assert not rests_near_enough(near_off_line, heading, goal, without)
+    assert rests_near_enough((0.02, 0.02), heading, goal, without)
+
+
+def pivot_strokes(stops_learned=()):
+    """The directions of the turn on the spot a resting robot plays toward a goal behind it and off its line."""
+    settings = load_navigation_settings({}, turning_map=MAP)
+    controller, roller = NavigationController(settings, AREA), AmplitudeRoller()
+    for direction, rest_m in stops_learned:  # stops seen before: the robot rested rest_m ahead at every phase
+        for phase in range(len(STOP_PHASES)):
+            controller.stops.learn(direction, phase, 0.0, np.array([rest_m, 0.0]))
+    controller.set_goal(0.10, -0.25, now_s=0.0)  # behind the inward travel (+y), 22 deg off the line
+    strokes, now = [], 0.0
+    while now < 10.0:
+        controller.update_gait_phase(roller.phase)
+        controller.update_pose(roller.pose(now))
+        command = controller.tick(now)
+        if command.moving and "on the spot" in command.reason and (not strokes or strokes[-1] != command.direction):
+            strokes.append(command.direction)
+        if strokes and not command.moving:
+            break
+        roller.step(command, now)
+        now += FRAME_S
+    return controller, strokes
+
+
+def test_the_turn_on_the_spot_ends_with_the_direction_that_rolls_on_least_after_a_stop():
+    """Outward rolling at 4 bar 1 Hz rests within about 5 cm of its stop, inward 14-27 cm ahead (the physics): the
+    stroke before the stop is the steadier one whichever side the goal is on, so the turn leaves the robot where it
+    was. What the controller learned of the stops decides it (here the goal lies behind: outward rolling's side)."""
+    controller, strokes = pivot_strokes([("outward_rolling", 0.03), ("inward_rolling", 0.20)])  # as the physics
+    assert controller.stops.steadiest_direction() == "outward_rolling"
+    assert strokes == ["inward_rolling", "outward_rolling"]
+    controller, strokes = pivot_strokes([("outward_rolling", 0.25), ("inward_rolling", 0.01)])
+    assert controller.stops.steadiest_direction() == "inward_rolling"
+    assert strokes == ["outward_rolling", "inward_rolling"]
