@@ -80,9 +80,12 @@ class FineDriving:
         if not creeping:
             fine.start(now_s)  # the body straightens from the cruise gait's C, or starts from rest
         settled = creeping and fine.settled(now_s, self._changed_s)
-        yaw = self.history.smoothed_yaw_rad(FINE_YAW_WINDOW_S)
+        body_yaw = self.history.smoothed_yaw_rad(FINE_YAW_WINDOW_S)
         if settled:  # the line the robot is seen to creep on (a nearly straight body still skews by up to 10 deg)
-            yaw = FineApproach.line_yaw_rad(self.history, yaw, command.direction)
+            yaw = FineApproach.line_yaw_rad(self.history, body_yaw, command.direction)
+            fine.learn_skew(command.direction, yaw, body_yaw, (fine.since_s, self._changed_s))
+        else:
+            yaw = self._resting_line(pose)[3] if not creeping else fine.line_yaw_at_rest(body_yaw, command.direction)
         along, across = FineApproach.line(pose, self.goal, yaw)
         if settled and abs(across) > FINE_LINE_WITHIN * settings.goal_tolerance_m:
             fine.leave()
@@ -145,18 +148,34 @@ class FineDriving:
         if settings.fine_distance_m <= 0.0 or distance >= settings.fine_distance_m or \
                 fine.pivots >= FINE_MAX_PIVOTS:
             return False
-        along, across = FineApproach.line(pose, self.goal, self.history.smoothed_yaw_rad(FINE_YAW_WINDOW_S))
+        _, along, across, _ = self._resting_line(pose)
         turn_rad = math.atan2(across, along) if along >= 0.0 else math.atan2(-across, -along)
         if abs(turn_rad) > FINE_PIVOT_MAX_RAD:
             return False
+        second = self.stops.steadiest_direction()  # the stroke before the stop: the shorter roll-on
+        first = other_direction(second)
         sign = 1 if turn_rad > 0.0 else -1
         levels = {d: self.turns.fastest_deg(d, sign) for d in DIRECTIONS}
         if all(rate * sign <= 1.0 for _, rate in levels.values()):
             return False
-        second = self.stops.steadiest_direction()  # the stroke before the stop: the shorter roll-on
-        first = other_direction(second)
         fine.start_pivot(pose.time_s, sign, [(first, levels[first][0]), (second, levels[second][0])])
         return True
+
+    def _resting_line(self, pose: Pose2D) -> tuple[str, float, float, float]:
+        """The direction that faces the goal from rest, the goal along and across its creeping line (m), its yaw.
+
+        Each direction creeps square to the body turned by its learned skew; the goal lies ahead of inward rolling
+        (along >= 0) or behind, where outward rolling goes; on the body's axis, the nearer line is taken.
+        """
+        body_yaw = self.history.smoothed_yaw_rad(FINE_YAW_WINDOW_S)
+        lines = {d: (*FineApproach.line(pose, self.goal, self.fine.line_yaw_at_rest(body_yaw, d)),
+                     self.fine.line_yaw_at_rest(body_yaw, d)) for d in DIRECTIONS}
+        ahead, behind = lines[DIRECTIONS[0]][0] >= 0.0, lines[DIRECTIONS[1]][0] < 0.0
+        if ahead != behind:
+            direction = min(DIRECTIONS, key=lambda d: abs(lines[d][1]))
+        else:
+            direction = DIRECTIONS[0] if ahead else DIRECTIONS[1]
+        return (direction, *lines[direction])
 
     def _pivot(self, pose: Pose2D) -> None:
         """Play the turn on the spot: one cycle each of its two strokes, then stop and rest (then look again)."""
@@ -179,5 +198,4 @@ class FineDriving:
         settings = self.settings
         if settings.fine_distance_m <= 0.0 or distance >= settings.fine_distance_m:
             return False
-        _, across = FineApproach.line(pose, self.goal, self.history.smoothed_yaw_rad(FINE_YAW_WINDOW_S))
-        return abs(across) <= FINE_LINE_WITHIN * settings.goal_tolerance_m
+        return abs(self._resting_line(pose)[2]) <= FINE_LINE_WITHIN * settings.goal_tolerance_m

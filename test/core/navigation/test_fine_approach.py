@@ -120,7 +120,7 @@ def test_a_robot_pushed_off_the_line_after_a_creep_stop_is_not_crept_on():
     so the controller drives round with the cruise gait, not on creeping along a line that misses the goal."""
     settings = load_navigation_settings({}, turning_map=MAP)
     controller, roller = NavigationController(settings, AREA), AmplitudeRoller()
-    controller.set_goal(0.0, 0.6, now_s=0.0)
+    controller.set_goal(0.3, 0.5, now_s=0.0)  # a goal the stand-in ends with a creep
     now, pushed, after = 0.0, False, []
     while now < 120.0 and len(after) < 50:
         controller.update_gait_phase(roller.phase)
@@ -186,3 +186,42 @@ def test_the_turn_on_the_spot_ends_with_the_direction_that_rolls_on_least_after_
     controller, strokes = pivot_strokes([("outward_rolling", 0.25), ("inward_rolling", 0.01)])
     assert controller.stops.steadiest_direction() == "inward_rolling"
     assert strokes == ["outward_rolling", "inward_rolling"]
+
+
+class SkewedRoller(AmplitudeRoller):
+    """At the fine amplitude it creeps 10 deg off square to its body, the same way every time."""
+
+    SKEW_RAD = math.radians(10.0)
+
+    def _roll(self, command):
+        fine = command.amplitude_bar <= 2.5
+        if fine:
+            self.yaw += self.SKEW_RAD
+        super()._roll(command)
+        if fine:
+            self.yaw -= self.SKEW_RAD
+
+
+def test_the_creeping_lines_skew_is_learned_and_used_from_rest():
+    """The robot creeps 10 deg off square: the controller learns it from its first creep and then judges the line
+    from rest with it (the body's square alone put a goal 0.3 m away 5 cm off the line)."""
+    settings = load_navigation_settings({}, turning_map=MAP)
+    controller, roller = NavigationController(settings, AREA), SkewedRoller()
+    controller.set_goal(0.3, 0.5, now_s=0.0)
+    now = 0.0
+    while now < 120.0 and (controller.state.active or roller.moving_or_settling(now)):
+        controller.update_gait_phase(roller.phase)
+        controller.update_pose(roller.pose(now))
+        roller.step(controller.tick(now), now)
+        now += FRAME_S
+    assert controller.state is NavigationState.REACHED and math.dist((0.3, 0.5), (roller.x, roller.y)) <= 0.05
+    learned = [controller.fine.skew_rad[d] for d in DIRECTIONS if controller.fine._skew_measured[d]]
+    assert learned and all(abs(math.degrees(s) - 10.0) < 2.0 for s in learned), learned
+    # at rest, a goal 0.3 m along the skewed line is on the line; square to the body it would be 5 cm off
+    controller.fine.skew_rad = {d: math.radians(10.0) for d in DIRECTIONS}
+    yaw = controller.history.smoothed_yaw_rad(1.0)
+    heading = yaw + math.radians(10.0) + math.pi / 2
+    goal = (roller.x + 0.3 * math.cos(heading), roller.y + 0.3 * math.sin(heading))
+    controller.set_goal(*goal, now_s=now)
+    direction, along, across, _ = controller._resting_line(Pose2D(roller.x, roller.y, roller.yaw, now))
+    assert direction == "inward_rolling" and along == pytest.approx(0.3, abs=0.01) and abs(across) < 0.005
