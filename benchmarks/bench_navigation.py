@@ -17,7 +17,7 @@ Targets of the issue: >= 9 of 10 reached within 5 cm, median time <= 2 x straigh
 pose reaches it late, stamped with its frame's time and gait phase, each command reaches the gait player late,
 and every 10 s on average the navigator stalls for 0.3 s).
 
-Run: python benchmarks/bench_navigation.py [--goals 10] [--seed 20] [--camera] [--sim-config FILE]
+Run: python benchmarks/bench_navigation.py [--goals 10] [--seed 20 [7 3 ...]] [--camera] [--sim-config FILE]
      [--friction isotropic|anisotropic] [--latency 0.1 0.2]
 """
 
@@ -41,7 +41,8 @@ def gait_speed_m_s(config) -> float:
     return statistics.mean(m.speed_m_s for m in runs)
 
 
-def report(label, config, goals, camera, settings, latency=None):
+def report(label, config, goals, camera, settings, latency=None) -> tuple[int, list[float]]:
+    """Drive to ``goals`` and print the figures; returns (goals reached, time ratio of every goal)."""
     started = time.perf_counter()
     speed = gait_speed_m_s(config)
     result = run_navigation(goals, config=config, settings=settings, camera=camera, from_start=True,
@@ -60,12 +61,14 @@ def report(label, config, goals, camera, settings, latency=None):
           f"median {statistics.median(ratios):.2f} (target <= 2), of the reached ones {reached_ratio:.2f}")
     print(f"  path / straight: median {statistics.median(o.path_length_m / o.straight_m for o in outcomes):.2f}"
           f"; wall {time.perf_counter() - started:.0f} s")
+    return len(reached), ratios
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--goals", type=int, default=10)
-    parser.add_argument("--seed", type=int, default=20)
+    parser.add_argument("--seed", type=int, nargs="+", default=[20],
+                        help="seed(s) of the goal sets; several: a line per set and the totals per physics")
     parser.add_argument("--camera", action="store_true", help="pose from the simulated camera + tracker")
     parser.add_argument("--sim-config", help="another simulation config (e.g. the calibrated one)")
     parser.add_argument("--friction", choices=("isotropic", "anisotropic"), action="append",
@@ -85,14 +88,21 @@ def main() -> None:
         except ValueError:
             pass  # a text setting (turning_map_file)
     settings = load_navigation_settings(overrides)
-    latency = Latency(args.latency[0], args.latency[1], 10.0, 0.3, seed=args.seed) if args.latency else None
     base = load_sim_config(args.sim_config)
     for friction in args.friction or ("isotropic", "anisotropic"):
         config = base.replace("contact", friction=friction)
-        goals = random_goals(np.random.default_rng(args.seed), args.goals, config, settings)
-        late = f", poses {args.latency[0]:g} s and commands {args.latency[1]:g} s late" if latency else ""
-        report(f"{Path(base.source).name}: {config.contact.describe()} ({'camera' if args.camera else 'simulator pose'}"
-               f"{late})", config, goals, args.camera, settings, latency)
+        reached, ratios = 0, []
+        for seed in args.seed:
+            latency = Latency(args.latency[0], args.latency[1], 10.0, 0.3, seed=seed) if args.latency else None
+            goals = random_goals(np.random.default_rng(seed), args.goals, config, settings)
+            late = f", poses {args.latency[0]:g} s and commands {args.latency[1]:g} s late" if latency else ""
+            got, seed_ratios = report(f"{Path(base.source).name}: {config.contact.describe()} (seed {seed}, "
+                                      f"{'camera' if args.camera else 'simulator pose'}{late})", config, goals,
+                                      args.camera, settings, latency)
+            reached, ratios = reached + got, ratios + seed_ratios
+        if len(args.seed) > 1:
+            print(f"{config.contact.describe()}, seeds {' '.join(map(str, args.seed))}: {reached} of {len(ratios)} "
+                  f"reached; time / (straight / speed): median {statistics.median(ratios):.2f}\n")
 
 
 if __name__ == "__main__":
