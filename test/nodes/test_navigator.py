@@ -121,7 +121,10 @@ def test_a_silent_tracker_is_a_lost_pose_the_gait_stops_and_vents_and_waits_for_
     # may be older than the SIGSTOP: the bound that matters is the upper one)
     silent = re.search(r"no pose from the camera for ([0-9.]+) s", lost["message"])
     assert silent and float(silent.group(1)) >= 1.0, lost["message"]
-    assert lost_s < 2.5 and not robot.state()["gait_playing"]  # gait_player answered the stop
+    assert lost_s < 2.5
+    # gait_player answered the stop: the navigator's state says so on its next publication (a loaded machine
+    # delays it past the vent, seen once in a full suite run); a gait that went on playing fails here
+    robot.wait(lambda: not robot.state()["gait_playing"], 3.0, "the navigator's state: the gait no longer playing")
     count = len(robot.tracked)
     robot.wait(lambda: len(robot.tracked) > count + 10, 10.0, "the tracker back")
     robot.client.spin_for(1.0)
