@@ -38,13 +38,16 @@ FINE_PIVOT_MAX_RAD = math.radians(60.0)
 FINE_REST_WINDOW_S = 0.5
 
 
-def rests_near_enough(rest_xy_m, heading_rad: float, goal: tuple[float, float], settings) -> bool:
+def rests_near_enough(rest_xy_m, heading_rad: float, goal: tuple[float, float], settings,
+                      near_off_line: bool = True) -> bool:
     """True when a stop that rests at ``rest_xy_m`` (travelling along ``heading_rad``) is worth making.
 
     It rests within the stop window of the goal or, with the fine approach on, near the goal: on the goal's line
     (within FINE_STOP_ACROSS x the tolerance across the travel and FINE_STOP_ALONG x ``fine_distance_m`` along
     it), or anywhere within FINE_STOP_NEAR x ``fine_distance_m`` (the fine approach goes on from rest; a cruise
-    gait that waited for the line circled some goals on its turning circle for a minute).
+    gait that waited for the line circled some goals on its turning circle for a minute); ``near_off_line``
+    False (no turn on the spot left for this goal) leaves that last case out, so the robot does not stop and
+    start again near a goal it can no longer turn to.
     """
     tolerance, fine_m = settings.goal_tolerance_m, settings.fine_distance_m
     distance = math.dist(rest_xy_m, goal)
@@ -52,7 +55,7 @@ def rests_near_enough(rest_xy_m, heading_rad: float, goal: tuple[float, float], 
         return True
     along, across = FineApproach.line(Pose2D(float(rest_xy_m[0]), float(rest_xy_m[1]), 0.0, 0.0), goal,
                                       heading_rad - math.pi / 2)
-    return fine_m > 0.0 and (distance <= FINE_STOP_NEAR * fine_m or (
+    return fine_m > 0.0 and ((near_off_line and distance <= FINE_STOP_NEAR * fine_m) or (
         abs(across) <= FINE_STOP_ACROSS * tolerance and abs(along) <= FINE_STOP_ALONG * fine_m))
 
 
@@ -82,8 +85,10 @@ class FineDriving:
         settled = creeping and fine.settled(now_s, self._changed_s)
         body_yaw = self.history.smoothed_yaw_rad(FINE_YAW_WINDOW_S)
         if settled:  # the line the robot is seen to creep on (a nearly straight body still skews by up to 10 deg)
-            yaw = FineApproach.line_yaw_rad(self.history, body_yaw, command.direction)
-            fine.learn_skew(command.direction, yaw, body_yaw, (fine.since_s, self._changed_s))
+            seen = FineApproach.line_yaw_rad(self.history, command.direction)
+            if seen is not None:
+                fine.learn_skew(command.direction, seen, body_yaw, (fine.since_s, self._changed_s))
+            yaw = body_yaw if seen is None else seen
         else:
             yaw = self._resting_line(pose)[3] if not creeping else fine.line_yaw_at_rest(body_yaw, command.direction)
         along, across = FineApproach.line(pose, self.goal, yaw)
@@ -171,7 +176,7 @@ class FineDriving:
         lines = {d: (*FineApproach.line(pose, self.goal, self.fine.line_yaw_at_rest(body_yaw, d)),
                      self.fine.line_yaw_at_rest(body_yaw, d)) for d in DIRECTIONS}
         ahead, behind = lines[DIRECTIONS[0]][0] >= 0.0, lines[DIRECTIONS[1]][0] < 0.0
-        if ahead != behind:
+        if ahead == behind:  # the two lines disagree: the goal lies near the body's axis
             direction = min(DIRECTIONS, key=lambda d: abs(lines[d][1]))
         else:
             direction = DIRECTIONS[0] if ahead else DIRECTIONS[1]

@@ -23,7 +23,7 @@ from collections.abc import Iterable, Sequence
 import numpy as np
 
 from srs_ros.core.errors import InvalidInputError
-from srs_ros.core.navigation.approach import FINE_YAW_WINDOW_S, FineDriving, rests_near_enough
+from srs_ros.core.navigation.approach import FINE_MAX_PIVOTS, FINE_YAW_WINDOW_S, FineDriving, rests_near_enough
 from srs_ros.core.navigation.area import FloorArea
 from srs_ros.core.navigation.commands import GaitCommand, GoalDecision, NavigationProgress, NavigationState
 from srs_ros.core.navigation.fine import FineApproach
@@ -376,7 +376,7 @@ class NavigationController(FineDriving):
         gait that waited for the line could circle the goal on its turning circle for a minute).
         """
         rest, heading = self._predicted_rest(pose, phase_index)
-        return rests_near_enough(rest, heading, self.goal, self.settings)
+        return rests_near_enough(rest, heading, self.goal, self.settings, self.fine.pivots < FINE_MAX_PIVOTS)
 
     def _begin_stop(self, pose: Pose2D, phase_index: int) -> None:
         direction, ahead = self._command.direction, self.settings.stop_cycle_ahead

@@ -54,8 +54,9 @@ class FineApproach:
         self.offset_m = {d: np.tile(np.asarray(FINE_REST_GUESS_M, dtype=np.float64), (len(STOP_PHASES), 1))
                          for d in DIRECTIONS}
         self.measured = {d: np.zeros(len(STOP_PHASES), dtype=int) for d in DIRECTIONS}
-        #: Per direction, the angle from the resting body's yaw to the yaw whose square the robot creeps on (rad):
-        #: a nearly straight body still creeps up to 10 deg off square, the same way every time (measured).
+        #: Per direction, the angle from the body's yaw (a 1 s fit while creeping, used from rest) to the yaw whose
+        #: square the robot creeps on (rad): a nearly straight body still creeps up to 10 deg off square, the same
+        #: way every time (measured).
         self.skew_rad = {d: 0.0 for d in DIRECTIONS}
         self._skew_measured = {d: 0 for d in DIRECTIONS}
         self._skew_episode: tuple[float, float] | None = None
@@ -127,14 +128,14 @@ class FineApproach:
                    quarter + float(np.max(self.offset_m[direction][:, 0])) + tolerance_m)
 
     @staticmethod
-    def line_yaw_rad(history: PoseHistory, yaw_rad: float, direction: str) -> float:
+    def line_yaw_rad(history: PoseHistory, direction: str) -> float | None:
         """The body yaw whose square is the way the robot was seen to creep.
 
-        Over the last :data:`FINE_SPEED_WINDOW_S`; ``yaw_rad`` when it moved less than :data:`FINE_MIN_MOVE_M`.
+        Over the last :data:`FINE_SPEED_WINDOW_S`; None when it moved less than :data:`FINE_MIN_MOVE_M`.
         """
         rows = history.window(FINE_SPEED_WINDOW_S)
         if len(rows) < 3 or float(np.linalg.norm(rows[-1, 1:3] - rows[0, 1:3])) < FINE_MIN_MOVE_M:
-            return yaw_rad
+            return None
         dx, dy = rows[-1, 1:3] - rows[0, 1:3]
         return math.atan2(dy, dx) - (math.pi / 2 if direction == DIRECTIONS[0] else -math.pi / 2)
 

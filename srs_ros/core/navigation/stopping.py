@@ -115,5 +115,5 @@ class StopModel:
                       heading_rad)
 
     def steadiest_direction(self) -> str:
-        """The direction whose learned rest lies nearest where it stopped (mean over levels and phases)."""
-        return min(DIRECTIONS, key=lambda d: float(np.linalg.norm(self.offset_m[d].mean(axis=(0, 1)))))
+        """The direction whose learned rests lie nearest where it stopped (mean distance over levels and phases)."""
+        return min(DIRECTIONS, key=lambda d: float(np.linalg.norm(self.offset_m[d], axis=-1).mean()))

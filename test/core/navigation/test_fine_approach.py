@@ -103,7 +103,11 @@ def test_the_line_is_taken_from_the_motion_and_the_roll_on_is_learned():
     for k in range(20):  # creeping inward along a line 10 deg off square to a body whose yaw is 0
         t = k / 30.0
         history.add(Pose2D(0.04 * t * math.cos(math.radians(100)), 0.04 * t * math.sin(math.radians(100)), 0.0, t))
-    assert math.degrees(FineApproach.line_yaw_rad(history, 0.0, "inward_rolling")) == pytest.approx(10.0)
+    assert math.degrees(FineApproach.line_yaw_rad(history, "inward_rolling")) == pytest.approx(10.0)
+    still = PoseHistory()
+    for k in range(20):  # hardly moved (a reversal through zero frequency): no line to learn a skew from
+        still.add(Pose2D(0.001 * k / 20, 0.0, 0.0, k / 30.0))
+    assert FineApproach.line_yaw_rad(still, "inward_rolling") is None
     assert FineApproach.speed_m_s(history, math.radians(100)) == pytest.approx(0.04)
     fine = FineApproach(0.5)
     fine.learn("outward_rolling", 2, math.pi / 2, np.array([0.0, 0.06]))  # rolled on 6 cm along +y
@@ -178,8 +182,8 @@ def pivot_strokes(stops_learned=()):
 
 def test_the_turn_on_the_spot_ends_with_the_direction_that_rolls_on_least_after_a_stop():
     """Outward rolling at 4 bar 1 Hz rests within about 5 cm of its stop, inward 14-27 cm ahead (the physics): the
-    stroke before the stop is the steadier one whichever side the goal is on, so the turn leaves the robot where it
-    was. What the controller learned of the stops decides it (here the goal lies behind: outward rolling's side)."""
+    stroke before the stop is the steadier one, not the one toward the goal, so the turn leaves the robot where it
+    was. What the controller learned of the stops decides it (the goal lies behind, on outward rolling's side)."""
     controller, strokes = pivot_strokes([("outward_rolling", 0.03), ("inward_rolling", 0.20)])  # as the physics
     assert controller.stops.steadiest_direction() == "outward_rolling"
     assert strokes == ["inward_rolling", "outward_rolling"]
@@ -225,3 +229,12 @@ def test_the_creeping_lines_skew_is_learned_and_used_from_rest():
     controller.set_goal(*goal, now_s=now)
     direction, along, across, _ = controller._resting_line(Pose2D(roller.x, roller.y, roller.yaw, now))
     assert direction == "inward_rolling" and along == pytest.approx(0.3, abs=0.01) and abs(across) < 0.005
+    # skews that differ per direction: a goal ahead is judged on the inward line, one behind on the outward line
+    controller.fine.skew_rad = {"inward_rolling": math.radians(10.0), "outward_rolling": math.radians(-10.0)}
+    pose = Pose2D(roller.x, roller.y, roller.yaw, now)
+    direction, along, across, _ = controller._resting_line(pose)
+    assert direction == "inward_rolling" and abs(across) < 0.005
+    back = yaw - math.radians(10.0) - math.pi / 2  # outward travel along the outward line
+    controller.set_goal(roller.x + 0.3 * math.cos(back), roller.y + 0.3 * math.sin(back), now_s=now)
+    direction, along, across, _ = controller._resting_line(pose)
+    assert direction == "outward_rolling" and along == pytest.approx(-0.3, abs=0.01) and abs(across) < 0.005
