@@ -234,6 +234,11 @@ def test_the_creeping_lines_skew_is_learned_and_used_from_rest():
     pose = Pose2D(roller.x, roller.y, roller.yaw, now)
     direction, along, across, _ = controller._resting_line(pose)
     assert direction == "inward_rolling" and abs(across) < 0.005
+    ahead_on_outward = yaw - math.radians(10.0) + math.pi / 2  # ahead, where only inward rolling goes
+    controller.set_goal(roller.x + 0.3 * math.cos(ahead_on_outward), roller.y + 0.3 * math.sin(ahead_on_outward),
+                        now_s=now)
+    direction, along, across, _ = controller._resting_line(pose)
+    assert direction == "inward_rolling" and across == pytest.approx(-0.3 * math.sin(math.radians(20.0)), abs=0.005)
     back = yaw - math.radians(10.0) - math.pi / 2  # outward travel along the outward line
     controller.set_goal(roller.x + 0.3 * math.cos(back), roller.y + 0.3 * math.sin(back), now_s=now)
     direction, along, across, _ = controller._resting_line(pose)
