@@ -173,8 +173,8 @@ class FineDriving:
         (along >= 0) or behind, where outward rolling goes; on the body's axis, the nearer line is taken.
         """
         body_yaw = self.history.smoothed_yaw_rad(FINE_YAW_WINDOW_S)
-        lines = {d: (*FineApproach.line(pose, self.goal, self.fine.line_yaw_at_rest(body_yaw, d)),
-                     self.fine.line_yaw_at_rest(body_yaw, d)) for d in DIRECTIONS}
+        yaws = {d: self.fine.line_yaw_at_rest(body_yaw, d) for d in DIRECTIONS}
+        lines = {d: (*FineApproach.line(pose, self.goal, yaws[d]), yaws[d]) for d in DIRECTIONS}
         ahead, behind = lines[DIRECTIONS[0]][0] >= 0.0, lines[DIRECTIONS[1]][0] < 0.0
         if ahead == behind:  # the two lines disagree: the goal lies near the body's axis
             direction = min(DIRECTIONS, key=lambda d: abs(lines[d][1]))

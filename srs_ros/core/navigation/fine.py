@@ -20,7 +20,7 @@ import math
 
 import numpy as np
 
-from srs_ros.core.navigation.motion import Pose2D, PoseHistory
+from srs_ros.core.navigation.motion import Pose2D, PoseHistory, wrap_rad
 from srs_ros.core.navigation.settings import DIRECTIONS, STOP_PHASES
 from srs_ros.core.navigation.stopping import rotate
 
@@ -173,15 +173,14 @@ class FineApproach:
         if episode == self._skew_episode:
             return
         self._skew_episode = episode
-        measured = math.remainder(line_yaw_rad - body_yaw_rad, 2.0 * math.pi)
+        measured = wrap_rad(line_yaw_rad - body_yaw_rad)
         rate = 1.0 if self._skew_measured[direction] == 0 else self.learning_rate
-        self.skew_rad[direction] += rate * math.remainder(measured - self.skew_rad[direction], 2.0 * math.pi)
+        self.skew_rad[direction] += rate * wrap_rad(measured - self.skew_rad[direction])
         self._skew_measured[direction] += 1
 
     def learn(self, direction: str, phase_index: int, heading_rad: float, moved_m: np.ndarray) -> None:
         """Take a measured move from the stop to the rest (floor frame) into that phase's estimate."""
-        cos, sin = math.cos(heading_rad), math.sin(heading_rad)
-        measured = np.array([moved_m[0] * cos + moved_m[1] * sin, -moved_m[0] * sin + moved_m[1] * cos])
+        measured = rotate(moved_m, -heading_rad)  # (along, across) the travel
         offsets = self.offset_m[direction]
         rate = 1.0 if self.measured[direction][phase_index] == 0 and self.learning_rate > 0.0 else self.learning_rate
         offsets[phase_index] += rate * (measured - offsets[phase_index])
@@ -191,4 +190,3 @@ class FineApproach:
 def next_stop_phase(phase_index: int, reverse: bool) -> int:
     """The stop phase the gait reaches after ``phase_index`` (backward when ``reverse``)."""
     return (phase_index + (-1 if reverse else 1)) % len(STOP_PHASES)
-

@@ -93,8 +93,7 @@ class StopModel:
 
         ``level_index`` None: every level; otherwise the unmeasured levels near it get a share.
         """
-        cos, sin = math.cos(heading_rad), math.sin(heading_rad)
-        measured = np.array([moved_m[0] * cos + moved_m[1] * sin, -moved_m[0] * sin + moved_m[1] * cos])
+        measured = rotate(moved_m, -heading_rad)  # (along, across) the travel
         offsets = self.offset_m[direction]
         if level_index is None:
             weight = np.ones(len(self.levels_rad))
