@@ -32,8 +32,6 @@ from pathlib import Path
 
 import numpy as np
 import yaml
-from scipy.optimize import minimize
-from scipy.stats import qmc
 
 from srs_ros.core.errors import InvalidInputError
 from srs_ros.core.robot import RobotDescription, default_robot
@@ -270,6 +268,9 @@ class _Search:
 
     def run(self) -> Evaluation:
         """The start, Sobol points over the box, then bounded Nelder-Mead from the best; the best evaluation."""
+        from scipy.optimize import minimize  # here: SciPy's 0.8 s import only for a calibration, not every srs_sweep
+        from scipy.stats import qmc
+
         space = self.space
         count = len(space.parameters)
         try:
