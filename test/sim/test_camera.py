@@ -8,6 +8,7 @@ import pytest
 
 from srs_ros.core.errors import ConfigurationError
 from srs_ros.core.vision.camera_calibration import apply_homography
+from srs_ros.core.vision.detectors import ColorBlobDetector
 from srs_ros.core.vision.tracking import Tracker
 from srs_ros.sim.camera import OverheadCamera, band_tracker_config, pinhole_from_homography
 from srs_ros.sim.config import load_sim_config
@@ -103,6 +104,34 @@ def test_tracking_the_rendered_robot_while_it_rolls_recovers_the_reference_point
     assert result.velocity.speed_cm_s > 2.0                     # it does roll, across a good part of the view
     assert len(missed) <= 0.05 * (len(errors) + len(missed)), missed
     assert 1000 * np.median(errors) < 5.0, 1000 * np.percentile(errors, [50, 90, 100])
+
+
+def test_the_colour_window_search_finds_what_the_whole_frame_gives_and_follows_a_jump(camera):
+    """The colour detector's ROI search (``roi_margin_px``) against the whole-frame search on the rolling robot."""
+    bands = band_tracker_config(CONFIG.camera)
+    colors = {"tail": bands.tail_color, "head": bands.head_color}
+    windowed = ColorBlobDetector(colors, bands.min_blob_area_px, roi_margin_px=40)
+    whole = ColorBlobDetector(colors, bands.min_blob_area_px, roi_margin_px=0)
+    frames = []
+    run_experiment("inward_rolling", 4.0, 1.0, 2.0, CONFIG.replace("start", y_m=-0.15),
+                   on_frame=lambda state: frames.append(camera.render(state.nodes_m)))
+    for frame in frames:
+        a, b = windowed.detect(frame), whole.detect(frame)
+        assert a.keys() == b.keys() == {"tail", "head"}
+        for key in a:
+            np.testing.assert_array_equal(a[key].centre_px, b[key].centre_px)
+            np.testing.assert_array_equal(a[key].corners_px, b[key].corners_px)
+    assert windowed.roi_hits >= 2 * (len(frames) - 2), (windowed.roi_hits, len(frames))  # all but the first frame
+    assert whole.roi_hits == 0
+    # The robot seen 0.3 m away in the next frame (a pushed robot, a lost second): found by the whole-frame search.
+    last = whole.detect(frames[-1])
+    elsewhere = run_experiment("inward_rolling", 4.0, 1.0, 0.2, CONFIG.replace("start", y_m=0.35)).final_state
+    jumped, hits = camera.render(elsewhere.nodes_m), windowed.roi_hits
+    a, b = windowed.detect(jumped), whole.detect(jumped)
+    assert a.keys() == b.keys() == {"tail", "head"} and windowed.roi_hits == hits  # not in the windows
+    for key in a:
+        np.testing.assert_array_equal(a[key].centre_px, b[key].centre_px)
+        assert np.linalg.norm(a[key].centre_px - last[key].centre_px) > 50.0  # beyond the 40 px margin
 
 
 def test_the_floor_homography_round_trips(camera):

@@ -175,13 +175,25 @@ class ColorRange:
 
 
 class ColorBlobDetector:
-    """Find one blob per named colour range (largest connected blob above ``min_area_px``)."""
+    """Find one blob per named colour range (largest connected blob above ``min_area_px``).
 
-    def __init__(self, colors: Mapping[str, ColorRange], min_area_px: float = 20.0):
+    ROI search first, as the ArUco detector: each colour is looked for in a window ``roi_margin_px`` around
+    where it was last found, and in the whole frame when it is not found there or its blob reaches the
+    window's edge (a blob cut by the window would have a wrong centre). A blob found in its window is the one
+    the whole frame gives (every step is per pixel or per blob, and the window's edge is at least 2 px from
+    it), unless a larger blob of the same colour appears elsewhere: the window keeps the marker it tracks.
+    """
+
+    EDGE_PX = 2  #: a blob this close to a window's inner edge may reach past it: search the whole frame
+
+    def __init__(self, colors: Mapping[str, ColorRange], min_area_px: float = 20.0, roi_margin_px: int = 0):
         """``colors`` maps marker names to HSV ranges, e.g. ``{"tail": ColorRange(...), "head": ...}``."""
         self.colors = dict(colors)
         self.min_area_px = float(min_area_px)
+        self.roi_margin_px = int(roi_margin_px)
+        self.roi_hits = 0  #: detections made in a window (the rest needed the whole frame)
         self._kernel = np.ones((3, 3), np.uint8)
+        self._windows: dict[str, tuple[int, int, int, int]] = {}  # name -> x0, y0, x1, y1 (px) to search first
 
     def _mask(self, hsv: np.ndarray, rng: ColorRange) -> np.ndarray:
         low, high = np.array(rng.low_hsv, np.uint8), np.array(rng.high_hsv, np.uint8)
@@ -195,22 +207,55 @@ class ColorBlobDetector:
         """Blobs found in a BGR image, by name; the centre is the blob's intensity-weighted centroid."""
         if bgr.ndim != 3:
             raise InvalidInputError(f"colour-blob detection needs a 3-channel BGR image; got shape {bgr.shape}.")
-        hsv = cv2.cvtColor(bgr, cv2.COLOR_BGR2HSV)
+        height, width = bgr.shape[:2]
         found: dict[str, MarkerDetection] = {}
+        whole_hsv = None
         for key, rng in self.colors.items():
-            mask = cv2.morphologyEx(self._mask(hsv, rng), cv2.MORPH_OPEN, self._kernel)
-            count, labels, stats, _ = cv2.connectedComponentsWithStats(mask, connectivity=8)
-            if count < 2:
-                continue
-            best = 1 + int(np.argmax(stats[1:, cv2.CC_STAT_AREA]))
-            if stats[best, cv2.CC_STAT_AREA] < self.min_area_px:
-                continue
-            x, y, w, h = (int(stats[best, i]) for i in range(4))
-            moments = cv2.moments((labels[y:y + h, x:x + w] == best).astype(np.uint8), binaryImage=True)
-            centre = np.array([x + moments["m10"] / moments["m00"], y + moments["m01"] / moments["m00"]])
-            box = np.array([[x, y], [x + w, y], [x + w, y + h], [x, y + h]], dtype=np.float64)
-            found[key] = MarkerDetection(key, centre, box)
+            window = self._windows.get(key) if self.roi_margin_px > 0 else None
+            detection = None
+            if window is not None:
+                x0, y0, x1, y1 = window
+                inner = (x0 > 0, y0 > 0, x1 < width, y1 < height)
+                hsv = cv2.cvtColor(bgr[y0:y1, x0:x1], cv2.COLOR_BGR2HSV)
+                detection = self._blob(key, self._mask(hsv, rng), (x0, y0), inner)
+                self.roi_hits += detection is not None
+            if detection is None:
+                whole_hsv = cv2.cvtColor(bgr, cv2.COLOR_BGR2HSV) if whole_hsv is None else whole_hsv
+                detection = self._blob(key, self._mask(whole_hsv, rng), (0, 0), (False,) * 4)
+            if detection is not None:
+                found[key] = detection
+            self._windows[key] = self._window(detection, width, height)
         return found
+
+    def _blob(self, key: str, mask: np.ndarray, offset: tuple[int, int],
+              inner_edges: tuple[bool, bool, bool, bool]) -> MarkerDetection | None:
+        """The largest blob of ``mask`` (a crop at ``offset``), or None: none, too small, or at an inner edge."""
+        mask = cv2.morphologyEx(mask, cv2.MORPH_OPEN, self._kernel)
+        count, labels, stats, _ = cv2.connectedComponentsWithStats(mask, connectivity=8)
+        if count < 2:
+            return None
+        best = 1 + int(np.argmax(stats[1:, cv2.CC_STAT_AREA]))
+        if stats[best, cv2.CC_STAT_AREA] < self.min_area_px:
+            return None
+        x, y, w, h = (int(stats[best, i]) for i in range(4))
+        rows, cols = mask.shape
+        edge = self.EDGE_PX
+        if (inner_edges[0] and x < edge) or (inner_edges[1] and y < edge) or \
+                (inner_edges[2] and x + w > cols - edge) or (inner_edges[3] and y + h > rows - edge):
+            return None
+        moments = cv2.moments((labels[y:y + h, x:x + w] == best).astype(np.uint8), binaryImage=True)
+        ox, oy = offset
+        centre = np.array([ox + x + moments["m10"] / moments["m00"], oy + y + moments["m01"] / moments["m00"]])
+        box = np.array([[x, y], [x + w, y], [x + w, y + h], [x, y + h]], dtype=np.float64) + offset
+        return MarkerDetection(key, centre, box)
+
+    def _window(self, detection: MarkerDetection | None, width: int, height: int) -> tuple[int, int, int, int] | None:
+        """Where to look first in the next frame: the blob's box and the margin, inside the frame."""
+        if detection is None:
+            return None
+        lo = np.floor(detection.corners_px.min(axis=0)).astype(int) - self.roi_margin_px
+        hi = np.ceil(detection.corners_px.max(axis=0)).astype(int) + self.roi_margin_px
+        return max(int(lo[0]), 0), max(int(lo[1]), 0), min(int(hi[0]), width), min(int(hi[1]), height)
 
 
 # ------------------------------------------------------------------------------------------

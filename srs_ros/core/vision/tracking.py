@@ -291,7 +291,8 @@ class Tracker:
             self.detector: ArucoMarkerDetector | ColorBlobDetector = ArucoMarkerDetector(
                 cfg.aruco_dictionary, {"tail": cfg.tail_marker_id, "head": cfg.head_marker_id}, cfg.roi_margin_px)
         else:
-            self.detector = ColorBlobDetector({"tail": cfg.tail_color, "head": cfg.head_color}, cfg.min_blob_area_px)
+            self.detector = ColorBlobDetector({"tail": cfg.tail_color, "head": cfg.head_color}, cfg.min_blob_area_px,
+                                             cfg.roi_margin_px)
         self.velocity_filter = VelocityFilter(cfg.velocity_window_s, cfg.max_gap_s)
 
     def describe_markers(self) -> str:
