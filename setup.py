@@ -37,7 +37,7 @@ setup(
     data_files=[
         ("share/ament_index/resource_index/packages", [f"resource/{PACKAGE}"]),
         (f"share/{PACKAGE}", ["package.xml"]),
-        (f"share/{PACKAGE}/config", sorted(glob("config/*.yaml") + glob("config/*.dbc"))),
+        (f"share/{PACKAGE}/config", sorted(glob("config/*.yaml") + glob("config/*.dbc") + glob("config/*.xml"))),
         (f"share/{PACKAGE}/config/rigs", sorted(glob("config/rigs/*.yaml"))),
         (f"share/{PACKAGE}/launch", sorted(glob("launch/*.launch.py"))),
     ],

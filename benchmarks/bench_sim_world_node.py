@@ -5,7 +5,7 @@ rolling 4 bar 1 Hz) and camera_tracker (sim bands), lets them run, and reads eac
 /proc: the share of one core each used over the measuring window (target for sim_world: <= 30 %). Also
 prints the camera frames, tracked poses and ground-truth poses received per second.
 
-Run: python benchmarks/bench_sim_world_node.py [--duration-s 20] [--camera-rate-hz 30]
+Run: python benchmarks/bench_sim_world_node.py [--duration-s 20] [--camera-rate-hz 30] [--dds-profile launch|none]
 """
 
 import argparse
@@ -31,11 +31,15 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--duration-s", type=float, default=20.0, help="measuring window, s (default 20)")
     parser.add_argument("--camera-rate-hz", type=float, default=30.0, help="sim_world camera rate (default 30)")
+    parser.add_argument("--dds-profile", choices=("launch", "none"), default="launch",
+                        help="launch: config/fastdds_camera_shm.xml, as launch/srs.launch.py gives every node "
+                             "(default); none: Fast DDS's defaults (a 512 KB shared-memory segment)")
     args = parser.parse_args()
     os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
     with RosSession(tempfile.mkdtemp(prefix="bench_sim_world_node_")) as session:  # stops every process at the end
         processes = launch_sim_loop(session.launch, {"sim_world": {"camera_rate_hz": args.camera_rate_hz},
-                                                     "trajectory_server": {"samples": 64}})
+                                                     "trajectory_server": {"samples": 64}},
+                                    dds_profile=args.dds_profile == "launch")
         client = session.client
         images = client.subscribe(Image, "image_raw", 1)
         tracked = client.subscribe(PoseStamped, "robot_pose")
@@ -47,7 +51,8 @@ def main():
         started_s = time.monotonic()
         client.spin_for(args.duration_s)
         span_s = time.monotonic() - started_s
-        print(f"simulated loop, {span_s:.1f} s window, camera {args.camera_rate_hz:g} fps "
+        print(f"simulated loop, {span_s:.1f} s window, camera {args.camera_rate_hz:g} fps, DDS profile "
+              f"{args.dds_profile} "
               f"({os.cpu_count()} cores, load {os.getloadavg()[0]:.2f}):")
         for name, proc in processes.items():
             share = 100.0 * (cpu_seconds(proc.process.pid) - start[name]) / span_s

@@ -20,6 +20,8 @@ value and what it takes; a switch takes ``true`` or ``false`` only. ``ros2 launc
 --show-args`` lists the arguments. Their defaults (gait, amplitude, frequency, rig, camera preset) are read from the
 parameter specs of srs_ros (:mod:`srs_ros.core.gait.request`, :data:`srs_ros.core.rig.SYSTEM_RIG` and
 :data:`~srs_ros.core.rig.SIM_COLOR_PRESET`), as ``srs_bringup``'s are, so neither restates a value.
+Every node gets ``config/fastdds_camera_shm.xml`` as its Fast DDS profile (camera images through shared memory)
+unless ``FASTRTPS_DEFAULT_PROFILES_FILE`` is set already.
 """
 
 import math
@@ -27,9 +29,9 @@ import os
 
 from ament_index_python.packages import get_package_share_directory
 from launch import LaunchDescription
-from launch.actions import DeclareLaunchArgument, OpaqueFunction
+from launch.actions import DeclareLaunchArgument, OpaqueFunction, SetEnvironmentVariable
 from launch.conditions import IfCondition
-from launch.substitutions import LaunchConfiguration
+from launch.substitutions import EnvironmentVariable, LaunchConfiguration
 from launch_ros.actions import LifecycleNode, Node
 from launch_ros.parameter_descriptions import ParameterValue
 
@@ -37,6 +39,7 @@ from srs_ros.core import rig
 from srs_ros.core.gait.library import list_gaits
 from srs_ros.core.gait.request import FREQUENCY_FIELD, gait_field
 from srs_ros.core.robot import amplitude_field, default_robot
+from srs_ros.ros.interfaces import DDS_PROFILE_ENV, DDS_PROFILE_FILE
 
 #: The numeric launch arguments: (unit, an example value).
 NUMBERS = {"amplitude_bar": ("bar", "3"), "frequency_hz": ("Hz", "1")}
@@ -136,5 +139,9 @@ def generate_launch_description():
         parameters=[common], condition=IfCondition(LaunchConfiguration("sim")),
     )
     check = OpaqueFunction(function=_check_numbers)  # after the arguments, before any node starts
-    return LaunchDescription(args + [check, sim_world, trajectory_server, gait_player, hardware_node, camera_tracker,
-                                     navigator])
+    # Camera images pass whole through shared memory between the nodes (config/fastdds_camera_shm.xml); a profile
+    # the user has set already is kept.
+    dds_profile = SetEnvironmentVariable(DDS_PROFILE_ENV, EnvironmentVariable(
+        DDS_PROFILE_ENV, default_value=os.path.join(config, DDS_PROFILE_FILE)))
+    return LaunchDescription(args + [check, dds_profile, sim_world, trajectory_server, gait_player, hardware_node,
+                                     camera_tracker, navigator])

@@ -39,6 +39,7 @@ from srs_testing.ros import (
     allocate_domain,
     fastdds_shm_clean,
     fastdds_shm_clean_if_killed,
+    launch_env,
     launch_sim_loop,
     note_killed,
     release_domain,
@@ -48,6 +49,6 @@ from srs_testing.ros import (
 
 __all__ = [
     "JOINT_NAMES", "BackendRecord", "NetnsLab", "NodeProcess", "RosClient", "RosSession", "allocate_domain",
-    "fastdds_shm_clean", "fastdds_shm_clean_if_killed", "launch_sim_loop", "note_killed", "recorded_rig",
+    "fastdds_shm_clean", "fastdds_shm_clean_if_killed", "launch_env", "launch_sim_loop", "note_killed", "recorded_rig",
     "release_domain", "rolling_cycle", "ros_args", "script_path", "trajectory",
 ]

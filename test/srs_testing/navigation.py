@@ -4,7 +4,7 @@
 hardware_node (sim rig), trajectory_server, gait_player (no autostart) and the navigator on a
 :class:`~srs_testing.ros.RosSession`'s domain, and gives the client's view of them: the navigator's progress,
 the commanded pressures, the tracked pose and the simulator's ground truth (read by the harness only, to
-check where the robot really is; the navigator never sees it). The processes use :data:`LARGE_SHM_PROFILE`, so
+check where the robot really is; the navigator never sees it). The processes use the launch file's Fast DDS profile, so
 camera images travel through shared memory. Random goals as the issue's statistical test
 asks them: :func:`srs_ros.sim.navigation.random_goals`.
 """
@@ -12,14 +12,9 @@ asks them: :func:`srs_ros.sim.navigation.random_goals`.
 from __future__ import annotations
 
 from collections.abc import Iterable, Mapping
-from pathlib import Path
 from typing import Any
 
 import numpy as np
-
-#: Fast DDS profile of the processes started here: a shared-memory segment large enough for a camera image
-#: (the default 512 KB sends a 0.9 MB image over UDP fragments, lost for seconds on a loaded machine; see the file).
-LARGE_SHM_PROFILE = Path(__file__).with_name("fastdds_large_shm.xml")
 
 #: The navigator's states in which it has stopped working on a goal.
 FINAL_STATES = frozenset({"reached", "cancelled", "pose_lost", "failed"})
@@ -38,6 +33,8 @@ class NavigationSystem:
         from srs_ros.core.robot import config_dir
         from srs_ros.ros.interfaces import (
             COMMANDED_PRESSURE_TOPIC,
+            DDS_PROFILE_ENV,
+            DDS_PROFILE_FILE,
             GOAL_PATH_TOPIC,
             GOAL_POSE_TOPIC,
             GROUND_TRUTH_TOPIC,
@@ -49,7 +46,7 @@ class NavigationSystem:
 
         self.session = session
         self.client = client = session.client
-        session.env["FASTRTPS_DEFAULT_PROFILES_FILE"] = str(LARGE_SHM_PROFILE)  # for the processes started here
+        session.env[DDS_PROFILE_ENV] = str(config_dir() / DDS_PROFILE_FILE)  # as the launch file gives every node
         rig = str(config_dir() / "rigs" / "sim.yaml")
         world = {"camera_rate_hz": camera_rate_hz, "markers_rate_hz": 0.0}
         self.world = session.launch("sim_world", ros_args({**world, **({"sim_config_file": sim_config_file}

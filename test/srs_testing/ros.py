@@ -376,15 +376,25 @@ class RosSession:
             fastdds_shm_clean_if_killed()
 
 
-def launch_sim_loop(launch: Callable[..., NodeProcess], overrides: dict[str, dict[str, Any]] | None = None
-                    ) -> dict[str, NodeProcess]:
+def launch_env() -> dict[str, str]:
+    """What launch/srs.launch.py adds to every node's environment: the Fast DDS profile of config/ (camera images
+    through shared memory), for tests that start nodes as that file does (``env_overrides`` of a launch)."""
+    from srs_ros.core.robot import config_dir
+    from srs_ros.ros.interfaces import DDS_PROFILE_ENV, DDS_PROFILE_FILE
+
+    return {DDS_PROFILE_ENV: str(config_dir() / DDS_PROFILE_FILE)}
+
+
+def launch_sim_loop(launch: Callable[..., NodeProcess], overrides: dict[str, dict[str, Any]] | None = None,
+                    dds_profile: bool = True) -> dict[str, NodeProcess]:
     """The simulated loop as separate processes, as the launch file's defaults start it; by node name.
 
     sim_world, hardware_node on the sim rig (autostart), trajectory_server, gait_player (autostart) and
     camera_tracker on the simulated camera's bands. ``launch`` starts one node (:meth:`RosSession.launch`, the
     ``launch_node`` fixture); ``overrides`` adds or replaces parameters by node (e.g. ``{"sim_world":
     {"camera_rate_hz": 15.0}}``). With a :class:`RosSession` as a context manager every process is stopped at
-    its end, pass or fail.
+    its end, pass or fail. Every process gets the launch file's Fast DDS profile (:func:`launch_env`), unless
+    ``dds_profile`` is False (Fast DDS's own defaults).
     """
     from srs_ros.core.rig import SIM_COLOR_PRESET, rig_path
 
@@ -393,4 +403,5 @@ def launch_sim_loop(launch: Callable[..., NodeProcess], overrides: dict[str, dic
               "camera_tracker": {"color_preset": SIM_COLOR_PRESET}}
     for node, values in (overrides or {}).items():
         params[node] = {**params[node], **values}
-    return {node: launch(node, ros_args(values)) for node, values in params.items()}
+    env = launch_env() if dds_profile else {}
+    return {node: launch(node, ros_args(values), env_overrides=env) for node, values in params.items()}

@@ -1,4 +1,6 @@
-"""Stand-in for ``launch.launch_context``: the launch configurations (argument values) as text."""
+"""Stand-in for ``launch.launch_context``: the launch configurations (argument values) as text, the environment."""
+
+import os
 
 
 class LaunchContext:
@@ -6,8 +8,14 @@ class LaunchContext:
 
     def __init__(self):
         self.__launch_configurations = {}
+        self.__environment = dict(os.environ)
 
     @property
     def launch_configurations(self):
         """The launch configurations (name -> text), as launch's property of that name."""
         return self.__launch_configurations
+
+    @property
+    def environment(self):
+        """The environment the processes started next get (a copy of the launch's own), as launch's property."""
+        return self.__environment

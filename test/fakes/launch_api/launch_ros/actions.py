@@ -1,5 +1,7 @@
 """Stand-in for ``launch_ros.actions``: Node and LifecycleNode with Jazzy's keyword arguments."""
 
+import os
+
 from launch_ros.parameter_descriptions import ParameterValue, coerce
 
 
@@ -31,8 +33,9 @@ class Node:
                     values[key] = coerce(value.perform(context), None)
                 else:
                     values[key] = value
+        environment = {k: v for k, v in context.environment.items() if os.environ.get(k) != v}  # set by the launch
         return {"kind": self.kind, "package": self.package, "executable": self.executable, "name": self.name,
-                "namespace": namespace, "parameter_files": files, "parameters": values}
+                "namespace": namespace, "parameter_files": files, "parameters": values, "environment": environment}
 
 
 class LifecycleNode(Node):
