@@ -230,8 +230,10 @@ def _print_stderr(text: str) -> None:
 
 
 def _worker_context():
-    """Local workers fork from a fresh server process that has imported the simulation once (``forkserver``):
-    a new worker starts in milliseconds instead of importing MuJoCo and srs_ros again (about 1.5 s of CPU)."""
+    """The local workers' start method: ``forkserver``, a fresh server process that imports the simulation once.
+
+    A new worker then starts in milliseconds instead of importing MuJoCo and srs_ros again (about 1.5 s of CPU).
+    """
     context = multiprocessing.get_context("forkserver")
     context.set_forkserver_preload([__name__])  # this module imports the simulation and the gaits
     return context
@@ -246,7 +248,8 @@ class OfflineRunner:
     cells, and a run whose worker is lost (a killed process, a lost Dask worker) submitted again up to
     :data:`MAX_RESUBMITS` times with a message to ``log`` (default: stderr), then a failed record. Local
     worker processes fork from a ``forkserver`` process started afresh (no state inherited from the caller,
-    such as threads or an rclpy context) that has imported the simulation once. Use as a context manager, or call :meth:`close`; reuse it for many batches.
+    such as threads or an rclpy context) that has imported the simulation once. Use as a context manager, or
+    call :meth:`close`; reuse it for many batches.
     """
 
     def __init__(self, workers: int | None = None, executor: Executor | None = None,
