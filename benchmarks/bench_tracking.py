@@ -74,7 +74,8 @@ def main():
     print(f"OpenCV {cv2.__version__}, threads {cv2.getNumThreads()}, {args.frames} frames per case")
     for label, config in (("aruco, ROI search", TrackerConfig()),
                           ("aruco, full frame", TrackerConfig(roi_margin_px=0)),
-                          ("colour blobs", TrackerConfig(detector="color"))):
+                          ("colour, ROI search", TrackerConfig(detector="color")),
+                          ("colour, full frame", TrackerConfig(detector="color", roi_margin_px=0))):
         for width, height in ((640, 480), (1280, 720)):
             fps, tracked, total = measure(width, height, args.frames, config)
             target = "  (target >= 100 fps)" if width == 640 else ""
