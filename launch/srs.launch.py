@@ -29,7 +29,7 @@ import os
 
 from ament_index_python.packages import get_package_share_directory
 from launch import LaunchDescription
-from launch.actions import DeclareLaunchArgument, OpaqueFunction, SetEnvironmentVariable
+from launch.actions import DeclareLaunchArgument, OpaqueFunction
 from launch.conditions import IfCondition
 from launch.substitutions import EnvironmentVariable, LaunchConfiguration
 from launch_ros.actions import LifecycleNode, Node
@@ -68,12 +68,12 @@ def _typed(name: str, value_type: type) -> ParameterValue:
     return ParameterValue(LaunchConfiguration(name), value_type=value_type)
 
 
-def _gait_player(context, config: str, namespace, common: dict) -> list:
+def _gait_player(context, config: str, namespace, common: dict, env: dict) -> list:
     """gait_player; with ``navigate:=true`` it never starts on its own (the navigator starts and stops it)."""
     autostart = (LaunchConfiguration("autostart").perform(context) == "true"
                  and LaunchConfiguration("navigate").perform(context) != "true")
     return [Node(package="srs_ros", executable="gait_player", name="gait_player", namespace=namespace,
-                 output="screen", parameters=[os.path.join(config, "gait_player.yaml"), common,
+                 output="screen", additional_env=env, parameters=[os.path.join(config, "gait_player.yaml"), common,
                                               {"autostart": autostart}])]
 
 
@@ -106,42 +106,45 @@ def generate_launch_description():
     ]
     namespace = LaunchConfiguration("namespace")
     common = {"use_sim_time": _typed("use_sim_time", bool)}
+    # Camera images pass whole through shared memory (config/fastdds_camera_shm.xml); a profile the user has set
+    # is kept. Per node, so that a launch file including this one keeps its own environment for its own nodes.
+    env = {DDS_PROFILE_ENV: EnvironmentVariable(DDS_PROFILE_ENV, default_value=os.path.join(config, DDS_PROFILE_FILE))}
     autostart = {"autostart": _typed("autostart", bool)}
     trajectory_server = Node(
         package="srs_ros", executable="trajectory_server", name="trajectory_server", namespace=namespace,
-        output="screen",
+        output="screen", additional_env=env,
         parameters=[os.path.join(config, "trajectory_server.yaml"), common, {
             "gait": LaunchConfiguration("gait"),
             "amplitude_bar": _typed("amplitude_bar", float),
             "frequency_hz": _typed("frequency_hz", float),
         }],
     )
-    gait_player = OpaqueFunction(function=_gait_player, args=[config, namespace, common])
+    gait_player = OpaqueFunction(function=_gait_player, args=[config, namespace, common, env])
     hardware_node = LifecycleNode(
         package="srs_ros", executable="hardware_node", name="hardware_node", namespace=namespace, output="screen",
+        additional_env=env,
         parameters=[os.path.join(config, "hardware_node.yaml"), common, autostart,
                     {"rig_file": LaunchConfiguration("rig_file")}],
     )
     camera_tracker = Node(
         package="srs_ros", executable="camera_tracker", name="camera_tracker", namespace=namespace, output="screen",
+        additional_env=env,
         parameters=[os.path.join(config, "camera_tracker.yaml"), common,
                     {"color_preset": _typed("camera_preset", str)}],
         condition=IfCondition(LaunchConfiguration("camera")),
     )
     navigator = Node(
         package="srs_ros", executable="navigator", name="navigator", namespace=namespace, output="screen",
+        additional_env=env,
         parameters=[os.path.join(config, "navigator.yaml"), common,
                     {"calibration_preset": _typed("camera_preset", str)}],
         condition=IfCondition(LaunchConfiguration("navigate")),
     )
     sim_world = Node(
         package="srs_ros", executable="sim_world", name="sim_world", namespace=namespace, output="screen",
+        additional_env=env,
         parameters=[common], condition=IfCondition(LaunchConfiguration("sim")),
     )
     check = OpaqueFunction(function=_check_numbers)  # after the arguments, before any node starts
-    # Camera images pass whole through shared memory between the nodes (config/fastdds_camera_shm.xml); a profile
-    # the user has set already is kept.
-    dds_profile = SetEnvironmentVariable(DDS_PROFILE_ENV, EnvironmentVariable(
-        DDS_PROFILE_ENV, default_value=os.path.join(config, DDS_PROFILE_FILE)))
-    return LaunchDescription(args + [check, dds_profile, sim_world, trajectory_server, gait_player, hardware_node,
-                                     camera_tracker, navigator])
+    return LaunchDescription(args + [check, sim_world, trajectory_server, gait_player, hardware_node, camera_tracker,
+                                     navigator])

@@ -83,10 +83,10 @@ def test_every_node_passes_camera_images_through_shared_memory_unless_a_profile_
     assert int(transports["SHM"].find(f"{space}segment_size").text) >= 4 * 640 * 480 * 3
     assert "UDPv4" in transports
     assert root.find(f".//{space}participant").get("is_default_profile") == "true"
-    # A profile of the user's own is kept: the launch changes nothing in the nodes' environment.
+    # A profile of the user's own is kept.
     own = tmp_path / "lab_profile.xml"
     for node in evaluate(ament_prefix, environ={DDS_PROFILE_ENV: str(own)}).values():
-        assert node["environment"] == {}, node
+        assert node["environment"] == {DDS_PROFILE_ENV: str(own)}, node
 
 
 def test_navigate_adds_the_navigator_and_leaves_the_gait_to_it(ament_prefix):

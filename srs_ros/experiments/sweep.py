@@ -233,6 +233,8 @@ def _worker_context():
     """The local workers' start method: ``forkserver``, a fresh server process that imports the simulation once.
 
     A new worker then starts in milliseconds instead of importing MuJoCo and srs_ros again (about 1.5 s of CPU).
+    The server keeps the environment variables of the moment it started (the first pool of the process); the
+    simulation reads none.
     """
     context = multiprocessing.get_context("forkserver")
     context.set_forkserver_preload([__name__])  # this module imports the simulation and the gaits

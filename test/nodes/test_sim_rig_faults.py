@@ -59,18 +59,17 @@ class Rig:
         self.readback.append((time.monotonic(), max(msg.effort)))
         self.readback_stamped.append((stamp_to_seconds(msg.header.stamp), max(msg.effort)))
 
-    def world_times(self) -> list[tuple[float, float]]:
-        """(wall stamp s, world time s) from sim_world's diagnostics, in order."""
-        return [(stamp_to_seconds(m.header.stamp), float(diagnostic_values(s)["world_time_s"]))
+    def slips(self) -> list[tuple[float, float]]:
+        """(wall stamp s, wall time the world has not followed so far s) from sim_world's diagnostics, in order."""
+        return [(stamp_to_seconds(m.header.stamp), float(diagnostic_values(s)["slipped_s"]))
                 for m in self.diagnostics for s in m.status if s.name.startswith("sim_world")]
 
     def slipped_between(self, start_s: float, end_s: float) -> float:
-        """Wall time the world did not follow over the diagnostics that bracket [start_s, end_s] (s, >= 0)."""
-        samples = self.world_times()
-        before = [sample for sample in samples if sample[0] <= start_s] or samples[:1]
-        after = [sample for sample in samples if sample[0] >= end_s]
-        (wall0_s, world0_s), (wall1_s, world1_s) = before[-1], after[0]
-        return max(0.0, (wall1_s - wall0_s) - (world1_s - world0_s))
+        """The world's slips (its pacer's own count) over the diagnostics that bracket [start_s, end_s], s."""
+        samples = self.slips()
+        before = [slipped_s for stamp_s, slipped_s in samples if stamp_s <= start_s]
+        after = [slipped_s for stamp_s, slipped_s in samples if stamp_s >= end_s]
+        return after[0] - (before[-1] if before else 0.0)  # the count starts at 0 with the world (this test's)
 
     def commanding(self) -> bool:
         return bool(self.commanded) and self.commanded[-1][1] >= FULL_BAR
@@ -160,15 +159,15 @@ def test_sim_world_vents_by_itself_when_the_hardware_node_dies(launch_node, ros_
     vented_s = vented_at_s - last_command_s
     # The board's timeout counts world time: a world starved by a busy machine runs late by its slips. Its own
     # diagnostics (1 Hz, stamped on the wall clock) say how much world time passed around the hold.
-    ros_client.spin_until(lambda: rig.world_times() and rig.world_times()[-1][0] > vented_at_s, 5.0,
+    ros_client.spin_until(lambda: rig.slips() and rig.slips()[-1][0] > vented_at_s, 5.0,
                           "sim_world's diagnostics after the vent")
     slipped_s = rig.slipped_between(last_command_s, vented_at_s)
     print(f"hardware_node SIGKILLed at 4 bar: read-back < 0.05 bar {vented_s:.2f} s after the last command, of which "
           f"the world slipped {slipped_s:.2f} s (board timeout {SIM_BOARD_TIMEOUT_S:g} s + the muscles' decay "
           f"{decay_s:.2f} s)")
     # The board holds the last command for its timeout of world time, then vents. Without the hold the read-back
-    # is at 0.05 bar after the decay alone; the upper bound is in world time (the wall time less the slips over
-    # the diagnostics around the hold); before the board had a watchdog it held 4 bar for ever. The exact timeout
-    # is unit-tested (test/sim/test_realtime.py).
+    # is at 0.05 bar after the decay alone; the upper bound is in world time (the wall time less the world's slips
+    # over the diagnostics around the hold); before the board had a watchdog it held 4 bar for ever. The exact
+    # timeout is unit-tested (test/sim/test_realtime.py).
     assert vented_s > 0.5 * SIM_BOARD_TIMEOUT_S + decay_s
     assert vented_s - slipped_s < SIM_BOARD_TIMEOUT_S + decay_s + 1.5

@@ -8,7 +8,7 @@ import pytest
 
 from srs_ros.core.errors import ConfigurationError
 from srs_ros.core.vision.camera_calibration import apply_homography
-from srs_ros.core.vision.detectors import ColorBlobDetector
+from srs_ros.core.vision.detectors import ColorBlobDetector, ColorRange
 from srs_ros.core.vision.tracking import Tracker
 from srs_ros.sim.camera import OverheadCamera, band_tracker_config, pinhole_from_homography
 from srs_ros.sim.config import load_sim_config
@@ -121,7 +121,8 @@ def test_the_colour_window_search_finds_what_the_whole_frame_gives_and_follows_a
         for key in a:
             np.testing.assert_array_equal(a[key].centre_px, b[key].centre_px)
             np.testing.assert_array_equal(a[key].corners_px, b[key].corners_px)
-    assert windowed.roi_hits >= 2 * (len(frames) - 2), (windowed.roi_hits, len(frames))  # all but the first frame
+    searched_whole = 1 + len(frames) // ColorBlobDetector.WHOLE_FRAME_EVERY  # the first frame, then every 15th
+    assert windowed.roi_hits == 2 * (len(frames) - searched_whole), (windowed.roi_hits, len(frames))
     assert whole.roi_hits == 0
     # The robot seen 0.3 m away in the next frame (a pushed robot, a lost second): found by the whole-frame search.
     last = whole.detect(frames[-1])
@@ -132,6 +133,45 @@ def test_the_colour_window_search_finds_what_the_whole_frame_gives_and_follows_a
     for key in a:
         np.testing.assert_array_equal(a[key].centre_px, b[key].centre_px)
         assert np.linalg.norm(a[key].centre_px - last[key].centre_px) > 50.0  # beyond the 40 px margin
+
+
+RED = ColorRange((170, 120, 70), (10, 255, 255))
+
+
+def _red_frame(*boxes):
+    """A 320x240 black frame with red rectangles (x0, y0, x1, y1), px."""
+    frame = np.zeros((240, 320, 3), np.uint8)
+    for x0, y0, x1, y1 in boxes:
+        frame[y0:y1, x0:x1] = (0, 0, 255)
+    return frame
+
+
+def test_a_blob_cut_by_the_colour_window_is_taken_from_the_whole_frame():
+    windowed, whole = ColorBlobDetector({"m": RED}, 20.0, roi_margin_px=20), ColorBlobDetector({"m": RED}, 20.0)
+    windowed.detect(_red_frame((100, 100, 110, 110)))  # the next window: x 80-130, y 80-130
+    for box in ((112, 100, 160, 110), (112, 100, 130, 110), (100, 112, 110, 131)):  # reaching the window's edge
+        frame, hits = _red_frame(box), windowed.roi_hits
+        a, b = windowed.detect(frame)["m"], whole.detect(frame)["m"]
+        assert windowed.roi_hits == hits, box  # not taken from the window
+        np.testing.assert_array_equal(a.centre_px, b.centre_px)
+        windowed.detect(_red_frame((100, 100, 110, 110)))  # back where it was: the same window again
+    frame = _red_frame((112, 100, 126, 110))  # inside: taken from the window, as the whole frame gives it
+    hits = windowed.roi_hits
+    np.testing.assert_array_equal(windowed.detect(frame)["m"].centre_px, whole.detect(frame)["m"].centre_px)
+    assert windowed.roi_hits == hits + 1
+
+
+def test_a_wrong_blob_taken_while_the_marker_hid_is_let_go():
+    marker, distractor = (200, 100, 214, 114), (40, 180, 47, 187)  # 196 px and 49 px
+    windowed = ColorBlobDetector({"m": RED}, 20.0, roi_margin_px=20)
+    assert windowed.detect(_red_frame(marker, distractor))["m"].centre_px[0] > 200
+    assert windowed.detect(_red_frame(distractor))["m"].centre_px[0] < 50  # the marker hidden: the other is taken
+    seen = [windowed.detect(_red_frame(marker, distractor))["m"].centre_px[0] > 200 for _ in range(20)]
+    first = seen.index(True)
+    assert first < ColorBlobDetector.WHOLE_FRAME_EVERY and all(seen[first:]), seen  # back on the marker for good
+    windowed.detect(_red_frame(distractor))
+    windowed.forget()  # what a tracker does when it rejects a frame
+    assert windowed.detect(_red_frame(marker, distractor))["m"].centre_px[0] > 200
 
 
 def test_the_floor_homography_round_trips(camera):

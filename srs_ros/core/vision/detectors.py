@@ -103,6 +103,10 @@ class ArucoMarkerDetector:
             found[key] = MarkerDetection(key, quad_centre(quad), quad)
         return found
 
+    def forget(self) -> None:
+        """Search the whole of the next frame (a tracker rejected what was found)."""
+        self._last_box = None
+
     def detect(self, gray: np.ndarray) -> dict[str, MarkerDetection]:
         """Markers found in a single-channel 8-bit image, by name; absent names were not seen."""
         self._frame += 1
@@ -178,13 +182,16 @@ class ColorBlobDetector:
     """Find one blob per named colour range (largest connected blob above ``min_area_px``).
 
     ROI search first, as the ArUco detector: each colour is looked for in a window ``roi_margin_px`` around
-    where it was last found, and in the whole frame when it is not found there or its blob reaches the
-    window's edge (a blob cut by the window would have a wrong centre). A blob found in its window is the one
-    the whole frame gives (every step is per pixel or per blob, and the window's edge is at least 2 px from
-    it), unless a larger blob of the same colour appears elsewhere: the window keeps the marker it tracks.
+    where it was last found, and in the whole frame when it is not found there, when its blob reaches the
+    window's edge (a blob cut by the window would have a wrong centre), and every :data:`WHOLE_FRAME_EVERY`
+    frames. A blob found in its window is the one the whole frame gives (every step is per pixel or per blob,
+    and the window's edge is at least 2 px from it), unless a blob elsewhere is at least as large: the window
+    keeps the marker it tracks, and the periodic whole-frame search (or :meth:`forget`, which a tracker calls
+    when it rejects a frame) lets go of a wrong one, such as a same-coloured object taken while the marker hid.
     """
 
     EDGE_PX = 2  #: a blob this close to a window's inner edge may reach past it: search the whole frame
+    WHOLE_FRAME_EVERY = 15  #: frames: every 15th (0.5 s at 30 fps) is searched whole (3 ms at 640x480)
 
     def __init__(self, colors: Mapping[str, ColorRange], min_area_px: float = 20.0, roi_margin_px: int = 0):
         """``colors`` maps marker names to HSV ranges, e.g. ``{"tail": ColorRange(...), "head": ...}``."""
@@ -194,6 +201,11 @@ class ColorBlobDetector:
         self.roi_hits = 0  #: detections made in a window (the rest needed the whole frame)
         self._kernel = np.ones((3, 3), np.uint8)
         self._windows: dict[str, tuple[int, int, int, int]] = {}  # name -> x0, y0, x1, y1 (px) to search first
+        self._frame = 0
+
+    def forget(self) -> None:
+        """Search the whole of the next frame (a tracker rejected what was found)."""
+        self._windows.clear()
 
     def _mask(self, hsv: np.ndarray, rng: ColorRange) -> np.ndarray:
         low, high = np.array(rng.low_hsv, np.uint8), np.array(rng.high_hsv, np.uint8)
@@ -209,9 +221,10 @@ class ColorBlobDetector:
             raise InvalidInputError(f"colour-blob detection needs a 3-channel BGR image; got shape {bgr.shape}.")
         height, width = bgr.shape[:2]
         found: dict[str, MarkerDetection] = {}
-        whole_hsv = None
+        whole_hsv, self._frame = None, self._frame + 1
+        windowed = self.roi_margin_px > 0 and self._frame % self.WHOLE_FRAME_EVERY != 0
         for key, rng in self.colors.items():
-            window = self._windows.get(key) if self.roi_margin_px > 0 else None
+            window = self._windows.get(key) if windowed else None
             detection = None
             if window is not None:
                 x0, y0, x1, y1 = window

@@ -313,6 +313,11 @@ class Tracker:
         centre = quad_centre(calibration.undistort_px(detection.corners_px))
         return apply_homography(calibration.homography_image_to_floor, centre)
 
+    def _reject(self) -> None:
+        """No pose from this frame: the velocity starts afresh and the next frame is searched whole."""
+        self.velocity_filter.reset()
+        self.detector.forget()
+
     def process(self, image: np.ndarray, time_s: float) -> TrackResult:
         """Track one frame (BGR or mono uint8) taken at ``time_s``; no pose unless both markers are seen."""
         if image.dtype != np.uint8:
@@ -325,11 +330,11 @@ class Tracker:
         markers_m = {k: self._floor_centre(d) for k, d in found.items()}
         missing = [k for k in ("tail", "head") if k not in found]
         if missing:
-            self.velocity_filter.reset()
+            self._reject()
             return TrackResult(time_s, None, None, markers_px, markers_m, f"not seen: {', '.join(missing)}")
         spacing = float(np.linalg.norm(markers_m["head"] - markers_m["tail"]))
         if not (np.isfinite(spacing) and 0 < spacing <= self.config.max_marker_spacing_m):
-            self.velocity_filter.reset()
+            self._reject()
             return TrackResult(time_s, None, None, markers_px, markers_m,
                                f"head-tail spacing {spacing:.3f} m outside (0, {self.config.max_marker_spacing_m}] m")
         pose = pose_from_markers(markers_m["tail"], markers_m["head"], self.config.position_ratio)

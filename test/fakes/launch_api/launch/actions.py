@@ -42,17 +42,3 @@ class OpaqueFunction:
             return self.function(context, *self.args, **self.kwargs)
         return None
 
-
-class SetEnvironmentVariable:
-    """An action that sets a variable in the context's environment, which every later process gets."""
-
-    def __init__(self, name, value, **kwargs):
-        self.name, self.value = name, value
-
-    def visit(self, context):
-        """launch's ``execute``: ``context.environment[name] = value`` (both performed)."""
-        context.environment[_perform(self.name, context)] = _perform(self.value, context)
-
-
-def _perform(value, context):
-    return value.perform(context) if hasattr(value, "perform") else value

@@ -8,7 +8,6 @@ class LaunchContext:
 
     def __init__(self):
         self.__launch_configurations = {}
-        self.__environment = dict(os.environ)
 
     @property
     def launch_configurations(self):
@@ -17,5 +16,5 @@ class LaunchContext:
 
     @property
     def environment(self):
-        """The environment the processes started next get (a copy of the launch's own), as launch's property."""
-        return self.__environment
+        """The launch's environment, which every process started gets: ``os.environ`` itself, as in Jazzy."""
+        return os.environ
