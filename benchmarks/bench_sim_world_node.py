@@ -5,7 +5,7 @@ rolling 4 bar 1 Hz) and camera_tracker (sim bands), lets them run, and reads eac
 /proc: the share of one core each used over the measuring window (target for sim_world: <= 30 %). Also
 prints the camera frames, tracked poses and ground-truth poses received per second.
 
-Run: python benchmarks/bench_sim_world_node.py [--duration-s 20] [--camera-rate-hz 30] [--dds-profile launch|none]
+Run: python benchmarks/bench_sim_world_node.py [--duration-s 20] [--camera-rate-hz 30] [--dds-profile default|camera]
 """
 
 import argparse
@@ -31,15 +31,15 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--duration-s", type=float, default=20.0, help="measuring window, s (default 20)")
     parser.add_argument("--camera-rate-hz", type=float, default=30.0, help="sim_world camera rate (default 30)")
-    parser.add_argument("--dds-profile", choices=("launch", "none"), default="launch",
-                        help="launch: config/fastdds_camera_shm.xml, as launch/srs.launch.py gives every node "
-                             "(default); none: Fast DDS's defaults (a 512 KB shared-memory segment)")
+    parser.add_argument("--dds-profile", choices=("default", "camera"), default="default",
+                        help="default: Fast DDS's defaults, as launch/srs.launch.py starts the nodes (a 512 KB "
+                             "shared-memory segment); camera: the opt-in config/fastdds_camera_shm.xml")
     args = parser.parse_args()
     os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
     with RosSession(tempfile.mkdtemp(prefix="bench_sim_world_node_")) as session:  # stops every process at the end
         processes = launch_sim_loop(session.launch, {"sim_world": {"camera_rate_hz": args.camera_rate_hz},
                                                      "trajectory_server": {"samples": 64}},
-                                    dds_profile=args.dds_profile == "launch")
+                                    dds_profile=args.dds_profile == "camera")
         client = session.client
         images = client.subscribe(Image, "image_raw", 1)
         tracked = client.subscribe(PoseStamped, "robot_pose")

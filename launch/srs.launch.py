@@ -20,8 +20,6 @@ value and what it takes; a switch takes ``true`` or ``false`` only. ``ros2 launc
 --show-args`` lists the arguments. Their defaults (gait, amplitude, frequency, rig, camera preset) are read from the
 parameter specs of srs_ros (:mod:`srs_ros.core.gait.request`, :data:`srs_ros.core.rig.SYSTEM_RIG` and
 :data:`~srs_ros.core.rig.SIM_COLOR_PRESET`), as ``srs_bringup``'s are, so neither restates a value.
-Every node gets ``config/fastdds_camera_shm.xml`` as its Fast DDS profile (camera images through shared memory)
-unless ``FASTRTPS_DEFAULT_PROFILES_FILE`` is set already.
 """
 
 import math
@@ -31,7 +29,7 @@ from ament_index_python.packages import get_package_share_directory
 from launch import LaunchDescription
 from launch.actions import DeclareLaunchArgument, OpaqueFunction
 from launch.conditions import IfCondition
-from launch.substitutions import EnvironmentVariable, LaunchConfiguration
+from launch.substitutions import LaunchConfiguration
 from launch_ros.actions import LifecycleNode, Node
 from launch_ros.parameter_descriptions import ParameterValue
 
@@ -39,7 +37,6 @@ from srs_ros.core import rig
 from srs_ros.core.gait.library import list_gaits
 from srs_ros.core.gait.request import FREQUENCY_FIELD, gait_field
 from srs_ros.core.robot import amplitude_field, default_robot
-from srs_ros.ros.interfaces import DDS_PROFILE_ENV, DDS_PROFILE_FILE
 
 #: The numeric launch arguments: (unit, an example value).
 NUMBERS = {"amplitude_bar": ("bar", "3"), "frequency_hz": ("Hz", "1")}
@@ -68,12 +65,12 @@ def _typed(name: str, value_type: type) -> ParameterValue:
     return ParameterValue(LaunchConfiguration(name), value_type=value_type)
 
 
-def _gait_player(context, config: str, namespace, common: dict, env: dict) -> list:
+def _gait_player(context, config: str, namespace, common: dict) -> list:
     """gait_player; with ``navigate:=true`` it never starts on its own (the navigator starts and stops it)."""
     autostart = (LaunchConfiguration("autostart").perform(context) == "true"
                  and LaunchConfiguration("navigate").perform(context) != "true")
     return [Node(package="srs_ros", executable="gait_player", name="gait_player", namespace=namespace,
-                 output="screen", additional_env=env, parameters=[os.path.join(config, "gait_player.yaml"), common,
+                 output="screen", parameters=[os.path.join(config, "gait_player.yaml"), common,
                                               {"autostart": autostart}])]
 
 
@@ -106,43 +103,36 @@ def generate_launch_description():
     ]
     namespace = LaunchConfiguration("namespace")
     common = {"use_sim_time": _typed("use_sim_time", bool)}
-    # Camera images pass whole through shared memory (config/fastdds_camera_shm.xml); a profile the user has set
-    # is kept. Per node, so that a launch file including this one keeps its own environment for its own nodes.
-    env = {DDS_PROFILE_ENV: EnvironmentVariable(DDS_PROFILE_ENV, default_value=os.path.join(config, DDS_PROFILE_FILE))}
     autostart = {"autostart": _typed("autostart", bool)}
     trajectory_server = Node(
         package="srs_ros", executable="trajectory_server", name="trajectory_server", namespace=namespace,
-        output="screen", additional_env=env,
+        output="screen",
         parameters=[os.path.join(config, "trajectory_server.yaml"), common, {
             "gait": LaunchConfiguration("gait"),
             "amplitude_bar": _typed("amplitude_bar", float),
             "frequency_hz": _typed("frequency_hz", float),
         }],
     )
-    gait_player = OpaqueFunction(function=_gait_player, args=[config, namespace, common, env])
+    gait_player = OpaqueFunction(function=_gait_player, args=[config, namespace, common])
     hardware_node = LifecycleNode(
         package="srs_ros", executable="hardware_node", name="hardware_node", namespace=namespace, output="screen",
-        additional_env=env,
         parameters=[os.path.join(config, "hardware_node.yaml"), common, autostart,
                     {"rig_file": LaunchConfiguration("rig_file")}],
     )
     camera_tracker = Node(
         package="srs_ros", executable="camera_tracker", name="camera_tracker", namespace=namespace, output="screen",
-        additional_env=env,
         parameters=[os.path.join(config, "camera_tracker.yaml"), common,
                     {"color_preset": _typed("camera_preset", str)}],
         condition=IfCondition(LaunchConfiguration("camera")),
     )
     navigator = Node(
         package="srs_ros", executable="navigator", name="navigator", namespace=namespace, output="screen",
-        additional_env=env,
         parameters=[os.path.join(config, "navigator.yaml"), common,
                     {"calibration_preset": _typed("camera_preset", str)}],
         condition=IfCondition(LaunchConfiguration("navigate")),
     )
     sim_world = Node(
         package="srs_ros", executable="sim_world", name="sim_world", namespace=namespace, output="screen",
-        additional_env=env,
         parameters=[common], condition=IfCondition(LaunchConfiguration("sim")),
     )
     check = OpaqueFunction(function=_check_numbers)  # after the arguments, before any node starts

@@ -1,7 +1,6 @@
 """The simulated rig under load, as a user meets it: the launch layout beside busy processes and `ros2 param` calls.
 
-Separate processes over real DDS, started as launch/srs.launch.py starts them (parameter files from config/, its
-Fast DDS profile):
+Separate processes over real DDS, started as launch/srs.launch.py starts them (parameter files from config/):
 sim_world, trajectory_server, gait_player, hardware_node (sim rig) and camera_tracker. Beside them for 60 s: three
 busy processes (a compile), a 10 Hz loop of parameter reads and a new `ros2 param get`-like process every second.
 Before the fix the hardware node faulted (`sim_world silent for 0.20 s`) and the robot stopped for good.
@@ -15,7 +14,7 @@ import numpy as np
 import pytest
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from geometry_msgs.msg import PoseStamped
-from srs_testing import launch_env, ros_args
+from srs_testing import ros_args
 
 from srs_ros.core.robot import config_dir
 from srs_ros.ros.interfaces import diagnostic_values, stamp_to_seconds
@@ -45,7 +44,7 @@ def launch_layout(launch_node) -> dict:
 
     def node(name: str, overrides: dict, params_file: bool = True):
         files = ["--params-file", str(config / f"{name}.yaml")] if params_file else []
-        return launch_node(name, ["--ros-args", *files, *ros_args(overrides)[1:]], env_overrides=launch_env())
+        return launch_node(name, ["--ros-args", *files, *ros_args(overrides)[1:]])
 
     rig = str(config / "rigs" / "sim.yaml")
     return {

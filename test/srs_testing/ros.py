@@ -377,8 +377,8 @@ class RosSession:
 
 
 def launch_env() -> dict[str, str]:
-    """What launch/srs.launch.py adds to every node's environment: the Fast DDS profile of config/ (camera images
-    through shared memory), for tests that start nodes as that file does (``env_overrides`` of a launch)."""
+    """The opt-in Fast DDS profile of config/ (camera images through shared memory) as a node's environment
+    (``env_overrides`` of a launch); docs/navigation.md says when to use it."""
     from srs_ros.core.robot import config_dir
     from srs_ros.ros.interfaces import DDS_PROFILE_ENV, DDS_PROFILE_FILE
 
@@ -386,15 +386,15 @@ def launch_env() -> dict[str, str]:
 
 
 def launch_sim_loop(launch: Callable[..., NodeProcess], overrides: dict[str, dict[str, Any]] | None = None,
-                    dds_profile: bool = True) -> dict[str, NodeProcess]:
+                    dds_profile: bool = False) -> dict[str, NodeProcess]:
     """The simulated loop as separate processes, as the launch file's defaults start it; by node name.
 
     sim_world, hardware_node on the sim rig (autostart), trajectory_server, gait_player (autostart) and
     camera_tracker on the simulated camera's bands. ``launch`` starts one node (:meth:`RosSession.launch`, the
     ``launch_node`` fixture); ``overrides`` adds or replaces parameters by node (e.g. ``{"sim_world":
     {"camera_rate_hz": 15.0}}``). With a :class:`RosSession` as a context manager every process is stopped at
-    its end, pass or fail. Every process gets the launch file's Fast DDS profile (:func:`launch_env`), unless
-    ``dds_profile`` is False (Fast DDS's own defaults).
+    its end, pass or fail. With ``dds_profile`` every process gets the opt-in camera profile (:func:`launch_env`);
+    without it Fast DDS's defaults, as the launch file starts them.
     """
     from srs_ros.core.rig import SIM_COLOR_PRESET, rig_path
 

@@ -41,4 +41,3 @@ class OpaqueFunction:
         if self.condition is None or self.condition.evaluate(context):
             return self.function(context, *self.args, **self.kwargs)
         return None
-

@@ -1,6 +1,4 @@
-"""Stand-in for ``launch.launch_context``: the launch configurations (argument values) as text, the environment."""
-
-import os
+"""Stand-in for ``launch.launch_context``: the launch configurations (argument values) as text."""
 
 
 class LaunchContext:
@@ -13,8 +11,3 @@ class LaunchContext:
     def launch_configurations(self):
         """The launch configurations (name -> text), as launch's property of that name."""
         return self.__launch_configurations
-
-    @property
-    def environment(self):
-        """The launch's environment, which every process started gets: ``os.environ`` itself, as in Jazzy."""
-        return os.environ

@@ -18,16 +18,3 @@ class LaunchConfiguration:
                 raise SubstitutionFailure(f"launch configuration '{self.variable_name}' does not exist")
             return self.default
         return context.launch_configurations[self.variable_name]
-
-
-class EnvironmentVariable:
-    """The value of a variable of the launch context's environment; ``default_value`` when it is not set."""
-
-    def __init__(self, name, *, default_value=None):
-        self.name, self.default_value = name, default_value
-
-    def perform(self, context):
-        value = context.environment.get(self.name, self.default_value)
-        if value is None:
-            raise SubstitutionFailure(f"environment variable '{self.name}' does not exist")
-        return value

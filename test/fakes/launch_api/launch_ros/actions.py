@@ -9,10 +9,8 @@ class Node:
     kind = "Node"
 
     def __init__(self, *, executable, package=None, name=None, namespace=None, exec_name=None, parameters=None,
-                 remappings=None, ros_arguments=None, arguments=None, output="log", condition=None,
-                 additional_env=None, **kwargs):
+                 remappings=None, ros_arguments=None, arguments=None, output="log", condition=None, **kwargs):
         self.executable, self.package, self.name, self.namespace = executable, package, name, namespace
-        self.additional_env = dict(additional_env or {})  # ExecuteProcess's: added to the launch's environment
         self.parameters = list(parameters or [])
         self.condition = condition
 
@@ -33,9 +31,8 @@ class Node:
                     values[key] = coerce(value.perform(context), None)
                 else:
                     values[key] = value
-        environment = {_text(k, context): _text(v, context) for k, v in self.additional_env.items()}
         return {"kind": self.kind, "package": self.package, "executable": self.executable, "name": self.name,
-                "namespace": namespace, "parameter_files": files, "parameters": values, "environment": environment}
+                "namespace": namespace, "parameter_files": files, "parameters": values}
 
 
 class LifecycleNode(Node):
@@ -45,8 +42,3 @@ class LifecycleNode(Node):
 
     def __init__(self, *, name, namespace, **kwargs):
         super().__init__(name=name, namespace=namespace, **kwargs)
-
-
-def _text(value, context):
-    """A substitution performed, or a plain value as text (ExecuteProcess's ``additional_env`` takes both)."""
-    return value.perform(context) if hasattr(value, "perform") else str(value)
