@@ -15,6 +15,16 @@ from srs_ros.core.vision import aruco
 DEFAULT_ARUCO_DICTIONARY = "DICT_4X4_50"
 
 
+def search_window(corners_px: np.ndarray, margin_px: int, width: int, height: int) -> tuple[int, int, int, int]:
+    """Where to look first in the next frame, as (x0, y0, x1, y1) px.
+
+    The box of ``corners_px`` (n, 2) grown by ``margin_px``, inside a ``width`` x ``height`` frame.
+    """
+    lo = np.floor(corners_px.min(axis=0)).astype(int) - margin_px
+    hi = np.ceil(corners_px.max(axis=0)).astype(int) + margin_px
+    return max(int(lo[0]), 0), max(int(lo[1]), 0), min(int(hi[0]), width), min(int(hi[1]), height)
+
+
 @dataclass(frozen=True)
 class MarkerDetection:
     """One marker found in an image: its centre and outline in pixels."""
@@ -159,9 +169,7 @@ class ArucoMarkerDetector:
             self._last_box = None
             return
         corners = np.concatenate([d.corners_px for d in found.values()])
-        lo = np.floor(corners.min(axis=0)).astype(int) - self.roi_margin_px
-        hi = np.ceil(corners.max(axis=0)).astype(int) + self.roi_margin_px
-        self._last_box = (max(lo[0], 0), max(lo[1], 0), min(hi[0], shape[1]), min(hi[1], shape[0]))
+        self._last_box = search_window(corners, self.roi_margin_px, shape[1], shape[0])
 
 
 @dataclass(frozen=True)
@@ -216,7 +224,7 @@ class ColorBlobDetector:
         return cv2.bitwise_or(upper, lower)
 
     def detect(self, bgr: np.ndarray) -> dict[str, MarkerDetection]:
-        """Blobs found in a BGR image, by name; the centre is the blob's intensity-weighted centroid."""
+        """Blobs found in a BGR image, by name; the centre is the blob's centroid."""
         if bgr.ndim != 3:
             raise InvalidInputError(f"colour-blob detection needs a 3-channel BGR image; got shape {bgr.shape}.")
         height, width = bgr.shape[:2]
@@ -237,7 +245,8 @@ class ColorBlobDetector:
                 detection = self._blob(key, self._mask(whole_hsv, rng), (0, 0), (False,) * 4)
             if detection is not None:
                 found[key] = detection
-            self._windows[key] = self._window(detection, width, height)
+            self._windows[key] = None if detection is None else \
+                search_window(detection.corners_px, self.roi_margin_px, width, height)
         return found
 
     def _blob(self, key: str, mask: np.ndarray, offset: tuple[int, int],
@@ -261,14 +270,6 @@ class ColorBlobDetector:
         centre = np.array([ox + x + moments["m10"] / moments["m00"], oy + y + moments["m01"] / moments["m00"]])
         box = np.array([[x, y], [x + w, y], [x + w, y + h], [x, y + h]], dtype=np.float64) + offset
         return MarkerDetection(key, centre, box)
-
-    def _window(self, detection: MarkerDetection | None, width: int, height: int) -> tuple[int, int, int, int] | None:
-        """Where to look first in the next frame: the blob's box and the margin, inside the frame."""
-        if detection is None:
-            return None
-        lo = np.floor(detection.corners_px.min(axis=0)).astype(int) - self.roi_margin_px
-        hi = np.ceil(detection.corners_px.max(axis=0)).astype(int) + self.roi_margin_px
-        return max(int(lo[0]), 0), max(int(lo[1]), 0), min(int(hi[0]), width), min(int(hi[1]), height)
 
 
 # ------------------------------------------------------------------------------------------
