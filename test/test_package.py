@@ -175,7 +175,7 @@ def test_colcon_build_installs_scripts_config_and_launch(tmp_path):
     assert (share / "package.xml").is_file()
     assert (share / "config" / "robot.yaml").is_file()
     assert (share / "config" / "rigs" / "mock.yaml").is_file()
-    assert (share / "config" / DDS_PROFILE_FILE).is_file()  # the launch file hands it to every node
+    assert (share / "config" / DDS_PROFILE_FILE).is_file()  # the opt-in camera profile (docs/navigation.md)
     assert sorted(p.name for p in (share / "launch").glob("*.launch.py")) == ["srs.launch.py"]
     assert (prefix / "share" / "ament_index" / "resource_index" / "packages" / "srs_ros").is_file()
     # the test harness is for the development install only (test/pyproject.toml), never in a ROS install

@@ -37,9 +37,9 @@ from srs_testing.ros import (
     RosClient,
     RosSession,
     allocate_domain,
+    camera_profile_env,
     fastdds_shm_clean,
     fastdds_shm_clean_if_killed,
-    launch_env,
     launch_sim_loop,
     note_killed,
     release_domain,
@@ -49,6 +49,7 @@ from srs_testing.ros import (
 
 __all__ = [
     "JOINT_NAMES", "BackendRecord", "NetnsLab", "NodeProcess", "RosClient", "RosSession", "allocate_domain",
-    "fastdds_shm_clean", "fastdds_shm_clean_if_killed", "launch_env", "launch_sim_loop", "note_killed", "recorded_rig",
+    "camera_profile_env", "fastdds_shm_clean", "fastdds_shm_clean_if_killed", "launch_sim_loop", "note_killed",
+    "recorded_rig",
     "release_domain", "rolling_cycle", "ros_args", "script_path", "trajectory",
 ]

@@ -33,8 +33,6 @@ class NavigationSystem:
         from srs_ros.core.robot import config_dir
         from srs_ros.ros.interfaces import (
             COMMANDED_PRESSURE_TOPIC,
-            DDS_PROFILE_ENV,
-            DDS_PROFILE_FILE,
             GOAL_PATH_TOPIC,
             GOAL_POSE_TOPIC,
             GROUND_TRUTH_TOPIC,
@@ -42,11 +40,11 @@ class NavigationSystem:
             POSE_TOPIC,
             latched_qos,
         )
-        from srs_testing.ros import ros_args
+        from srs_testing.ros import camera_profile_env, ros_args
 
         self.session = session
         self.client = client = session.client
-        session.env[DDS_PROFILE_ENV] = str(config_dir() / DDS_PROFILE_FILE)  # as the launch file gives every node
+        session.env.update(camera_profile_env())  # camera images through shared memory (docs/navigation.md)
         rig = str(config_dir() / "rigs" / "sim.yaml")
         world = {"camera_rate_hz": camera_rate_hz, "markers_rate_hz": 0.0}
         self.world = session.launch("sim_world", ros_args({**world, **({"sim_config_file": sim_config_file}

@@ -376,7 +376,7 @@ class RosSession:
             fastdds_shm_clean_if_killed()
 
 
-def launch_env() -> dict[str, str]:
+def camera_profile_env() -> dict[str, str]:
     """The opt-in Fast DDS profile of config/ (camera images through shared memory) as a node's environment
     (``env_overrides`` of a launch); docs/navigation.md says when to use it."""
     from srs_ros.core.robot import config_dir
@@ -393,8 +393,8 @@ def launch_sim_loop(launch: Callable[..., NodeProcess], overrides: dict[str, dic
     camera_tracker on the simulated camera's bands. ``launch`` starts one node (:meth:`RosSession.launch`, the
     ``launch_node`` fixture); ``overrides`` adds or replaces parameters by node (e.g. ``{"sim_world":
     {"camera_rate_hz": 15.0}}``). With a :class:`RosSession` as a context manager every process is stopped at
-    its end, pass or fail. With ``dds_profile`` every process gets the opt-in camera profile (:func:`launch_env`);
-    without it Fast DDS's defaults, as the launch file starts them.
+    its end, pass or fail. With ``dds_profile`` every process gets the opt-in camera profile
+    (:func:`camera_profile_env`); without it Fast DDS's defaults, as the launch file starts them.
     """
     from srs_ros.core.rig import SIM_COLOR_PRESET, rig_path
 
@@ -403,5 +403,5 @@ def launch_sim_loop(launch: Callable[..., NodeProcess], overrides: dict[str, dic
               "camera_tracker": {"color_preset": SIM_COLOR_PRESET}}
     for node, values in (overrides or {}).items():
         params[node] = {**params[node], **values}
-    env = launch_env() if dds_profile else {}
+    env = camera_profile_env() if dds_profile else {}
     return {node: launch(node, ros_args(values), env_overrides=env) for node, values in params.items()}
