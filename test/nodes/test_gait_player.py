@@ -177,8 +177,10 @@ def test_stop_at_phase_ramps_out_as_the_phase_passes_it_and_stop_still_stops_at_
     seen_s, target = stamps_s([last])[0], (last.position[0] + 0.7) % 1.0  # 0.7 cycle ahead (1 Hz): 0.7 s
     assert ros_client.set_parameters("gait_player", {"stop_at_phase": target})[0].successful
     ros_client.spin_until(lambda: first_zero_s(seen_s) is not None, 10.0, "zero setpoints after the phase stop")
-    # the ramp-out began as the phase passed the target, 0.7 s after the phase seen, and lasted ramp_time_s
-    assert first_zero_s(seen_s) - seen_s == pytest.approx(0.7 + 0.3, abs=0.06)
+    # the ramp-out began as the phase passed the target, 0.7 s after the phase seen, and lasted ramp_time_s; the
+    # margin takes one stall of the player on a busy machine (0.107 s seen once in a full suite) and still fails
+    # a missing ramp (0.3 s early), a ramp of another length or a stop at another phase
+    assert first_zero_s(seen_s) - seen_s == pytest.approx(0.7 + 0.3, abs=0.15)
 
     assert ros_client.trigger("gait_player/start").success
     ros_client.spin_for(1.5)
