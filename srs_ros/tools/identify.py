@@ -37,7 +37,6 @@ from srs_ros.core.actuation.identification import (
     chirp_plan,
     identify,
     read_length_table,
-    run_plan,
     step_plan,
 )
 from srs_ros.core.actuation.muscle_calibration import (
@@ -48,6 +47,8 @@ from srs_ros.core.actuation.muscle_calibration import (
     load_calibration,
     save_calibration,
 )
+from srs_ros.core.actuation.paused_runs import run_plan_through_pauses
+from srs_ros.core.actuation.timing import command_timing
 from srs_ros.core.errors import ConfigurationError, FitError, HardwareError
 from srs_ros.core.rig import RigConfig, default_rig_path, load_rig
 from srs_ros.core.robot import RobotDescription, load_robot
@@ -274,7 +275,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             print(f"{PROGRAM}: refused: {refusal}", file=sys.stderr, flush=True)
             return EXIT_USAGE
         with interrupts_on_sigterm(), ros_context(backend):
-            code, recording = _open_and_run(backend, rig, plan, args)
+            code, recording, plan = _open_and_run(backend, rig, plan, args)
         if code != EXIT_OK:
             return code
     try:
@@ -314,23 +315,29 @@ def _wait_for_readback(backend: ActuatorBackend, rig: RigConfig, io: BackendIO, 
 
 
 def _open_and_run(backend: ActuatorBackend, rig: RigConfig, plan: CommandPlan,
-                  args: argparse.Namespace) -> tuple[int, Recording | None]:
+                  args: argparse.Namespace) -> tuple[int, Recording | None, CommandPlan]:
+    """Run ``plan`` on the open rig; the exit code, the recording and the plan it belongs to (parts run again)."""
     names = rig.robot.joint_names
     io = BackendIO(backend)
-    recordings = []
+    runs = []
+    numbers = {(s.joints, s.level_bar): i + 1 for i, s in enumerate(plan.steps)}  # a step run again keeps its number
 
     def announce(index: int, step: Step) -> None:
-        print(f"step {index + 1}/{len(plan.steps)}: {', '.join(names[j] for j in step.joints)} at "
+        number = numbers.get((step.joints, step.level_bar), index + 1)
+        print(f"step {number}/{len(plan.steps)}: {', '.join(names[j] for j in step.joints)} at "
               f"{step.level_bar:g} bar", flush=True)
 
     def measure() -> None:
         print(f"{PROGRAM}: rig {rig.name!r} ({backend.name} backend): {plan.description}; "
               f"{plan.duration_s:.1f} s", flush=True)
         _wait_for_readback(backend, rig, io, args.startup_timeout_s)
-        recordings.append(run_plan(io, plan, on_step=announce))
+        max_late_s = command_timing(rig).stall_gap_s(backend.host_loss_timeout_s)
+        runs.append(run_plan_through_pauses(io, plan, max_late_s, on_step=announce,
+                                            on_retry=lambda why: print(f"{PROGRAM}: {why}", flush=True)))
 
     code = run_vented(backend, PROGRAM, measure, "measured")
-    return code, (recordings[0] if recordings and code == EXIT_OK else None)
+    recording, ran = runs[0] if runs and code == EXIT_OK else (None, plan)
+    return code, recording, ran
 
 
 if __name__ == "__main__":

@@ -5,10 +5,11 @@
 node's other ROS-free pieces (``settings``: its parameters as one schema table and what a configure makes of
 them; ``timing``: its clocks checked at configure; ``intake``: one setpoint into the gate and what to say about
 it; ``status``: its counters, faults, /diagnostics report and messages; ``operator``: what its services do and
-say), ``muscle_model
+say), ``muscle_model``
 (simulated muscles behind regulators), ``muscle_calibration`` (each muscle's measured characteristic and the
 maps built on it), ``compensation`` (leading the supply line's delay and lag), ``identification`` (measuring
-a rig's muscles). The pressure functions are this package's face: ``from srs_ros.core.actuation import
+a rig's muscles), ``paused_runs`` (such a run through the host's pauses: the parts a pause disturbed run
+again). The pressure functions are this package's face: ``from srs_ros.core.actuation import
 clamp_pressures_bar``.
 """
 

@@ -1,0 +1,142 @@
+"""A command plan run to the end although the host paused: disturbed parts found, set aside and run again (no ROS).
+
+A rig vents by itself when its commands stop for longer than its setpoint timeout or its hardware's own
+timeout (:meth:`~srs_ros.core.actuation.timing.CommandTiming.stall_gap_s`: 0.2 s on the shipped rigs, 0.1 s
+for a CAN board). A busy machine pauses a Python process for 0.2-0.4 s now and then, and after a pause
+:func:`~srs_ros.core.actuation.identification.run_plan` sends the overdue commands at once: a step paused in
+its hold may have been vented in the middle, and one whose start was overdue is held for less than planned.
+Its settled length and its response are then not the step's, and a fit on them is wrong without a word.
+
+:func:`run_plan_through_pauses` runs the plan, and every *segment* of it (a block of non-zero commands and the
+vent after it) in which a command went out later than that gap is set aside: its samples leave the
+recording, its steps leave the plan, and the segments set aside are run again after the plan (after the
+plan's opening vent), up to ``retries`` times. It returns the recording and the plan as they now belong
+together; the caller fits on those.
+
+Example::
+
+    recording, plan = run_plan_through_pauses(io, plan, max_late_s=timing.stall_gap_s(backend.host_loss_timeout_s),
+                                              on_retry=print)
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+
+from srs_ros.core.actuation.identification import CommandPlan, Recording, RigIO, Step, run_plan
+from srs_ros.core.errors import HardwareError
+
+#: How many times the segments a pause disturbed are run again before the run gives up.
+DEFAULT_RETRIES = 3
+
+
+def plan_segments(plan: CommandPlan) -> list[tuple[int, int]]:
+    """Row ranges ``[first, end)`` of ``plan``: each block of non-zero commands and the vent that follows it."""
+    active = np.any(plan.pressure_bar > 0.0, axis=1)
+    starts = np.flatnonzero(active & ~np.concatenate([[False], active[:-1]]))
+    ends = [*starts[1:], len(active)]
+    return [(int(a), int(b)) for a, b in zip(starts, ends)]
+
+
+def disturbed_segments(recording: Recording, plan: CommandPlan, max_late_s: float) -> tuple[list[int], float]:
+    """Indexes of the segments with a command sent more than ``max_late_s`` late next to a non-zero one; worst (s).
+
+    A late command after a non-zero one means the held pressure went unrefreshed (the rig may have vented);
+    a late non-zero command means its step started or went on late, its hold shortened by the catch-up.
+    """
+    late_s = recording.command_s - plan.times_s
+    active = np.any(plan.pressure_bar > 0.0, axis=1)
+    beside = active | np.concatenate([[False], active[:-1]])
+    rows = np.flatnonzero((late_s > max_late_s) & beside)
+    if rows.size == 0:
+        return [], 0.0
+    firsts = np.array([first for first, _ in plan_segments(plan)])
+    touched = {int(np.searchsorted(firsts, row, side="right")) - 1 for row in rows}
+    touched |= {int(np.searchsorted(firsts, row - 1, side="right")) - 1 for row in rows if row > 0 and active[row - 1]}
+    return sorted(s for s in touched if s >= 0), float(late_s[rows].max())
+
+
+def _steps_within(plan: CommandPlan, first: int, end: int) -> list[Step]:
+    start_s = plan.times_s[first]
+    end_s = plan.times_s[end] if end < len(plan.times_s) else plan.times_s[-1] + 1e-9
+    return [s for s in plan.steps if start_s - 1e-9 <= s.start_s < end_s]
+
+
+def plan_of_segments(plan: CommandPlan, indexes: list[int]) -> CommandPlan:
+    """The plan's opening vent followed by its segments ``indexes``, at its command rate, with their steps."""
+    segments = plan_segments(plan)
+    period_s = float(plan.times_s[1] - plan.times_s[0])
+    rows = [np.arange(segments[0][0])]
+    steps: list[Step] = []
+    for index in indexes:
+        first, end = segments[index]
+        shift_s = len(np.concatenate(rows)) * period_s - plan.times_s[first]
+        steps += [Step(s.joints, s.level_bar, s.start_s + shift_s, s.settled_s + shift_s, s.end_s + shift_s)
+                  for s in _steps_within(plan, first, end)]
+        rows.append(np.arange(first, end))
+    taken = np.concatenate(rows)
+    return CommandPlan(np.arange(len(taken)) * period_s, plan.pressure_bar[taken], tuple(steps),
+                       f"{plan.description} (again: {len(indexes)} part(s) a pause disturbed)")
+
+
+def set_aside(recording: Recording, plan: CommandPlan, indexes: list[int]) -> tuple[Recording, CommandPlan]:
+    """``recording`` without the samples of segments ``indexes``, and ``plan`` without their steps."""
+    keep = np.ones(len(recording.sample_s), dtype=bool)
+    dropped: list[Step] = []
+    for index in indexes:
+        first, end = plan_segments(plan)[index]
+        until_s = recording.command_s[end] if end < len(recording.command_s) else np.inf
+        keep &= ~((recording.sample_s >= recording.command_s[first]) & (recording.sample_s < until_s))
+        dropped += _steps_within(plan, first, end)
+    kept = Recording(recording.command_s, recording.command_bar, recording.sample_s[keep],
+                     None if recording.pressure_bar is None else recording.pressure_bar[keep],
+                     None if recording.length_m is None else recording.length_m[keep])
+    return kept, CommandPlan(plan.times_s, plan.pressure_bar, tuple(s for s in plan.steps if s not in dropped),
+                             plan.description)
+
+
+def joined(first: tuple[Recording, CommandPlan], then: tuple[Recording, CommandPlan]) -> tuple[Recording, CommandPlan]:
+    """Two runs as one: the second's times follow the first plan's end by one command period."""
+    (a, plan_a), (b, plan_b) = first, then
+    plan = plan_a.then(plan_b)
+    shift_s = plan.times_s[len(plan_a.times_s)] - plan_b.times_s[0]
+
+    def stacked(x, y):
+        return None if x is None or y is None else np.concatenate([x, y])
+
+    recording = Recording(np.concatenate([a.command_s, b.command_s + shift_s]),
+                          np.concatenate([a.command_bar, b.command_bar]),
+                          np.concatenate([a.sample_s, b.sample_s + shift_s]),
+                          stacked(a.pressure_bar, b.pressure_bar), stacked(a.length_m, b.length_m))
+    return recording, plan
+
+
+def run_plan_through_pauses(io: RigIO, plan: CommandPlan, max_late_s: float, retries: int = DEFAULT_RETRIES,
+                            on_step: Callable[[int, Step], None] | None = None,
+                            on_retry: Callable[[str], None] | None = None) -> tuple[Recording, CommandPlan]:
+    """Run ``plan``, and again every part of it a pause of the host disturbed; the recording and plan to fit.
+
+    Raises :class:`HardwareError` when parts are still disturbed after ``retries`` runs again.
+    """
+    recording = run_plan(io, plan, on_step)
+    todo, worst_s = disturbed_segments(recording, plan, max_late_s)
+    result = set_aside(recording, plan, todo)
+    for attempt in range(1, retries + 2):
+        if not todo:
+            return result
+        if attempt > retries:
+            break
+        if on_retry is not None:
+            on_retry(f"{len(todo)} part(s) of the plan disturbed: this process paused and sent a command "
+                     f"{worst_s:.2f} s late (the rig may vent after {max_late_s:g} s without one); running them "
+                     f"again ({attempt} of {retries})")
+        again = plan_of_segments(plan, todo)
+        recording = run_plan(io, again, on_step)
+        plan = again
+        todo, worst_s = disturbed_segments(recording, plan, max_late_s)
+        result = joined(result, set_aside(recording, plan, todo))
+    raise HardwareError(f"the run was still disturbed after {retries} repeats: this process paused and sent a "
+                        f"command {worst_s:.2f} s late, and the rig may vent after {max_late_s:g} s without one. "
+                        "The machine is too busy to measure the muscles: stop other programs and run it again.")

@@ -1,0 +1,112 @@
+"""A plan run through pauses of the host: the parts a pause disturbed are set aside and run again, or it says so."""
+
+import numpy as np
+import pytest
+
+from srs_ros.backends.mock import MockBackend
+from srs_ros.core.actuation.identification import identify, run_plan, settled_points, step_plan
+from srs_ros.core.actuation.paused_runs import disturbed_segments, plan_segments, run_plan_through_pauses
+from srs_ros.core.errors import HardwareError
+from srs_ros.core.robot import default_robot
+from srs_ros.tools.identify import BackendIO
+
+ROBOT = default_robot()
+MUSCLES = {"pressure_time_constant_s": 0.1, "transport_delay_s": 0.05, "deadzone_bar": 0.8, "max_extension_m": 0.055}
+LEVELS_BAR = [0.5, 1.5, 2.5, 4.0]
+RATE_HZ = 200.0
+#: The plan below: 0.5 s vented, then each level held 1 s and vented 0.5 s; the 2.5 bar hold is 3.5-4.5 s.
+PLAN = step_plan(9, RATE_HZ, LEVELS_BAR, 1.0, 0.5, [[3]])
+MAX_LATE_S = 0.2  # the sim rig's stall gap: min(setpoint timeout 0.2 s, its board's 0.5 s)
+BOARD_TIMEOUT_S = 0.5
+
+
+class ManualClock:
+    """The mock rig's clock, advanced only by waits and pauses: a run takes no wall time."""
+
+    def __init__(self):
+        self.now_s = 10.0
+
+    def __call__(self):
+        return self.now_s
+
+    def sleep(self, seconds):
+        self.now_s += seconds
+
+
+class PausingIO(BackendIO):
+    """The mock rig driven by a process that pauses before given commands (by count over the whole session).
+
+    During a pause longer than its timeout the board vents by itself, as a real one (and sim_world's) does.
+    """
+
+    def __init__(self, backend, clock, pauses_s):
+        super().__init__(backend, clock, clock.sleep)
+        self.pauses_s, self.count = dict(pauses_s), 0
+
+    def write_pressures(self, pressure_bar):
+        pause_s = self.pauses_s.pop(self.count, 0.0)
+        self.count += 1
+        if pause_s > BOARD_TIMEOUT_S:
+            self.sleep(BOARD_TIMEOUT_S)
+            self.backend.vent()
+            pause_s -= BOARD_TIMEOUT_S
+        self.sleep(pause_s)
+        return super().write_pressures(pressure_bar)
+
+
+def run(pauses_s, through_pauses=True, retries=3):
+    clock, told = ManualClock(), []
+    with MockBackend(ROBOT, MUSCLES, clock=clock) as backend:
+        io = PausingIO(backend, clock, pauses_s)
+        if not through_pauses:
+            return run_plan(io, PLAN), PLAN, told
+        recording, plan = run_plan_through_pauses(io, PLAN, MAX_LATE_S, retries=retries, on_retry=told.append)
+    return recording, plan, told
+
+
+def row_at(time_s):
+    return int(round(time_s * RATE_HZ))
+
+
+def test_segments_are_each_block_of_air_and_the_vent_after_it():
+    segments = plan_segments(PLAN)
+    assert segments == [(row_at(0.5), row_at(2.0)), (row_at(2.0), row_at(3.5)), (row_at(3.5), row_at(5.0)),
+                        (row_at(5.0), len(PLAN.times_s))]
+
+
+def test_a_pause_in_a_hold_vents_the_board_and_the_plain_run_loses_the_step_without_a_word():
+    recording, plan, _ = run({row_at(4.0): 0.6}, through_pauses=False)
+    pressures, _ = settled_points(recording, plan, 3)
+    assert len(pressures) == 3  # the 2.5 bar step's settled window passed during the pause
+    assert disturbed_segments(recording, plan, MAX_LATE_S)[0] == [2]
+
+
+def test_the_step_a_pause_disturbed_is_run_again_and_the_fit_sees_every_level():
+    recording, plan, told = run({row_at(4.0): 0.6})
+    assert len(told) == 1 and "sent a command 0.59 s late" in told[0] and "(1 of 3)" in told[0]
+    assert [s.level_bar for s in plan.steps] == [0.5, 1.5, 4.0, 2.5]  # the disturbed one again at the end
+    pressures, lengths = settled_points(recording, plan, 3)
+    assert len(pressures) == 4 and np.all(np.diff(sorted(lengths)) >= 0.0)
+    found = identify(ROBOT, [3], recording, plan).values["m2_pma1"]
+    assert found["deadzone_bar"] == pytest.approx(0.8, rel=0.2)
+    assert found["extension_per_bar_m"] == pytest.approx(0.055 / 3.2, rel=0.2)
+    assert found["transport_delay_s"] == pytest.approx(0.05, rel=0.2)
+    assert found["pressure_time_constant_s"] == pytest.approx(0.1, rel=0.2)
+
+
+def test_a_late_start_of_a_step_counts_too_as_its_hold_is_cut_short():
+    _, plan, told = run({row_at(3.5): 0.5})  # the pause ends the vent before the 2.5 bar step late
+    assert len(told) == 1 and [s.level_bar for s in plan.steps][-1] == 2.5
+
+
+@pytest.mark.parametrize("pauses_s", [{row_at(4.0): 0.15}, {row_at(3.2): 0.25}])
+def test_a_short_pause_or_one_while_vented_runs_nothing_again(pauses_s):
+    recording, plan, told = run(pauses_s)
+    assert told == [] and plan == PLAN and len(recording.command_s) == len(PLAN.times_s)
+
+
+def test_a_machine_that_keeps_pausing_is_told_it_is_too_busy():
+    count = len(PLAN.times_s)
+    pauses = {row_at(4.0): 0.6, **{count + row_at(1.0) + n * row_at(2.0): 0.4 for n in range(3)}}
+    with pytest.raises(HardwareError, match=r"still disturbed after 2 repeats.*0\.39 s late.*too busy"):
+        run(pauses, retries=2)
