@@ -165,7 +165,7 @@ class NavigationController(FineDriving):
         distance = self._distance(pose)
         if self._stalled(pose.time_s, distance):
             return
-        while distance <= self.settings.goal_tolerance_m and self._index < len(self._goals) - 1:
+        while distance <= self.settings.waypoint_tolerance_m and self._index < len(self._goals) - 1:
             self._index += 1
             self._best = (math.inf, pose.time_s)
             self._message = f"waypoint reached; driving to goal {self._index + 1} of {len(self._goals)}"

@@ -43,6 +43,8 @@ DEFAULT_TURNING_MAP_FILE = "turning_map.yaml"
 NAVIGATION_TABLE = Table("navigation", (
     Field("goal_tolerance_m", float, 0.05, 0.005, 1.0, "m",
           "a goal is reached when the tracked point rests this close to it"),
+    Field("waypoint_tolerance_m", float, 0.15, 0.005, 1.0, "m",
+          "a path's waypoint before its last is passed when the tracked point comes this close (without stopping)"),
     Field("pose_timeout_s", float, 1.0, 0.05, 60.0, "s",
           "no pose from the camera this long: stop, state pose_lost"),
     Field("view_margin_m", float, 0.25, 0.0, 2.0, "m",
@@ -193,6 +195,7 @@ class NavigationSettings:
     """Every setting of :data:`NAVIGATION_TABLE` (see its fields for units and meaning) and the turn map."""
 
     goal_tolerance_m: float
+    waypoint_tolerance_m: float
     pose_timeout_s: float
     view_margin_m: float
     amplitude_bar: float

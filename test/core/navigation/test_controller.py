@@ -167,6 +167,23 @@ def test_waypoints_are_followed_in_order():
     assert math.dist((0.4, 0.5), (roller.x, roller.y)) <= 0.05
 
 
+@pytest.mark.parametrize("tolerance_m", [0.15, 0.05])
+def test_a_waypoint_before_the_last_is_passed_within_its_own_tolerance_without_stopping(tolerance_m):
+    controller, roller = NavigationController(settings(waypoint_tolerance_m=tolerance_m), AREA), Roller()
+    controller.set_path([(0.0, 0.5), (0.5, 0.6)], 0.0)
+    now, stopped = 0.0, False
+    while controller.progress(now).goal_index == 0 and now < 90.0:
+        controller.update_gait_phase(roller.phase)
+        controller.update_pose(roller.pose(now))
+        command = controller.tick(now)
+        stopped |= now > 0.0 and controller.progress(now).goal_index == 0 and not command.moving
+        roller.step(command, now)
+        now += FRAME_S
+    passed_m = math.dist((0.0, 0.5), (roller.x, roller.y))
+    assert controller.progress(now).goal_index == 1 and not stopped
+    assert tolerance_m - 0.02 < passed_m <= tolerance_m + 0.01  # the first frame within it (3 mm a frame)
+
+
 def test_cancel_stops():
     controller, roller = NavigationController(settings(), AREA), Roller()
     controller.set_goal(0.0, 0.7, 0.0)
