@@ -105,7 +105,7 @@ class SimBackend(ActuatorBackend):
     # -- the contract -----------------------------------------------------------------------
     def _open(self) -> None:
         import rclpy
-        from rclpy.executors import SingleThreadedExecutor
+        from rclpy.experimental import EventsExecutor
         from sensor_msgs.msg import JointState
 
         if not rclpy.ok():
@@ -117,7 +117,7 @@ class SimBackend(ActuatorBackend):
                                        start_parameter_services=False)
         self._publisher = self._node.create_publisher(JointState, self.command_topic, bus_qos())
         self._node.create_subscription(JointState, self.monitor_topic, self._on_monitor, bus_qos())
-        self._executor = SingleThreadedExecutor()
+        self._executor = EventsExecutor()  # spun by a timed spin_once loop (_spin): its spin() never runs a callback
         self._executor.add_node(self._node)
         self._stop.clear()
         self._monitor = None
