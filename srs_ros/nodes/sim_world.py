@@ -114,6 +114,10 @@ class SimWorldNode(Node):
         self._step_wall_s = 0.0  # wall time spent stepping, for the real-time figure
         self._window = (time.monotonic(), 0.0, 0.0)  # (wall s, world s, stepping s) at the last diagnostics
         self._state = None  # the world's state at its current time, computed once for every output
+        self._last_step = (time.monotonic(), 0.0)  # (wall s, world s) at the last wake-up: dates the commands
+        # A command waits for the next control tick, dated when it arrived: exact while the supply line's delay
+        # is longer than a control period (the muscles feel it only after the delay); else it wakes the loop.
+        self._wake_on_command = self.config.muscles.transport_delay_s < self.config.physics.control_period_s
         self._create_interfaces(p)
         self._stop = threading.Event()
         self._wake = threading.Event()
@@ -148,7 +152,7 @@ class SimWorldNode(Node):
 
     # -- the physics thread ------------------------------------------------------------------
     def _step_loop(self) -> None:
-        """Step at every control period and whenever a command arrives, until :meth:`destroy_node`."""
+        """Step at every control period (and at each command if the line's delay is shorter), until destroyed."""
         period_s = self.config.physics.control_period_s
         next_tick_s = time.monotonic()
         while not self._stop.is_set():
@@ -176,13 +180,14 @@ class SimWorldNode(Node):
             try:
                 self._target_s += self.pacer.step_s(now_s)
                 self.world.advance_to(self._target_s)
-                command = self.board.take(self.world.time_s)
-                if command is not None:
-                    self.world.command_pressures(command, self.world.time_s)
-                    if self.board.vented_by_silence:
-                        self.get_logger().warning(
-                            f"no regulator command for {self.board.command_timeout_s:g} s: the simulated board "
-                            "vented every muscle by itself (the hardware node stopped or died)")
+                commands = self.board.take(self.world.time_s)
+                for when_s, command in commands:
+                    self.world.command_pressures(command, when_s)
+                if commands and self.board.vented_by_silence:
+                    self.get_logger().warning(
+                        f"no regulator command for {self.board.command_timeout_s:g} s: the simulated board "
+                        "vented every muscle by itself (the hardware node stopped or died)")
+                self._last_step = (now_s, self.world.time_s)
             except SrsError as exc:
                 self._stop_world(str(exc))
                 return
@@ -227,9 +232,11 @@ class SimWorldNode(Node):
         try:
             if list(msg.name) != list(self.robot.joint_names):
                 raise InvalidInputError(f"names {list(msg.name)}; expected {list(self.robot.joint_names)} in order.")
-            self.board.receive(clamp_pressures_bar(msg.effort, self.robot))
+            wall_s, world_s = self._last_step  # dated in world time from the last wake-up: applied at the next
+            self.board.receive(clamp_pressures_bar(msg.effort, self.robot), world_s + time.monotonic() - wall_s)
             self.commands += 1
-            self._wake.set()
+            if self._wake_on_command:
+                self._wake.set()
         except SrsError as exc:  # the regulators ignore a frame they cannot read; the last command stays
             self.get_logger().error(f"ignored a regulator command: {exc}", throttle_duration_sec=LOG_THROTTLE_S)
 
@@ -240,6 +247,7 @@ class SimWorldNode(Node):
             self.board.reset()
             self.pacer.restart()
             self._target_s = 0.0
+            self._last_step = (time.monotonic(), 0.0)
             self._state = None
             was, self.failure = self.failure, ""
         response.success = True

@@ -8,20 +8,24 @@ No ROS: the ``sim_world`` node wires these to its stepping thread.
   racing through it, so the muscles never see a burst of simulated time without commands. The slip is counted
   (``slipped_s``); with ``use_sim_time`` every node follows the world's own time on ``/clock`` and the slip costs
   nothing but wall time.
-- :class:`SimulatedBoard` is the regulators' DAC board: it holds the newest command and vents by itself when
-  commands stop for ``command_timeout_s`` of *world* time, as docs/can.md demands of a real board (a world that
-  is itself paused does not count its own pause as silence).
+- :class:`SimulatedBoard` is the regulators' DAC board: it applies every command at the world time it arrived
+  (so the loop need not wake up for each one) and vents by itself when commands stop for ``command_timeout_s``
+  of *world* time, as docs/can.md demands of a real board (a world that is itself paused does not count its
+  own pause as silence).
 """
 
 from __future__ import annotations
 
 import math
+from collections import deque
 from dataclasses import dataclass, field
 
 import numpy as np
 
 #: The largest slice of world time one wake-up of a real-time loop may step (s): about 8 ms of CPU at 13x real time.
 MAX_CATCH_UP_S = 0.1
+#: Commands the board holds between two wake-ups; beyond it the oldest are dropped (a newer one replaces them).
+MAX_PENDING_COMMANDS = 256
 
 
 @dataclass
@@ -52,40 +56,47 @@ class RealTimePacer:
 
 @dataclass
 class SimulatedBoard:
-    """The simulated regulators' board: the newest command, and a vent when commands stop for ``command_timeout_s``.
+    """The simulated regulators' board: each command at the world time it arrived; a vent when commands stop.
 
-    The caller hands in commands as they arrive (:meth:`receive`) and asks, at each wake-up with the
-    world's time, what to apply (:meth:`take`): the newest command once, or zeros once when the last one
-    is older than ``command_timeout_s`` of world time.
+    The caller hands in commands as they arrive (:meth:`receive`), each with the world time it arrived at
+    (the caller's estimate from the wall clock), and asks, at each wake-up with the world's time, what to
+    apply (:meth:`take`): every command received since, in order, each at its own time (never before the
+    previous one nor after the wake-up), or zeros once when the last one is older than ``command_timeout_s``
+    of world time. A command dated between two wake-ups is exact in the muscles as long as their supply line's
+    delay is longer than the time between wake-ups: it reaches them only after the delay.
     """
 
     joint_count: int
     command_timeout_s: float
     silence_vents: int = 0  # times the board vented by itself
     vented_by_silence: bool = False  # True while it holds 0 bar because commands stopped (until the next one)
-    _pending: np.ndarray | None = field(default=None, repr=False)
+    _pending: deque = field(default_factory=lambda: deque(maxlen=MAX_PENDING_COMMANDS), repr=False)
     _last_command_world_s: float = -math.inf
     _vented: bool = True  # starts vented: nothing to time out before the first command
 
-    def receive(self, pressure_bar: np.ndarray) -> None:
-        """A command arrived (already checked and clamped by the caller); it replaces any not yet applied."""
-        self._pending = np.asarray(pressure_bar, dtype=np.float64)
+    def receive(self, pressure_bar: np.ndarray, world_s: float | None = None) -> None:
+        """A command arrived (already checked and clamped by the caller) at world time ``world_s`` (None: now)."""
+        self._pending.append((world_s, np.asarray(pressure_bar, dtype=np.float64)))
 
-    def take(self, world_s: float) -> np.ndarray | None:
-        """What to command at world time ``world_s`` (s): a new command, zeros for a timed-out one, or None."""
-        pending, self._pending = self._pending, None
-        if pending is not None:
-            self._last_command_world_s = world_s
+    def take(self, world_s: float) -> list[tuple[float, np.ndarray]]:
+        """What to command by world time ``world_s`` (s): ``[(time s, bar), ...]``, a vent of zeros, or nothing."""
+        taken = []
+        while self._pending:
+            arrived_s, pressure = self._pending.popleft()
+            when_s = world_s if arrived_s is None else min(max(arrived_s, self._last_command_world_s), world_s)
+            self._last_command_world_s = when_s
+            taken.append((when_s, pressure))
+        if taken:
             self._vented = self.vented_by_silence = False
-            return pending
+            return taken
         if not self._vented and world_s - self._last_command_world_s > self.command_timeout_s:
             self._vented = self.vented_by_silence = True
             self.silence_vents += 1
-            return np.zeros(self.joint_count)
-        return None
+            return [(world_s, np.zeros(self.joint_count))]
+        return []
 
     def reset(self) -> None:
         """Forget every command (the world was reset, vented)."""
-        self._pending = None
+        self._pending.clear()
         self._last_command_world_s = -math.inf
         self._vented, self.vented_by_silence = True, False

@@ -48,7 +48,6 @@ from srs_ros.core.actuation.muscle_calibration import (
     save_calibration,
 )
 from srs_ros.core.actuation.paused_runs import run_plan_through_pauses
-from srs_ros.core.actuation.timing import command_timing
 from srs_ros.core.errors import ConfigurationError, FitError, HardwareError
 from srs_ros.core.rig import RigConfig, default_rig_path, load_rig
 from srs_ros.core.robot import RobotDescription, load_robot
@@ -70,6 +69,8 @@ DEFAULT_LEVELS_BAR = (0.5, 1.0, 1.5, 2.0, 2.5, 3.0, 3.5, 4.0)
 DEFAULT_HOLD_S = 1.0
 DEFAULT_VENT_S = 0.5
 MAX_HOLD_S = 60.0
+#: Share of the hardware's own vent-on-silence timeout a command may be late before its step is run again.
+HARDWARE_TIMEOUT_SHARE = 0.8
 
 
 class BackendIO:
@@ -314,6 +315,17 @@ def _wait_for_readback(backend: ActuatorBackend, rig: RigConfig, io: BackendIO, 
         io.wait_until(io.now_s() + 1.0 / rig.command_rate_hz)
 
 
+def _max_late_s(backend: ActuatorBackend, rig: RigConfig) -> float:
+    """How late a command may go out before its part of the plan is run again (s).
+
+    No hardware node stands between this tool and the rig, so what vents is the hardware's own timeout
+    (a CAN board's, an NI watchdog's, sim_world's board): 80 % of it. Hardware that holds its last command
+    for ever has none, and the rig's setpoint timeout stands in (a step started that late is short).
+    """
+    timeout_s = backend.host_loss_timeout_s
+    return HARDWARE_TIMEOUT_SHARE * timeout_s if timeout_s is not None else rig.setpoint_timeout_s
+
+
 def _open_and_run(backend: ActuatorBackend, rig: RigConfig, plan: CommandPlan,
                   args: argparse.Namespace) -> tuple[int, Recording | None, CommandPlan]:
     """Run ``plan`` on the open rig; the exit code, the recording and the plan it belongs to (parts run again)."""
@@ -331,7 +343,7 @@ def _open_and_run(backend: ActuatorBackend, rig: RigConfig, plan: CommandPlan,
         print(f"{PROGRAM}: rig {rig.name!r} ({backend.name} backend): {plan.description}; "
               f"{plan.duration_s:.1f} s", flush=True)
         _wait_for_readback(backend, rig, io, args.startup_timeout_s)
-        max_late_s = command_timing(rig).stall_gap_s(backend.host_loss_timeout_s)
+        max_late_s = _max_late_s(backend, rig)
         runs.append(run_plan_through_pauses(io, plan, max_late_s, on_step=announce,
                                             on_retry=lambda why: print(f"{PROGRAM}: {why}", flush=True)))
 

@@ -20,24 +20,60 @@ def test_the_pacer_follows_the_wall_clock_and_slips_after_a_stall_instead_of_rac
     assert pacer.step_s(200.0) == 0.0
 
 
-def test_the_board_applies_each_new_command_once():
+def test_the_board_applies_every_command_once_at_the_world_time_it_arrived():
     board = SimulatedBoard(joint_count=9, command_timeout_s=0.5)
-    assert board.take(0.0) is None  # vented from the start: nothing to time out
-    board.receive(np.full(9, 2.0))
-    board.receive(np.full(9, 3.0))  # the newest wins
-    assert board.take(0.01) == pytest.approx(np.full(9, 3.0))
-    assert board.take(0.02) is None
+    assert board.take(0.0) == []  # vented from the start: nothing to time out
+    board.receive(np.full(9, 2.0), 0.003)
+    board.receive(np.full(9, 3.0), 0.008)
+    taken = board.take(0.01)
+    assert [t for t, _ in taken] == pytest.approx([0.003, 0.008])  # each at its own time, in order
+    assert [p[0] for _, p in taken] == [2.0, 3.0]
+    assert board.take(0.02) == []
+    board.receive(np.full(9, 1.0), 0.05)  # dated after the wake-up (the loop ran late): at the wake-up
+    board.receive(np.full(9, 1.5), 0.001)  # dated before the previous one: not before it
+    board.receive(np.full(9, 0.5))  # undated: at the wake-up
+    assert [t for t, _ in board.take(0.03)] == pytest.approx([0.03, 0.03, 0.03])
 
 
 def test_the_board_vents_once_when_commands_stop_for_its_timeout_of_world_time():
     board = SimulatedBoard(joint_count=9, command_timeout_s=0.5)
-    board.receive(np.full(9, 4.0))
+    board.receive(np.full(9, 4.0), 0.99)
     board.take(1.0)
-    assert board.take(1.5) is None  # exactly the timeout: still holding
-    vent = board.take(1.51)
-    assert vent is not None and not vent.any() and board.vented_by_silence and board.silence_vents == 1
-    assert board.take(3.0) is None  # vented once, not at every wake-up
-    board.receive(np.full(9, 1.0))  # commands come back: the board follows them again
-    assert board.take(3.01) == pytest.approx(np.full(9, 1.0)) and not board.vented_by_silence
+    assert board.take(1.49) == []  # exactly the timeout after the command's own time: still holding
+    [(when_s, vent)] = board.take(1.5)
+    assert when_s == 1.5 and not vent.any() and board.vented_by_silence and board.silence_vents == 1
+    assert board.take(3.0) == []  # vented once, not at every wake-up
+    board.receive(np.full(9, 1.0), 3.005)  # commands come back: the board follows them again
+    [(when_s, command)] = board.take(3.01)
+    assert when_s == pytest.approx(3.005) and command == pytest.approx(np.full(9, 1.0))
+    assert not board.vented_by_silence
     board.reset()
-    assert board.take(10.0) is None and not board.vented_by_silence and board.silence_vents == 1
+    assert board.take(10.0) == [] and not board.vented_by_silence and board.silence_vents == 1
+
+
+def test_commands_dated_and_applied_at_the_next_tick_move_the_world_as_commands_applied_as_they_came():
+    """What sim_world relies on: with the supply line's delay (30 ms) longer than a control period (10 ms), a
+    command applied at the next wake-up at the time it arrived is felt exactly as one applied on arrival."""
+    from srs_ros.sim.config import load_sim_config
+    from srs_ros.sim.world import SimWorld
+
+    config = load_sim_config()
+    assert config.muscles.transport_delay_s > config.physics.control_period_s
+    times_s = np.arange(1, 120) * 0.004 + 0.002  # 250 commands a second, between the 10 ms ticks
+    commands = [np.clip(4.0 * np.sin(np.arange(9) + 9.0 * t), 0.0, 4.0) for t in times_s]
+    on_arrival, at_ticks = SimWorld(config), SimWorld(config)
+    for when_s, command in zip(times_s, commands):
+        on_arrival.advance_to(when_s)
+        on_arrival.command_pressures(command, on_arrival.time_s)
+    on_arrival.advance_to(0.5)
+    board = SimulatedBoard(joint_count=9, command_timeout_s=0.5)
+    pending = list(zip(times_s, commands))
+    for tick_s in np.arange(1, 51) * 0.01:
+        at_ticks.advance_to(tick_s)
+        while pending and pending[0][0] <= tick_s + 1e-9:
+            board.receive(pending[0][1], pending.pop(0)[0])
+        for when_s, command in board.take(at_ticks.time_s):
+            at_ticks.command_pressures(command, when_s)
+    assert at_ticks.time_s == pytest.approx(on_arrival.time_s)
+    assert at_ticks.muscles.state(0.5)[0] == pytest.approx(on_arrival.muscles.state(0.5)[0], abs=1e-12)
+    assert at_ticks.state().nodes_m == pytest.approx(on_arrival.state().nodes_m, abs=1e-9)

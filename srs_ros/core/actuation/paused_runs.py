@@ -1,8 +1,7 @@
 """A command plan run to the end although the host paused: disturbed parts found, set aside and run again (no ROS).
 
-A rig vents by itself when its commands stop for longer than its setpoint timeout or its hardware's own
-timeout (:meth:`~srs_ros.core.actuation.timing.CommandTiming.stall_gap_s`: 0.2 s on the shipped rigs, 0.1 s
-for a CAN board). A busy machine pauses a Python process for 0.2-0.4 s now and then, and after a pause
+A rig's hardware vents by itself when its commands stop for its own timeout (sim_world's board 0.5 s, a CAN
+board 0.1 s, an NI watchdog). A busy machine pauses a Python process for 0.2-0.4 s now and then, and after a pause
 :func:`~srs_ros.core.actuation.identification.run_plan` sends the overdue commands at once: a step paused in
 its hold may have been vented in the middle, and one whose start was overdue is held for less than planned.
 Its settled length and its response are then not the step's, and a fit on them is wrong without a word.
@@ -15,8 +14,7 @@ together; the caller fits on those.
 
 Example::
 
-    recording, plan = run_plan_through_pauses(io, plan, max_late_s=timing.stall_gap_s(backend.host_loss_timeout_s),
-                                              on_retry=print)
+    recording, plan = run_plan_through_pauses(io, plan, max_late_s=0.8 * backend.host_loss_timeout_s, on_retry=print)
 """
 
 from __future__ import annotations
@@ -61,7 +59,7 @@ def disturbed_segments(recording: Recording, plan: CommandPlan, max_late_s: floa
 def _steps_within(plan: CommandPlan, first: int, end: int) -> list[Step]:
     start_s = plan.times_s[first]
     end_s = plan.times_s[end] if end < len(plan.times_s) else plan.times_s[-1] + 1e-9
-    return [s for s in plan.steps if start_s - 1e-9 <= s.start_s < end_s]
+    return [s for s in plan.steps if start_s - 1e-9 <= s.start_s < end_s - 1e-9]  # times are sums: a little off
 
 
 def plan_of_segments(plan: CommandPlan, indexes: list[int]) -> CommandPlan:
@@ -130,13 +128,14 @@ def run_plan_through_pauses(io: RigIO, plan: CommandPlan, max_late_s: float, ret
             break
         if on_retry is not None:
             on_retry(f"{len(todo)} part(s) of the plan disturbed: this process paused and sent a command "
-                     f"{worst_s:.2f} s late (the rig may vent after {max_late_s:g} s without one); running them "
-                     f"again ({attempt} of {retries})")
+                     f"{worst_s:.2f} s late (allowed: {max_late_s:g} s, within the rig's own vent timeout); "
+                     f"running them again ({attempt} of {retries})")
         again = plan_of_segments(plan, todo)
         recording = run_plan(io, again, on_step)
         plan = again
         todo, worst_s = disturbed_segments(recording, plan, max_late_s)
         result = joined(result, set_aside(recording, plan, todo))
     raise HardwareError(f"the run was still disturbed after {retries} repeats: this process paused and sent a "
-                        f"command {worst_s:.2f} s late, and the rig may vent after {max_late_s:g} s without one. "
-                        "The machine is too busy to measure the muscles: stop other programs and run it again.")
+                        f"command {worst_s:.2f} s late, more than the {max_late_s:g} s allowed within the rig's own "
+                        "vent timeout. The machine is too busy to measure the muscles: stop other programs and run it "
+                        "again.")

@@ -5,7 +5,12 @@ import pytest
 
 from srs_ros.backends.mock import MockBackend
 from srs_ros.core.actuation.identification import identify, run_plan, settled_points, step_plan
-from srs_ros.core.actuation.paused_runs import disturbed_segments, plan_segments, run_plan_through_pauses
+from srs_ros.core.actuation.paused_runs import (
+    disturbed_segments,
+    plan_of_segments,
+    plan_segments,
+    run_plan_through_pauses,
+)
 from srs_ros.core.errors import HardwareError
 from srs_ros.core.robot import default_robot
 from srs_ros.tools.identify import BackendIO
@@ -16,7 +21,7 @@ LEVELS_BAR = [0.5, 1.5, 2.5, 4.0]
 RATE_HZ = 200.0
 #: The plan below: 0.5 s vented, then each level held 1 s and vented 0.5 s; the 2.5 bar hold is 3.5-4.5 s.
 PLAN = step_plan(9, RATE_HZ, LEVELS_BAR, 1.0, 0.5, [[3]])
-MAX_LATE_S = 0.2  # the sim rig's stall gap: min(setpoint timeout 0.2 s, its board's 0.5 s)
+MAX_LATE_S = 0.2  # how late a command may go out (srs_identify: 80 % of the hardware's own timeout)
 BOARD_TIMEOUT_S = 0.5
 
 
@@ -110,3 +115,10 @@ def test_a_machine_that_keeps_pausing_is_told_it_is_too_busy():
     pauses = {row_at(4.0): 0.6, **{count + row_at(1.0) + n * row_at(2.0): 0.4 for n in range(3)}}
     with pytest.raises(HardwareError, match=r"still disturbed after 2 repeats.*0\.39 s late.*too busy"):
         run(pauses, retries=2)
+
+
+def test_every_segment_run_again_keeps_each_of_its_steps_once():
+    plan = step_plan(9, 100.0, [0.5, 1.5, 2.5, 4.0], 0.6, 0.3, [list(range(9))])  # start times sum to 2.0999...
+    again = plan_of_segments(plan, [0, 1, 2, 3])
+    assert [s.level_bar for s in again.steps] == [0.5, 1.5, 2.5, 4.0]
+    assert [s.level_bar for s in plan_of_segments(again, [2]).steps] == [2.5]
