@@ -209,20 +209,20 @@ class OverheadCamera:
         order = np.argsort(-0.5 * (depth[1:] + depth[:-1]))                  # far intervals first
         ends = ((0, -1.0), (len(pixels) - 1, 1.0))
         arc = np.linspace(0.0, math.pi, 9)
+        order = order.tolist()
         for shade, fraction, lift in ((0.55, 1.0, 0.0), (1.0, 0.72, 0.0), (1.3, 0.22, 0.3)):
             # The highlight runs along the side facing the camera's image top (a light from above-behind).
             edge = normal * (half_width * fraction)[:, None]
             centre = pixels + normal * (half_width * lift)[:, None]
             left, right = centre + edge, centre - edge
             quads = np.stack([left[:-1], left[1:], right[1:], right[:-1]], axis=1)
-            fixed = np.round(quads * 16).astype(np.int32)
+            fixed = list(np.round(quads * 16).astype(np.int32))
+            colours = np.minimum(colour * shade, 255.0).tolist()  # one BGR list per interval
             for i in order:
-                c = tuple(float(v) for v in np.minimum(colour[i] * shade, 255.0))
-                cv2.fillConvexPoly(frame, fixed[i], c, cv2.LINE_AA, shift=4)
+                cv2.fillConvexPoly(frame, fixed[i], colours[i], cv2.LINE_AA, shift=4)
             for index, sign in ends:
                 i = min(index, len(colour) - 1)
                 direction = sign * tangent[index]
                 cap = centre[index] + half_width[index] * fraction * (
                     np.cos(arc)[:, None] * normal[index] + np.sin(arc)[:, None] * direction)
-                c = tuple(float(v) for v in np.minimum(colour[i] * shade, 255.0))
-                cv2.fillConvexPoly(frame, np.round(cap * 16).astype(np.int32), c, cv2.LINE_AA, shift=4)
+                cv2.fillConvexPoly(frame, np.round(cap * 16).astype(np.int32), colours[i], cv2.LINE_AA, shift=4)
