@@ -23,6 +23,7 @@ from sensor_msgs.msg import Image, JointState
 from std_msgs.msg import Float64MultiArray, String
 
 from srs_ros.core.errors import ConfigurationError, SrsError
+from srs_ros.core.gait.library import played_gait
 from srs_ros.core.vision.view import ViewStatus
 from srs_ros.ros.interfaces import (
     COMMANDED_PRESSURE_TOPIC,
@@ -123,8 +124,11 @@ class StatusMonitor(Node):
         span_s = max(now_s - self._since_s, 1e-9)
         get = self._server.get_parameter
         playback = self._player.playback
-        line = (f"[{now_s - self._start_s:6.1f} s] {get('gait').value} {get('amplitude_bar').value:g} bar "
-                f"{get('frequency_hz').value:g} Hz | {playback.state.value} cycle {playback.cycles_done:7.2f} | "
+        # The gait as played: the navigator plays inward rolling backward (outward rolling), at its own frequency.
+        played_hz = abs(playback.frequency_hz) or get("frequency_hz").value
+        line = (f"[{now_s - self._start_s:6.1f} s] {played_gait(get('gait').value, playback.reverse)} "
+                f"{get('amplitude_bar').value:g} bar {played_hz:.3g} Hz | {playback.state.value} cycle "
+                f"{playback.cycles_done:7.2f} | "
                 f"setpoints {self._setpoints / span_s:5.0f} Hz | commands {self._commands / span_s:5.0f} Hz | "
                 f"largest {self._largest_bar:4.2f} bar | hardware {self._hardware.status.reason.value}")
         if self._navigation is not None:

@@ -141,11 +141,12 @@ def test_a_dead_navigator_lets_the_gait_ramp_out_by_itself(robot):
     robot.client.spin_for(1.0)  # past the ramp-in
     robot.navigator.kill()  # SIGKILL: no goodbye, no ~/stop
     killed_s = time.monotonic()
-    robot.wait(robot.vented, 10.0, "every muscle vented with the navigator dead")
-    vent_s = time.monotonic() - killed_s
+    while True:  # vented, and 0 bar for a second after: a hold at 0 bar while sim_world stalls is not the vent
+        robot.wait(robot.vented, killed_s + 10.0 - time.monotonic(), "every muscle vented with the navigator dead")
+        vent_s, count = time.monotonic() - killed_s, len(robot.pressures)
+        robot.client.spin_for(1.0)
+        if all(max(m.data) == 0.0 for m in robot.pressures[count:]):
+            break
     print(f"navigator SIGKILLed while driving: every muscle vented after {vent_s:.2f} s "
           "(gait_keepalive_s 2 s, then gait_player's 1 s ramp-out)")
     assert vent_s < 4.5  # keepalive_s 2 s + the ramp-out 1 s + margin (the last renewal was up to 0.5 s before)
-    count = len(robot.pressures)
-    robot.client.spin_for(1.0)
-    assert all(max(m.data) == 0.0 for m in robot.pressures[count:])

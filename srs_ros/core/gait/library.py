@@ -430,6 +430,14 @@ def rolling_arc_lengths(phase, radius_m: float, robot: RobotDescription, turns_p
 ROLLING_TURNS = {"inward_rolling": 1.0, "outward_rolling": -1.0}
 
 
+def played_gait(gait_name: str, reverse: bool) -> str:
+    """What a player shows: a rolling cycle played backward in time is the other rolling gait."""
+    if not reverse:
+        return gait_name
+    opposite = [name for name, turns in ROLLING_TURNS.items() if turns == -ROLLING_TURNS.get(gait_name, 0.0)]
+    return opposite[0] if opposite else f"{gait_name} (played backward)"
+
+
 def rolling_radius_for_peak(peak_length_m: float, phase, robot: RobotDescription,
                             turns_per_cycle: float = 1.0, turn_phase_rad: float = 0.0) -> float:
     """The rolling arc radius (m) whose exact cycle (:func:`rolling_arc_lengths` at ``phase``) peaks at the length.

@@ -116,3 +116,12 @@ def test_unknown_gait_and_bad_parameters_are_refused_with_the_allowed_values():
         gait_curves("inward_rolling", PHASES, ROBOT, {"radius_m": "big"})
     with pytest.raises(InvalidInputError, match="radius_m"):
         gait_curves("inward_rolling", PHASES, ROBOT, {"radius_m": float("nan")})
+
+
+def test_a_rolling_cycle_played_backward_is_the_other_rolling_gait():
+    from srs_ros.core.gait.library import played_gait
+
+    assert played_gait("inward_rolling", True) == "outward_rolling"
+    assert played_gait("outward_rolling", True) == "inward_rolling"
+    assert played_gait("inward_rolling", False) == "inward_rolling"
+    assert played_gait("serpentine", True) == "serpentine (played backward)"
