@@ -11,7 +11,7 @@ Modules:
   (:func:`launch_sim_loop`), and Fast DDS's shared memory cleaned after a process was killed
   (:func:`fastdds_shm_clean_if_killed`).
 - :mod:`srs_testing.backend`: what the mock backend of a node in another process wrote (:func:`recorded_rig`,
-  :class:`BackendRecord`).
+  :class:`BackendRecord`), and a clock for a mock backend in the test's own process (:class:`ManualClock`).
 - :mod:`srs_testing.gaits`: gait cycles as a sender publishes them (:data:`JOINT_NAMES`, :func:`rolling_cycle`,
   :func:`trajectory`).
 - :mod:`srs_testing.netns`: several hosts on one machine as network namespaces (:class:`NetnsLab`, root only).
@@ -29,7 +29,7 @@ The tests find this package through pytest's ``pythonpath = test`` (setup.cfg); 
 It is never part of a colcon/ament install (see the README's "Tests" section).
 """
 
-from srs_testing.backend import BackendRecord, recorded_rig
+from srs_testing.backend import BackendRecord, ManualClock, recorded_rig
 from srs_testing.gaits import JOINT_NAMES, rolling_cycle, trajectory
 from srs_testing.netns import NetnsLab
 from srs_testing.ros import (
@@ -48,7 +48,8 @@ from srs_testing.ros import (
 )
 
 __all__ = [
-    "JOINT_NAMES", "BackendRecord", "NetnsLab", "NodeProcess", "RosClient", "RosSession", "allocate_domain",
+    "JOINT_NAMES", "BackendRecord", "ManualClock", "NetnsLab", "NodeProcess", "RosClient", "RosSession",
+    "allocate_domain",
     "camera_profile_env", "fastdds_shm_clean", "fastdds_shm_clean_if_killed", "launch_sim_loop", "note_killed",
     "recorded_rig",
     "release_domain", "rolling_cycle", "ros_args", "script_path", "trajectory",

@@ -62,3 +62,19 @@ class BackendRecord:
     def vented(self) -> bool:
         last = self.last()
         return last is not None and not last.any()
+
+
+class ManualClock:
+    """A mock backend's clock (``MockBackend(clock=...)``), advanced only by :meth:`sleep`: a run takes no wall time.
+
+    Pass ``sleep`` as the waits of the code under test (e.g. ``BackendIO(backend, clock, clock.sleep)``).
+    """
+
+    def __init__(self, start_s: float = 50.0):
+        self.now_s = start_s
+
+    def __call__(self) -> float:
+        return self.now_s
+
+    def sleep(self, seconds: float) -> None:
+        self.now_s += seconds

@@ -4,6 +4,7 @@ import math
 
 import numpy as np
 import pytest
+from srs_testing import ManualClock
 
 from srs_ros.backends.mock import MockBackend
 from srs_ros.core.actuation.identification import (
@@ -21,19 +22,6 @@ from srs_ros.core.robot import default_robot
 from srs_ros.tools.identify import BackendIO
 
 ROBOT = default_robot()
-
-
-class ManualClock:
-    """The mock backend's clock, advanced by the identification's waits: a run takes no wall time."""
-
-    def __init__(self):
-        self.now_s = 50.0
-
-    def __call__(self):
-        return self.now_s
-
-    def sleep(self, seconds):
-        self.now_s += seconds
 
 
 def test_a_step_plan_starts_vented_and_vents_after_every_step():

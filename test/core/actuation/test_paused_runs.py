@@ -2,6 +2,7 @@
 
 import numpy as np
 import pytest
+from srs_testing import ManualClock
 
 from srs_ros.backends.mock import MockBackend
 from srs_ros.core.actuation.identification import identify, run_plan, settled_points, step_plan
@@ -23,19 +24,6 @@ RATE_HZ = 200.0
 PLAN = step_plan(9, RATE_HZ, LEVELS_BAR, 1.0, 0.5, [[3]])
 MAX_LATE_S = 0.2  # how late a command may go out (srs_identify: 80 % of the hardware's own timeout)
 BOARD_TIMEOUT_S = 0.5
-
-
-class ManualClock:
-    """The mock rig's clock, advanced only by waits and pauses: a run takes no wall time."""
-
-    def __init__(self):
-        self.now_s = 10.0
-
-    def __call__(self):
-        return self.now_s
-
-    def sleep(self, seconds):
-        self.now_s += seconds
 
 
 class PausingIO(BackendIO):
@@ -60,7 +48,7 @@ class PausingIO(BackendIO):
 
 
 def run(pauses_s, through_pauses=True, retries=3):
-    clock, told = ManualClock(), []
+    clock, told = ManualClock(10.0), []
     with MockBackend(ROBOT, MUSCLES, clock=clock) as backend:
         io = PausingIO(backend, clock, pauses_s)
         if not through_pauses:
