@@ -180,6 +180,7 @@ class SimWorldNode(Node):
             try:
                 self._target_s += self.pacer.step_s(now_s)
                 self.world.advance_to(self._target_s)
+                self._last_step = (now_s, self.world.time_s)  # commands arriving from now on are dated from here
                 commands = self.board.take(self.world.time_s)
                 for when_s, command in commands:
                     self.world.command_pressures(command, when_s)
@@ -187,7 +188,6 @@ class SimWorldNode(Node):
                     self.get_logger().warning(
                         f"no regulator command for {self.board.command_timeout_s:g} s: the simulated board "
                         "vented every muscle by itself (the hardware node stopped or died)")
-                self._last_step = (now_s, self.world.time_s)
             except SrsError as exc:
                 self._stop_world(str(exc))
                 return

@@ -92,6 +92,7 @@ class SimulatedBoard:
         if not self._vented and world_s - self._last_command_world_s > self.command_timeout_s:
             self._vented = self.vented_by_silence = True
             self.silence_vents += 1
+            self._last_command_world_s = world_s  # a command dated before the vent comes after it
             return [(world_s, np.zeros(self.joint_count))]
         return []
 

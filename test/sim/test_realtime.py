@@ -51,6 +51,18 @@ def test_the_board_vents_once_when_commands_stop_for_its_timeout_of_world_time()
     assert board.take(10.0) == [] and not board.vented_by_silence and board.silence_vents == 1
 
 
+def test_a_command_dated_before_a_vent_the_board_applied_comes_after_it():
+    """A command that arrived while the vent was applied is dated from the wake-up before: it follows the vent
+    (the world refuses a command older than the last, and would stop)."""
+    board = SimulatedBoard(joint_count=9, command_timeout_s=0.5)
+    board.receive(np.full(9, 4.0), 0.99)
+    board.take(1.0)
+    [(vent_s, _)] = board.take(1.6)
+    board.receive(np.full(9, 2.0), 1.599)
+    [(when_s, command)] = board.take(1.61)
+    assert when_s == vent_s == 1.6 and command[0] == 2.0
+
+
 def test_commands_dated_and_applied_at_the_next_tick_move_the_world_as_commands_applied_as_they_came():
     """What sim_world relies on: with the supply line's delay (30 ms) longer than a control period (10 ms), a
     command applied at the next wake-up at the time it arrived is felt exactly as one applied on arrival."""

@@ -28,6 +28,8 @@ from srs_ros.core.errors import HardwareError
 
 #: How many times the segments a pause disturbed are run again before the run gives up.
 DEFAULT_RETRIES = 3
+#: Time between two runs joined into one recording (s): a vented line comes to rest within it (5 lags of 0.2 s).
+JOIN_GAP_S = 1.0
 
 
 def plan_segments(plan: CommandPlan) -> list[tuple[int, int]]:
@@ -42,7 +44,9 @@ def disturbed_segments(recording: Recording, plan: CommandPlan, max_late_s: floa
     """Indexes of the segments with a command sent more than ``max_late_s`` late next to a non-zero one; worst (s).
 
     A late command after a non-zero one means the held pressure went unrefreshed (the rig may have vented);
-    a late non-zero command means its step started or went on late, its hold shortened by the catch-up.
+    a late non-zero command means its step started or went on late, its hold shortened by the catch-up. A
+    segment whose vent began late also takes the next one: its vent was cut short, so the next step starts
+    from a pressure the fit's model of the commands does not know.
     """
     late_s = recording.command_s - plan.times_s
     active = np.any(plan.pressure_bar > 0.0, axis=1)
@@ -50,10 +54,15 @@ def disturbed_segments(recording: Recording, plan: CommandPlan, max_late_s: floa
     rows = np.flatnonzero((late_s > max_late_s) & beside)
     if rows.size == 0:
         return [], 0.0
-    firsts = np.array([first for first, _ in plan_segments(plan)])
-    touched = {int(np.searchsorted(firsts, row, side="right")) - 1 for row in rows}
-    touched |= {int(np.searchsorted(firsts, row - 1, side="right")) - 1 for row in rows if row > 0 and active[row - 1]}
-    return sorted(s for s in touched if s >= 0), float(late_s[rows].max())
+    segments = plan_segments(plan)
+    firsts = np.array([first for first, _ in segments])
+    touched = {int(np.searchsorted(firsts, row, side="right")) - 1 for row in rows} - {-1}
+    for index in sorted(touched):
+        first, end = segments[index]
+        vent = first + int(np.argmin(active[first:end])) if not np.all(active[first:end]) else end
+        if index + 1 < len(segments) and vent < end and late_s[vent] > max_late_s:
+            touched.add(index + 1)
+    return sorted(touched), float(late_s[rows].max())
 
 
 def _steps_within(plan: CommandPlan, first: int, end: int) -> list[Step]:
@@ -96,10 +105,19 @@ def set_aside(recording: Recording, plan: CommandPlan, indexes: list[int]) -> tu
 
 
 def joined(first: tuple[Recording, CommandPlan], then: tuple[Recording, CommandPlan]) -> tuple[Recording, CommandPlan]:
-    """Two runs as one: the second's times follow the first plan's end by one command period."""
+    """Two runs as one: the second starts :data:`JOIN_GAP_S` after the first's last command or sample.
+
+    The first run may have ended late (a pause near its end): times stay in order, and over the gap the
+    fit's model of the commands comes to rest at the last (vented) command, as the rig did between the runs.
+    """
     (a, plan_a), (b, plan_b) = first, then
-    plan = plan_a.then(plan_b)
-    shift_s = plan.times_s[len(plan_a.times_s)] - plan_b.times_s[0]
+    ends = [plan_a.duration_s, *a.command_s[-1:], *a.sample_s[-1:]]
+    shift_s = float(max(ends)) + JOIN_GAP_S - float(plan_b.times_s[0])
+    plan = CommandPlan(np.concatenate([plan_a.times_s, plan_b.times_s + shift_s]),
+                       np.concatenate([plan_a.pressure_bar, plan_b.pressure_bar]),
+                       plan_a.steps + tuple(Step(s.joints, s.level_bar, s.start_s + shift_s, s.settled_s + shift_s,
+                                                 s.end_s + shift_s) for s in plan_b.steps),
+                       plan_a.description)
 
     def stacked(x, y):
         return None if x is None or y is None else np.concatenate([x, y])

@@ -110,3 +110,15 @@ def test_every_segment_run_again_keeps_each_of_its_steps_once():
     again = plan_of_segments(plan, [0, 1, 2, 3])
     assert [s.level_bar for s in again.steps] == [0.5, 1.5, 2.5, 4.0]
     assert [s.level_bar for s in plan_of_segments(again, [2]).steps] == [2.5]
+
+
+@pytest.mark.parametrize("at_s, pause_s", [(5.95, 0.7), (4.0, 0.9)])
+def test_the_dynamics_stay_right_when_a_pause_ends_the_plan_late_or_cuts_a_vent_short(at_s, pause_s):
+    """A pause in the last hold ends the first run late (the re-run must follow its real end); one late in a
+    hold lets the catch-up eat the vent after it (the next step then starts from an unknown pressure)."""
+    recording, plan, told = run({row_at(at_s): pause_s})
+    assert len(told) == 1 and np.all(np.diff(recording.command_s) >= 0.0)  # in order (a catch-up: at once)
+    found = identify(ROBOT, [3], recording, plan).values["m2_pma1"]
+    assert found["transport_delay_s"] == pytest.approx(0.05, rel=0.05)
+    assert found["pressure_time_constant_s"] == pytest.approx(0.1, rel=0.05)
+    assert found["extension_per_bar_m"] == pytest.approx(0.055 / 3.2, rel=0.05)
