@@ -125,7 +125,7 @@ class StatusMonitor(Node):
         get = self._server.get_parameter
         playback = self._player.playback
         # The gait as played: the navigator plays inward rolling backward (outward rolling), at its own frequency.
-        played_hz = abs(playback.frequency_hz) or get("frequency_hz").value
+        played_hz = abs(playback.frequency_hz)  # 0 for a moment while a reversal ramps through it
         line = (f"[{now_s - self._start_s:6.1f} s] {played_gait(get('gait').value, playback.reverse)} "
                 f"{get('amplitude_bar').value:g} bar {played_hz:.3g} Hz | {playback.state.value} cycle "
                 f"{playback.cycles_done:7.2f} | "
