@@ -73,6 +73,8 @@ from srs_ros.ros.process import request_realtime_priority, run_node, steady_time
 
 #: Largest phase step per tick: a stalled process resumes where it was instead of jumping ahead.
 MAX_STEP_S = 0.05
+#: A setpoint's stamp and its phase time are read again when more than this apart (s): the process was paused.
+CLOCK_PAIR_S = 1e-3
 #: Largest serialized trajectory taken (bytes): MAX_TRAJECTORY_POINTS points of up to four arrays of nine
 #: doubles and a duration each (CDR), plus the header. Checked before deserializing, which for a
 #: 100k-point message would hold the interpreter for 0.7 s and starve the setpoint stream.
@@ -245,10 +247,23 @@ class GaitPlayer(Node):
         """The clock the phase follows (s): ROS time with use_sim_time (the world's /clock), else the steady clock."""
         return self.get_clock().now().nanoseconds * 1e-9 if self._sim_time else time.monotonic()
 
+    def _clock_pair(self):
+        """The ROS clock's time (the stamp) and the steady clock's (s), read together.
+
+        A pause of the process between two readings would date the setpoint away from the instant its phase
+        is computed for (a jump against its stamps, seen once in a loaded suite).
+        """
+        for _ in range(3):
+            before_s = time.monotonic()
+            stamp = self.get_clock().now()
+            now_s = time.monotonic()
+            if now_s - before_s < CLOCK_PAIR_S:
+                break
+        return stamp, now_s
+
     def _on_tick(self) -> None:
-        stamp = self.get_clock().now()  # the instant this setpoint is computed for
-        now = time.monotonic()
-        phase_s = self._phase_time_s()
+        stamp, now = self._clock_pair()  # the instant this setpoint is computed for, on both clocks
+        phase_s = stamp.nanoseconds * 1e-9 if self._sim_time else now
         dt_s = min(max(phase_s - self._last_tick, 0.0), MAX_STEP_S)
         self._last_tick = phase_s
         if not self._playback.has_cycle:
