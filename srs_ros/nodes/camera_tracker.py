@@ -1,6 +1,6 @@
 """ROS 2 node ``camera_tracker``: the robot's floor pose, velocity and trail from a fixed overhead camera.
 
-Input: ``image_raw`` (sensor_msgs/Image: bgr8, rgb8, mono8, bgra8, rgba8) from any camera driver, or, when
+Input: ``image_raw`` (sensor_msgs/Image: bgr8, rgb8, mono8, bgra8, rgba8, bayer_*8) from any camera driver, or, when
 the ``source`` parameter is set, a video file or camera index read directly with OpenCV. Output, stamped
 with the image's stamp, in the calibration's floor frame: ``robot_pose`` (geometry_msgs/PoseStamped),
 ``robot_twist`` (geometry_msgs/TwistStamped, smoothed) and ``robot_path`` (nav_msgs/Path). A frame where a

@@ -13,7 +13,7 @@ Interface (relative names, remappable)::
                                                                 (midpoint of head and tail bands) and heading
                 sim/body_markers        visualization_msgs/MarkerArray  the simulated backbone as a tube (id 0)
                                                                 and the commanded shape (id 1), frame ``floor``
-                image_raw               sensor_msgs/Image (bgr8)  the overhead camera, ``camera_rate_hz``
+                image_raw               sensor_msgs/Image  the overhead camera, ``camera_rate_hz``, ``camera_encoding``
                 /diagnostics            diagnostic_msgs/DiagnosticArray  real-time factor, divergence
     services    ~/reset                 std_srvs/Trigger  the robot back to its start pose (also after a divergence)
 
@@ -49,6 +49,7 @@ from srs_ros.ros.interfaces import (
     DIAGNOSTICS_TOPIC,
     FLOOR_FRAME,
     GROUND_TRUTH_TOPIC,
+    IMAGE_ENCODINGS_OUT,
     IMAGE_TOPIC,
     SIM_BOARD_TIMEOUT_S,
     SIM_COMMAND_TOPIC,
@@ -74,6 +75,10 @@ PARAMETERS = (
     ParameterSpec("robot_description_file", "", "robot YAML; '' = the package's config/robot.yaml", read_only=True),
     ParameterSpec("camera_rate_hz", 30.0, "overhead camera frames per second on image_raw (0 = no camera)",
                   0.0, 120.0, read_only=True),
+    ParameterSpec("camera_encoding", "bayer_rggb8", "image_raw's encoding: a colour sensor's raw Bayer mosaic (a "
+                  "third of bgr8's bytes: a 640x480 frame fits Fast DDS's default shared memory, every frame arrives "
+                  "on a busy machine) or bgr8 (0.9 MB, over UDP fragments that a busy reader loses)",
+                  read_only=True, choices=IMAGE_ENCODINGS_OUT),
     ParameterSpec("pose_rate_hz", 50.0, "sim/ground_truth_pose messages per second", 1.0, 500.0, read_only=True),
     ParameterSpec("markers_rate_hz", 10.0, "sim/body_markers messages per second (0 = none)", 0.0, 100.0,
                   read_only=True),
@@ -104,6 +109,7 @@ class SimWorldNode(Node):
         self.config = load_sim_config(p["sim_config_file"] or None, robot=self.robot)
         self.world = SimWorld(self.config, self.robot)
         self.camera = OverheadCamera(self.config) if p["camera_rate_hz"] > 0 else None
+        self._camera_encoding = p["camera_encoding"]
         self.board = SimulatedBoard(self.robot.joint_count, p["command_timeout_s"])
         self.pacer = RealTimePacer()
         self.failure = ""  # why the world stopped (a divergence), until ~/reset
@@ -273,8 +279,11 @@ class SimWorldNode(Node):
     def _publish_image(self) -> None:
         if self.failure:
             return
-        image = self.camera.render(self.state().nodes_m)  # outside the lock: the physics goes on meanwhile
-        self._image_pub.publish(array_to_image_msg(image, self.get_clock().now().to_msg(), "camera"))
+        # Stamped at the instant of the state shown, as a camera stamps its exposure: not after the render, which
+        # a busy machine can stall for 0.2-0.4 s (a rolling robot's pose would be dated centimetres late).
+        nodes_m, stamp = self.state().nodes_m, self.get_clock().now().to_msg()
+        image = self.camera.render(nodes_m)  # outside the lock: the physics goes on meanwhile
+        self._image_pub.publish(array_to_image_msg(image, stamp, "camera", self._camera_encoding))
 
     def _publish_markers(self) -> None:
         if self.failure:

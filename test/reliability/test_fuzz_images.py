@@ -23,8 +23,9 @@ from srs_ros.sim.scene import RobotAppearance, SyntheticCamera, SyntheticScene
 
 SCENE = SyntheticScene(camera=SyntheticCamera(width_px=320, height_px=240, height_m=0.6),
                        robot=RobotAppearance(marker_spacing_m=0.25))
-ENCODINGS = ["bgr8", "rgb8", "mono8", "8UC1", "8UC3", "bgra8", "rgba8"]
-CHANNELS = {"bgr8": 3, "rgb8": 3, "mono8": 1, "8UC1": 1, "8UC3": 3, "bgra8": 4, "rgba8": 4}
+ENCODINGS = ["bgr8", "rgb8", "mono8", "8UC1", "8UC3", "bgra8", "rgba8", "bayer_rggb8", "bayer_gbrg8"]
+CHANNELS = {"bgr8": 3, "rgb8": 3, "mono8": 1, "8UC1": 1, "8UC3": 3, "bgra8": 4, "rgba8": 4, "bayer_rggb8": 1,
+            "bayer_gbrg8": 1}
 SETTINGS = settings(max_examples=25, deadline=None, database=None, phases=[Phase.explicit, Phase.generate],
                     suppress_health_check=list(HealthCheck), report_multiple_bugs=False)
 
@@ -35,10 +36,10 @@ def hostile_images(draw, good_frame: np.ndarray):
     if kind.startswith("good_frame"):
         msg = array_to_image_msg(good_frame)
         if kind == "good_frame_bad_layout":
-            msg.encoding = draw(st.sampled_from(["rgba8", "mono8", "16UC1", ""]))
+            msg.encoding = draw(st.sampled_from(["rgba8", "mono8", "16UC1", "", "bayer_grbg8"]))
             msg.step = draw(st.sampled_from([0, msg.step - 1, msg.step * 2, 2**32 - 1]))
     else:
-        encoding = draw(st.one_of(st.sampled_from(ENCODINGS + ["16UC1", "bayer_rggb8", "", "BGR8"]),
+        encoding = draw(st.one_of(st.sampled_from(ENCODINGS + ["16UC1", "bayer_rggb16", "", "BGR8"]),
                                   st.text(max_size=8)))
         height = draw(st.one_of(st.sampled_from([0, 1, 2, 2**31, 2**32 - 1]), st.integers(0, 200)))
         width = draw(st.one_of(st.sampled_from([0, 1, 2, 2**31, 2**32 - 1]), st.integers(0, 200)))

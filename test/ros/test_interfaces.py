@@ -9,6 +9,7 @@ from sensor_msgs.msg import Image
 
 from srs_ros.core.errors import InvalidInputError
 from srs_ros.ros.interfaces import (
+    array_to_image_msg,
     diagnostic_array,
     diagnostic_status,
     diagnostic_values,
@@ -63,6 +64,37 @@ def test_images_become_what_opencv_converts_them_to(encoding, to_bgr):
     np.testing.assert_array_equal(image, expected)
     assert image.flags.c_contiguous and image.flags.writeable and image.dtype == np.uint8  # a copy of the data
     assert not np.shares_memory(image, np.frombuffer(msg.data, np.uint8))
+
+
+@pytest.mark.parametrize(("encoding", "to_bgr"), [("bayer_rggb8", cv2.COLOR_BayerBG2BGR),
+                                                  ("bayer_bggr8", cv2.COLOR_BayerRG2BGR),
+                                                  ("bayer_gbrg8", cv2.COLOR_BayerGR2BGR),
+                                                  ("bayer_grbg8", cv2.COLOR_BayerGB2BGR)])
+def test_a_bayer_mosaic_is_written_as_its_filters_pass_and_read_back_in_colour(encoding, to_bgr):
+    """A BGR image written as a Bayer camera's raw mosaic keeps, per pixel, the colour its filter passes (the
+    tile named by the encoding: bayer_rggb8 is R G over G B); read back it is OpenCV's demosaicing (cv_bridge's
+    table of codes), and a patch of one colour comes back exactly."""
+    bgr = np.random.default_rng(3).integers(0, 256, (6, 8, 3), dtype=np.uint8)
+    msg = array_to_image_msg(bgr, encoding=encoding)
+    assert (msg.encoding, msg.step, len(msg.data)) == (encoding, 8, 48)  # one byte a pixel
+    raw = np.frombuffer(msg.data, np.uint8).reshape(6, 8)
+    colour = {"r": 2, "g": 1, "b": 0}
+    for row in range(2):
+        for column in range(2):
+            letter = encoding[6 + 2 * row + column]  # bayer_RGgb: the tile's first row, then its second
+            np.testing.assert_array_equal(raw[row::2, column::2], bgr[row::2, column::2, colour[letter]])
+    padded = Image(height=6, width=8, encoding=encoding, step=11)
+    padded.data = np.pad(raw, ((0, 0), (0, 3))).tobytes()
+    np.testing.assert_array_equal(image_msg_to_array(padded), cv2.cvtColor(raw, to_bgr))
+    flat = np.empty((16, 16, 3), np.uint8)
+    flat[:] = (200, 40, 10)
+    np.testing.assert_array_equal(image_msg_to_array(array_to_image_msg(flat, encoding=encoding)), flat)
+
+
+def test_an_encoding_that_cannot_be_written_is_refused_with_the_ones_that_can():
+    with pytest.raises(InvalidInputError, match=r"encoding 'yuv422' cannot be written; expected one of \['bgr8', "
+                                                "'bayer_rggb8'"):
+        array_to_image_msg(np.zeros((2, 2, 3), np.uint8), encoding="yuv422")
 
 
 def test_a_joint_state_leaves_what_was_not_measured_empty():

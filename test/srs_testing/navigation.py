@@ -40,11 +40,10 @@ class NavigationSystem:
             POSE_TOPIC,
             latched_qos,
         )
-        from srs_testing.ros import camera_profile_env, ros_args
+        from srs_testing.ros import ros_args
 
         self.session = session
         self.client = client = session.client
-        session.env.update(camera_profile_env())  # camera images through shared memory (docs/navigation.md)
         rig = str(config_dir() / "rigs" / "sim.yaml")
         world = {"camera_rate_hz": camera_rate_hz, "markers_rate_hz": 0.0}
         self.world = session.launch("sim_world", ros_args({**world, **({"sim_config_file": sim_config_file}
