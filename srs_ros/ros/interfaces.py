@@ -32,8 +32,9 @@ from std_msgs.msg import Float64MultiArray, MultiArrayDimension, String
 
 from srs_ros.core.errors import InvalidInputError
 
-#: The Fast DDS profile (in config/) of node processes on one machine: a 16 MB shared-memory segment, so that a
-#: 0.9 MB camera image passes whole instead of in UDP fragments that a busy reader loses (see the file).
+#: The opt-in Fast DDS profile (in config/) of node processes on one machine: a 16 MB shared-memory segment, so
+#: that a 0.9 MB bgr8 camera image passes whole instead of in UDP fragments that a busy reader loses (see the
+#: file). sim_world's default Bayer frames (0.3 MB) fit Fast DDS's default segment and do not need it.
 DDS_PROFILE_FILE = "fastdds_camera_shm.xml"
 #: The variable by which Fast DDS (ROS 2 Jazzy's default middleware) reads a process's default profile.
 DDS_PROFILE_ENV = "FASTRTPS_DEFAULT_PROFILES_FILE"
@@ -134,8 +135,10 @@ BAYER_TILES = {
 #: ``bayer_rggb8`` is its ``BayerBG``; the same table as cv_bridge's).
 _BAYER_TO_BGR_CODE = {"bayer_rggb8": "COLOR_BayerBG2BGR", "bayer_bggr8": "COLOR_BayerRG2BGR",
                       "bayer_gbrg8": "COLOR_BayerGR2BGR", "bayer_grbg8": "COLOR_BayerGB2BGR"}
-#: The encodings :func:`array_to_image_msg` writes from a BGR image.
+#: The encodings :func:`array_to_image_msg` writes from a BGR image (a mono one is written as mono8).
 IMAGE_ENCODINGS_OUT = ("bgr8", *BAYER_TILES)
+#: The smallest side of a Bayer frame OpenCV demosaics (smaller ones come out black).
+MIN_BAYER_SIDE_PX = 3
 
 
 # ------------------------------------------------------------------------------------------
@@ -160,6 +163,9 @@ def image_msg_to_array(msg: Image) -> np.ndarray:
     buffer = np.frombuffer(msg.data, dtype=np.uint8, count=msg.step * msg.height).reshape(msg.height, msg.step)
     pixels = buffer[:, :row_bytes].reshape(msg.height, msg.width, channels)
     if msg.encoding in _BAYER_TO_BGR_CODE:
+        if min(msg.width, msg.height) < MIN_BAYER_SIDE_PX:
+            raise InvalidInputError(f"image {msg.width}x{msg.height} {msg.encoding} is too small to demosaic; "
+                                    f"expected at least {MIN_BAYER_SIDE_PX}x{MIN_BAYER_SIDE_PX} pixels.")
         return _demosaic(pixels[:, :, 0], msg.encoding)
     if channels == 1:
         return pixels[:, :, 0].copy()
@@ -168,22 +174,24 @@ def image_msg_to_array(msg: Image) -> np.ndarray:
 
 
 def array_to_image_msg(image: np.ndarray, stamp: Time | None = None, frame_id: str = "camera",
-                       encoding: str = "bgr8") -> Image:
-    """A BGR (h, w, 3) or mono (h, w) uint8 array as an Image message (bgr8 or mono8).
+                       encoding: str | None = None) -> Image:
+    """A BGR (h, w, 3) or mono (h, w) uint8 array as an Image message: bgr8 or mono8 unless ``encoding`` says.
 
-    ``encoding="bayer_rggb8"`` writes a BGR image as a colour camera's raw sensor would: one byte a pixel, the
-    colour of the filter over it (a third of the bytes: a 640x480 frame fits Fast DDS's default 512 KB
-    shared-memory segment, where bgr8's 0.9 MB goes over UDP fragments that a busy reader loses).
+    A BGR image may also be written as a colour camera's raw sensor would (``encoding="bayer_rggb8"`` or another
+    of :data:`IMAGE_ENCODINGS_OUT`): one byte a pixel, the colour of the filter over it (a third of the bytes: a
+    640x480 frame fits Fast DDS's default 512 KB shared-memory segment, where bgr8's 0.9 MB goes over UDP
+    fragments that a busy reader loses).
     """
     image = np.ascontiguousarray(image)
     if image.dtype != np.uint8 or image.ndim not in (2, 3) or (image.ndim == 3 and image.shape[2] != 3):
         raise InvalidInputError(f"image {image.shape} {image.dtype}; expected uint8 (h, w) mono or (h, w, 3) BGR.")
-    if encoding not in IMAGE_ENCODINGS_OUT:
-        raise InvalidInputError(f"image encoding {encoding!r} cannot be written; expected one of "
-                                f"{list(IMAGE_ENCODINGS_OUT)}.")
-    if image.ndim == 2:
-        encoding = "mono8"
-    elif encoding != "bgr8":
+    encoding = encoding or ("mono8" if image.ndim == 2 else "bgr8")
+    allowed = ("mono8",) if image.ndim == 2 else IMAGE_ENCODINGS_OUT
+    if encoding not in allowed:
+        raise InvalidInputError(f"image {image.shape} cannot be written as {encoding!r}; expected one of "
+                                f"{list(allowed)} for a {'mono (h, w)' if image.ndim == 2 else 'BGR (h, w, 3)'} "
+                                "image.")
+    if encoding in BAYER_TILES:
         image = _mosaic(image, encoding)
     msg = Image()
     if stamp is not None:

@@ -71,3 +71,37 @@ def test_a_bad_sim_config_is_refused_with_the_key_and_what_is_expected(launch_no
     proc = launch_node("sim_world", ros_args({"sim_config_file": str(bad)}))
     assert proc.process.wait(30) == 2, proc.output()
     assert "segments_per_module" in proc.output() and "-2" in proc.output()
+
+
+def test_an_image_is_stamped_at_the_state_it_shows_not_after_a_slow_render(ros_domain, monkeypatch):
+    """A camera stamps its exposure: a render that a busy machine stalls (here 0.2 s) must not date the frame late,
+    which for a robot rolling at 10 cm/s would put its tracked pose 2 cm behind the truth at that stamp."""
+    import time
+
+    import rclpy
+
+    from srs_ros.nodes.sim_world import SimWorldNode
+    from srs_ros.sim.camera import OverheadCamera
+
+    render = OverheadCamera.render
+
+    def slow_render(camera, *args, **kwargs):
+        time.sleep(0.2)
+        return render(camera, *args, **kwargs)
+
+    monkeypatch.setattr(OverheadCamera, "render", slow_render)
+    rclpy.init(args=["sim_world", "--ros-args", "-p", "camera_rate_hz:=1.0"], domain_id=ros_domain)
+    try:
+        node = SimWorldNode()
+        published = []
+        monkeypatch.setattr(node._image_pub, "publish", published.append)
+        try:
+            called_s = node.get_clock().now().nanoseconds * 1e-9
+            node._publish_image()
+        finally:
+            node.destroy_node()
+    finally:
+        rclpy.shutdown()
+    (image,) = published
+    assert image.encoding == "bayer_rggb8"
+    assert stamp_to_seconds(image.header.stamp) - called_s < 0.05  # read with the state, before the 0.2 s render

@@ -74,16 +74,16 @@ def test_a_bayer_mosaic_is_written_as_its_filters_pass_and_read_back_in_colour(e
     """A BGR image written as a Bayer camera's raw mosaic keeps, per pixel, the colour its filter passes (the
     tile named by the encoding: bayer_rggb8 is R G over G B); read back it is OpenCV's demosaicing (cv_bridge's
     table of codes), and a patch of one colour comes back exactly."""
-    bgr = np.random.default_rng(3).integers(0, 256, (6, 8, 3), dtype=np.uint8)
+    bgr = np.random.default_rng(3).integers(0, 256, (5, 7, 3), dtype=np.uint8)  # odd sides: a tile cut short
     msg = array_to_image_msg(bgr, encoding=encoding)
-    assert (msg.encoding, msg.step, len(msg.data)) == (encoding, 8, 48)  # one byte a pixel
-    raw = np.frombuffer(msg.data, np.uint8).reshape(6, 8)
+    assert (msg.encoding, msg.step, len(msg.data)) == (encoding, 7, 35)  # one byte a pixel
+    raw = np.frombuffer(msg.data, np.uint8).reshape(5, 7)
     colour = {"r": 2, "g": 1, "b": 0}
     for row in range(2):
         for column in range(2):
             letter = encoding[6 + 2 * row + column]  # bayer_RGgb: the tile's first row, then its second
             np.testing.assert_array_equal(raw[row::2, column::2], bgr[row::2, column::2, colour[letter]])
-    padded = Image(height=6, width=8, encoding=encoding, step=11)
+    padded = Image(height=5, width=7, encoding=encoding, step=10)
     padded.data = np.pad(raw, ((0, 0), (0, 3))).tobytes()
     np.testing.assert_array_equal(image_msg_to_array(padded), cv2.cvtColor(raw, to_bgr))
     flat = np.empty((16, 16, 3), np.uint8)
@@ -92,9 +92,20 @@ def test_a_bayer_mosaic_is_written_as_its_filters_pass_and_read_back_in_colour(e
 
 
 def test_an_encoding_that_cannot_be_written_is_refused_with_the_ones_that_can():
-    with pytest.raises(InvalidInputError, match=r"encoding 'yuv422' cannot be written; expected one of \['bgr8', "
-                                                "'bayer_rggb8'"):
+    with pytest.raises(InvalidInputError, match=r"cannot be written as 'yuv422'; expected one of \['bgr8', "
+                                                r"'bayer_rggb8'.* for a BGR \(h, w, 3\) image"):
         array_to_image_msg(np.zeros((2, 2, 3), np.uint8), encoding="yuv422")
+    with pytest.raises(InvalidInputError, match=r"cannot be written as 'bayer_rggb8'; expected one of \['mono8'\]"):
+        array_to_image_msg(np.zeros((4, 4), np.uint8), encoding="bayer_rggb8")  # a mono image has no colours
+    assert array_to_image_msg(np.zeros((4, 4), np.uint8)).encoding == "mono8"
+    assert array_to_image_msg(np.zeros((4, 4), np.uint8), encoding="mono8").step == 4
+
+
+def test_a_bayer_frame_too_small_to_demosaic_is_refused():
+    """OpenCV demosaics a Bayer frame under 3x3 pixels as black: refused with the size expected."""
+    msg = Image(height=2, width=2, encoding="bayer_rggb8", step=2, data=bytes([200, 100, 100, 50]))
+    with pytest.raises(InvalidInputError, match=r"2x2 bayer_rggb8 is too small to demosaic; expected at least 3x3"):
+        image_msg_to_array(msg)
 
 
 def test_a_joint_state_leaves_what_was_not_measured_empty():
