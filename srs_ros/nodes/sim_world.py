@@ -225,8 +225,18 @@ class SimWorldNode(Node):
         super().destroy_node()
 
     # -- inputs ------------------------------------------------------------------------------
+    def tracked_pose(self):
+        """The reference point (m) and heading (rad) now: the 50 Hz pose needs no full state."""
+        with self._lock:
+            return self.world.tracked_pose()
+
+    def nodes_m(self):
+        """The simulated body's nodes now (m): what the camera draws."""
+        with self._lock:
+            return self.world.node_positions_m()
+
     def state(self):
-        """The world's state now (computed once per world time step for all outputs)."""
+        """The world's state now (computed once per world time step for the outputs that need all of it)."""
         with self._lock:
             if self._state is None or self._state.time_s != self.world.time_s:
                 self._state = self.world.state(with_contacts=False)
@@ -266,12 +276,12 @@ class SimWorldNode(Node):
     def _publish_pose(self) -> None:
         if self.failure:
             return
-        state = self.state()
+        reference_xy_m, heading_rad = self.tracked_pose()
         msg = PoseStamped()
         msg.header.stamp = self.get_clock().now().to_msg()
         msg.header.frame_id = FLOOR_FRAME
-        msg.pose.position.x, msg.pose.position.y = (float(v) for v in state.reference_xy_m)
-        qx, qy, qz, qw = (float(v) for v in yaw_to_quaternion(state.heading_rad))
+        msg.pose.position.x, msg.pose.position.y = (float(v) for v in reference_xy_m)
+        qx, qy, qz, qw = (float(v) for v in yaw_to_quaternion(heading_rad))
         msg.pose.orientation.x, msg.pose.orientation.y = qx, qy
         msg.pose.orientation.z, msg.pose.orientation.w = qz, qw
         self._pose_pub.publish(msg)
@@ -281,7 +291,7 @@ class SimWorldNode(Node):
             return
         # Stamped at the instant of the state shown, as a camera stamps its exposure: not after the render, which
         # a busy machine can stall for 0.2-0.4 s (a rolling robot's pose would be dated centimetres late).
-        nodes_m, stamp = self.state().nodes_m, self.get_clock().now().to_msg()
+        nodes_m, stamp = self.nodes_m(), self.get_clock().now().to_msg()
         image = self.camera.render(nodes_m)  # outside the lock: the physics goes on meanwhile
         self._image_pub.publish(array_to_image_msg(image, stamp, "camera", self._camera_encoding))
 

@@ -241,6 +241,21 @@ class SimWorld:
         self._raise_if_diverged()
         return self.data.xpos[self.layout.node_body].copy()
 
+    def tracked_pose(self) -> tuple[np.ndarray, float]:
+        """What the camera tracks, as in :meth:`state`: ``(reference_xy_m, heading_rad)``, a sixth of its cost.
+
+        For a node that publishes the pose far more often than the rest of the state.
+        """
+        self._raise_if_diverged()
+        _, _, tail, head = self._markers(self.data.xpos[self.layout.node_body])
+        return 0.5 * (tail[:2] + head[:2]), _heading_rad(tail, head)
+
+    def _markers(self, nodes: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """The tail and head marker centres, ``marker_offset_m`` from each end: their node weights and positions."""
+        tail_w = _point_at_distance(nodes, self.config.body.marker_offset_m)
+        head_w = _point_at_distance(nodes[::-1], self.config.body.marker_offset_m)[::-1]
+        return tail_w, head_w, tail_w @ nodes, head_w @ nodes
+
     def state(self, with_contacts: bool = True) -> SimState:
         """The world now (see :class:`SimState`); raises :class:`SimulationError` after a divergence.
 
@@ -250,11 +265,8 @@ class SimWorld:
         data, layout, robot = self.data, self.layout, self.robot
         nodes = data.xpos[layout.node_body].copy()
         velocity = self._body_speeds()
-        tail_w = _point_at_distance(nodes, self.config.body.marker_offset_m)
-        head_w = _point_at_distance(nodes[::-1], self.config.body.marker_offset_m)[::-1]
-        tail, head = tail_w @ nodes, head_w @ nodes
+        tail_w, head_w, tail, head = self._markers(nodes)
         reference_velocity = 0.5 * (tail_w + head_w) @ velocity
-        delta = head - tail
         pressure, length = self.muscles.state(self.time_s)
         base = data.qpos[:7]
         backbone = np.stack([np.interp(robot.backbone_xi, layout.node_xi, nodes[:, i]) for i in range(3)], axis=-1)
@@ -267,7 +279,7 @@ class SimWorld:
             tail_marker_m=tail,
             head_marker_m=head,
             reference_xy_m=0.5 * (tail[:2] + head[:2]),
-            heading_rad=math.atan2(delta[1], delta[0]),
+            heading_rad=_heading_rad(tail, head),
             reference_velocity_m_s=reference_velocity[:2],
             commanded_pressure_bar=self._commanded_bar.copy(),
             pressure_bar=pressure,
@@ -295,6 +307,11 @@ class SimWorld:
             segments[i] = pair
         body = segments[:, 1] >= 0              # not the tether's links on the floor (tether.enabled)
         return Contacts(position[body], force[body], segments[body])
+
+
+def _heading_rad(tail: np.ndarray, head: np.ndarray) -> float:
+    """The heading of the tail -> head marker line on the floor (rad), what the camera reports."""
+    return math.atan2(head[1] - tail[1], head[0] - tail[0])
 
 
 def _point_at_distance(nodes: np.ndarray, distance_m: float) -> np.ndarray:
