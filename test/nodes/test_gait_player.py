@@ -65,7 +65,8 @@ def player(launch_node, ros_client):
 def start_when_loaded(client):
     """Call ~/start until the player has the trajectory (discovery of the latched topic takes a moment)."""
     responses = []
-    client.spin_until(lambda: responses.append(client.trigger("gait_player/start")) or responses[-1].success,
+    client.spin_until(lambda: responses.append(client.trigger("gait_player/start", repeatable=True))
+                      or responses[-1].success,
                       10.0, "gait_player/start to succeed")
     return responses[-1]
 
@@ -73,7 +74,7 @@ def start_when_loaded(client):
 @pytest.mark.slow(seconds=4)
 def test_start_follows_the_trajectory_at_the_rate_and_stop_ramps_to_zero(player, ros_client):
     proc, publisher, setpoints = player(rate_hz=200.0)
-    refused = ros_client.trigger("gait_player/start")
+    refused = ros_client.trigger("gait_player/start", repeatable=True)  # refused: asking again changes nothing
     assert not refused.success and "no trajectory" in refused.message
     samples = rolling_cycle()
     publisher.publish(trajectory(samples, 1.0))
