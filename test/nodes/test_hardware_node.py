@@ -237,7 +237,10 @@ def test_bad_setpoints_never_reach_the_backend(hardware):
     rig.stream([m for b in bad for m in (b, good)], until=lambda: rig.counted("rejected_setpoints") >= len(bad),
                what="rejections counted in diagnostics")
     after = rig.pressure[count:]
-    assert after and all(np.allclose(msg.data, PRESSURES_BAR) for msg in after)
+    # Only the good command reaches the valves, and it goes on; a vent may come between (a stall of this busy test
+    # process leaves the good one stale for more than setpoint_timeout_s: the node vents, as it must; seen once).
+    assert after and all(np.allclose(m.data, PRESSURES_BAR) or np.allclose(m.data, ZEROS) for m in after)
+    assert sum(np.allclose(m.data, PRESSURES_BAR) for m in after) > len(after) // 2, [list(m.data) for m in after]
     assert "rejected setpoint" in proc.output()
 
     # only bad ones: the last good command goes stale -> vent within 1 s, never a bad value
