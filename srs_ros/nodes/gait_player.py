@@ -121,7 +121,7 @@ class GaitPlayer(Node):
         self._playback.set_reverse(self._param("reverse"))
         self._zeros_until = 0.0
         self._sim_time = bool(self.get_parameter("use_sim_time").value)
-        self._last_tick = self._phase_time_s()
+        self._last_tick = self._read_clocks()[2]
         self._message = JointState()
         self.published_count = 0  # setpoints published since start-up (printed at exit, for loss checks)
         self._message.name = list(self._robot.joint_names)
@@ -243,12 +243,10 @@ class GaitPlayer(Node):
         return response
 
     # ------------------------------------------------------------- output
-    def _phase_time_s(self) -> float:
-        """The clock the phase follows (s): ROS time with use_sim_time (the world's /clock), else the steady clock."""
-        return self.get_clock().now().nanoseconds * 1e-9 if self._sim_time else time.monotonic()
+    def _read_clocks(self):
+        """The ROS clock's time (the stamp), the steady clock's (s) and the phase's clock (s), read together.
 
-    def _clock_pair(self):
-        """The ROS clock's time (the stamp) and the steady clock's (s), read together.
+        The phase follows ROS time with use_sim_time (the world's /clock), else the steady clock.
 
         A pause of the process between two readings would date the setpoint away from the instant its phase
         is computed for (a jump against its stamps, seen once in a loaded suite).
@@ -259,11 +257,10 @@ class GaitPlayer(Node):
             now_s = time.monotonic()
             if now_s - before_s < CLOCK_PAIR_S:
                 break
-        return stamp, now_s
+        return stamp, now_s, stamp.nanoseconds * 1e-9 if self._sim_time else now_s
 
     def _on_tick(self) -> None:
-        stamp, now = self._clock_pair()  # the instant this setpoint is computed for, on both clocks
-        phase_s = stamp.nanoseconds * 1e-9 if self._sim_time else now
+        stamp, now, phase_s = self._read_clocks()  # the instant this setpoint is computed for, on every clock
         dt_s = min(max(phase_s - self._last_tick, 0.0), MAX_STEP_S)
         self._last_tick = phase_s
         if not self._playback.has_cycle:
