@@ -41,6 +41,10 @@ STOP_AFTER_CYCLES = 1.0
 CYCLE_AHEAD_FROM_LAST_CYCLE = True
 #: A straight line passing this close to the goal (times the tolerance) needs no three-point turn.
 STRAIGHT_WITHIN = 0.7
+#: Near the view's edge, the tracked point came at least this much closer to it over the last cycle (m): moving out.
+EDGE_APPROACH_M = 0.02
+#: Cycles the other direction is played once the robot was seen moving out of view.
+EDGE_HOLD_CYCLES = 2.0
 
 
 class NavigationController(FineDriving):
@@ -72,6 +76,7 @@ class NavigationController(FineDriving):
         self._clock_s = 0.0
         self._fresh_goal = False
         self._best = (math.inf, 0.0)
+        self._edge_until_s = -math.inf
 
     # ------------------------------------------------------------------ goals
     @property
@@ -112,6 +117,7 @@ class NavigationController(FineDriving):
             if reason:
                 return self._refuse(reason if len(points) == 1 else f"waypoint {i + 1} of {len(points)}: {reason}")
         self._goals, self._index, self._backing_from, self._fresh_goal = points, 0, None, True
+        self._edge_until_s = -math.inf
         self.fine.reset()
         self.state, self._started_s = NavigationState.DRIVING, float(now_s)
         self._best = (math.inf, float(now_s))
@@ -180,12 +186,46 @@ class NavigationController(FineDriving):
                 and self._stop_here(pose, crossed):
             self._begin_stop(pose, crossed)
             return
+        if self._keep_in_view(pose):
+            return
         direction, wanted_deg = self._steer(pose.time_s, errors, distances)
         frequency = (self.settings.approach_frequency_hz if distance < self.settings.approach_distance_m
                      else self.settings.cruise_frequency_hz)
         level = self._choose_level(pose.time_s, direction, wanted_deg)
         self._set_command(pose.time_s, GaitCommand(direction, float(self.settings.turn_levels_rad[level]),
                                                    self.settings.amplitude_bar, frequency, self._message), level)
+
+    def _keep_in_view(self, pose: Pose2D) -> bool:
+        """Near the edge of the camera's floor area and moving out of it: roll the other way; True while it does.
+
+        Judged on the camera's own track (the tracked point came closer to the edge over the last cycle), not on
+        the learned travel heading, so it holds however wrong the model is (a physics that rolls the other way
+        round, a three-point turn backing out of view). The other direction, at the turn level learned to turn
+        least (the most predictable travel), is played for :data:`EDGE_HOLD_CYCLES`, and turned round again if
+        the track shows that it too moves out; then the controller chooses again.
+        """
+        command, guard_m = self._command, self.settings.edge_guard_m
+        holding = pose.time_s < self._edge_until_s
+        if self.area is None or guard_m <= 0.0 or not command.moving:
+            return holding
+        period_s = 1.0 / command.frequency_hz
+        inside_m = self.area.inside_distance_m(pose.x_m, pose.y_m)
+        if inside_m >= guard_m or pose.time_s - self._direction_since_s < period_s:
+            return holding
+        rows = self.history.window(period_s)
+        if len(rows) < 2 or rows[-1, 0] - rows[0, 0] < 0.8 * period_s or \
+                self.area.inside_distance_m(rows[0, 1], rows[0, 2]) - inside_m < EDGE_APPROACH_M:
+            return holding
+        direction = other_direction(command.direction)
+        level = self.turns.choose(direction, 0.0, None)
+        self._backing_from = None
+        self._message = (f"{max(inside_m, 0.0):.2f} m from the edge of the camera's view and moving out of it: "
+                         f"rolling back ({direction.replace('_', ' ')}) for {EDGE_HOLD_CYCLES:g} cycles")
+        self._set_command(pose.time_s, GaitCommand(direction, float(self.settings.turn_levels_rad[level]),
+                                                   self.settings.amplitude_bar, command.frequency_hz, self._message),
+                          level)
+        self._edge_until_s = pose.time_s + EDGE_HOLD_CYCLES * period_s
+        return True
 
     def _distance(self, pose: Pose2D) -> float:
         gx, gy = self.goal
@@ -436,6 +476,7 @@ class NavigationController(FineDriving):
         self._command = self._stop_command(message)
         self._level = None
         self._backing_from = None
+        self._edge_until_s = -math.inf
 
     def _stop_command(self, reason: str) -> GaitCommand:
         return GaitCommand(None, 0.0, self.settings.amplitude_bar, self.settings.cruise_frequency_hz, reason)

@@ -49,6 +49,10 @@ NAVIGATION_TABLE = Table("navigation", (
           "no pose from the camera this long: stop, state pose_lost"),
     Field("view_margin_m", float, 0.25, 0.0, 2.0, "m",
           "goals must lie this far inside the camera's calibrated floor area (the 0.45 m body stays in view)"),
+    Field("edge_guard_m", float, 0.2, 0.0, 2.0, "m",
+          "the cruise gait keeps the robot in view: its tracked point this close to the edge of the camera's "
+          "calibrated floor area and seen moving toward it over the last cycle, the robot rolls the other way "
+          "for two cycles; 0: off"),
     Field("amplitude_bar", float, 4.0, 0.5, 4.0, "bar", "pressure amplitude of the rolling gaits"),
     Field("cruise_frequency_hz", float, 1.0, 0.1, 2.0, "Hz", "cycle frequency away from the goal"),
     Field("approach_frequency_hz", float, 1.0, 0.1, 2.0, "Hz", "cycle frequency within approach_distance_m"),
@@ -198,6 +202,7 @@ class NavigationSettings:
     waypoint_tolerance_m: float
     pose_timeout_s: float
     view_margin_m: float
+    edge_guard_m: float
     amplitude_bar: float
     cruise_frequency_hz: float
     approach_frequency_hz: float

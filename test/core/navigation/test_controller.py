@@ -34,8 +34,9 @@ FRAME_S = 1.0 / 30.0
 class Roller:
     """A kinematic rolling robot: travels across its yaw, turns per level (its own rates), rests after a stop."""
 
-    def __init__(self, bias_deg=6.0, scale=0.7, rest_m=(0.06, 0.07, 0.04, 0.05)):
+    def __init__(self, bias_deg=6.0, scale=0.7, rest_m=(0.06, 0.07, 0.04, 0.05), travel_sign=1.0):
         self.x = self.y = self.yaw = self.phase = 0.0
+        self.travel_sign = travel_sign  # -1: rolls the other way round (inward to the right of its yaw)
         self.bias_deg, self.scale, self.rest_m = bias_deg, scale, rest_m
         self.rest: tuple[float, np.ndarray] | None = None
         self._moving = None  # the last moving command
@@ -65,7 +66,7 @@ class Roller:
         sign = 1.0 if command.direction == "inward_rolling" else -1.0
         rate_deg = self.scale * (-40.0 * command.turn_phase_rad) + self.bias_deg
         self.yaw += math.radians(rate_deg) * command.frequency_hz * FRAME_S
-        self._heading = self.yaw + sign * math.pi / 2
+        self._heading = self.yaw + sign * self.travel_sign * math.pi / 2
         travel = 0.09 * command.frequency_hz * FRAME_S
         self.x += travel * math.cos(self._heading)
         self.y += travel * math.sin(self._heading)
@@ -139,6 +140,28 @@ def test_a_goal_outside_the_view_is_refused_and_the_current_goal_kept():
     assert not near_edge.accepted and "only 0.10 m inside" in near_edge.reason
     path = controller.set_path([(0.2, 0.2), (0.0, 5.0)], 0.7)
     assert not path.accepted and path.reason.startswith("waypoint 2 of 2")
+
+
+@pytest.mark.parametrize("edge_guard_m", [0.2, 0.0])
+def test_a_robot_rolling_out_of_view_is_turned_back_by_the_edge_guard(edge_guard_m):
+    """A robot that rolls the other way round (as on the calibrated physics) heads away from the goal; near the
+    edge of the view the guard rolls it back in, judged on the track alone. Without it, it leaves the view."""
+    controller, roller = NavigationController(settings(edge_guard_m=edge_guard_m), AREA), Roller(travel_sign=-1.0)
+    controller.set_goal(0.0, 0.6, 0.0)
+    inside_m, now, messages = [], 0.0, set()
+    while now < 60.0 and controller.state.active:
+        controller.update_gait_phase(roller.phase)
+        controller.update_pose(roller.pose(now))
+        roller.step(controller.tick(now), now)
+        inside_m.append(AREA.inside_distance_m(roller.x, roller.y))
+        messages.add(controller.progress(now).message.split(" m from")[-1])
+        now += FRAME_S
+    if edge_guard_m:
+        assert min(inside_m) >= 0.0, min(inside_m)
+        assert " the edge of the camera's view and moving out of it: rolling back (outward rolling) for 2 cycles" \
+            in messages
+    else:
+        assert min(inside_m) < -0.5, min(inside_m)
 
 
 def test_a_new_goal_replaces_the_current_one():
