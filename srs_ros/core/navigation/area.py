@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -61,12 +60,6 @@ class FloorArea:
         nearest = start + t[:, None] * edge
         distance = float(np.min(np.linalg.norm(point - nearest, axis=1)))
         return distance if self.contains_point(x_m, y_m) else -distance
-
-    def inward_heading_rad(self, x_m: float, y_m: float, step_m: float = 0.01) -> float:
-        """The floor heading (rad) in which the distance to the edge grows fastest at the point: into the area."""
-        gradient_x = self.inside_distance_m(x_m + step_m, y_m) - self.inside_distance_m(x_m - step_m, y_m)
-        gradient_y = self.inside_distance_m(x_m, y_m + step_m) - self.inside_distance_m(x_m, y_m - step_m)
-        return math.atan2(gradient_y, gradient_x)
 
     def contains_point(self, x_m: float, y_m: float) -> bool:
         """True when the point lies inside the polygon (edge ignored; ray casting)."""

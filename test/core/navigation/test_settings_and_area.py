@@ -1,7 +1,5 @@
 """Navigator settings, the identified turn map file and the camera's floor area where goals may lie."""
 
-import math
-
 import numpy as np
 import pytest
 
@@ -69,10 +67,3 @@ def test_the_floor_area_is_the_simulated_cameras_view_less_the_margin():
     assert "only 0.22 m inside" in area.refusal(1.3, 0.0) and "view_margin_m = 0.25 m" in area.refusal(1.3, 0.0)
     assert "not a finite floor position" in area.refusal(float("nan"), 0.0)
 
-
-@pytest.mark.parametrize(("x_m", "y_m", "expected_rad"), [(1.3, 0.0, math.pi), (-1.3, 0.2, 0.0), (0.1, -0.9, math.pi / 2),
-                                                         (0.2, 0.95, -math.pi / 2), (1.5, 0.0, math.pi)])
-def test_the_inward_heading_points_away_from_the_nearest_edge_inside_and_outside(x_m, y_m, expected_rad):
-    area = FloorArea(np.array([[-1.4, -1.0], [1.4, -1.0], [1.4, 1.0], [-1.4, 1.0]]), 0.25)
-    error = math.remainder(area.inward_heading_rad(x_m, y_m) - expected_rad, 2 * math.pi)
-    assert abs(error) < 1e-6
