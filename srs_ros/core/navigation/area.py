@@ -61,6 +61,19 @@ class FloorArea:
         distance = float(np.min(np.linalg.norm(point - nearest, axis=1)))
         return distance if self.contains_point(x_m, y_m) else -distance
 
+    def leaving_by_m(self, track: np.ndarray, within_m: float, closer_by_m: float) -> float | None:
+        """How far inside (m) the track's last point lies, if it is within ``within_m`` of the edge and the track
+        came at least ``closer_by_m`` closer to the edge from its first point (the robot moving out); else None.
+
+        ``track``: rows of time_s, x_m, y_m (and more), oldest first (:meth:`PoseHistory.window`).
+        """
+        if len(track) < 2:
+            return None
+        inside_m = self.inside_distance_m(track[-1, 1], track[-1, 2])
+        if inside_m >= within_m or self.inside_distance_m(track[0, 1], track[0, 2]) - inside_m < closer_by_m:
+            return None
+        return inside_m
+
     def contains_point(self, x_m: float, y_m: float) -> bool:
         """True when the point lies inside the polygon (edge ignored; ray casting)."""
         x, y = self.polygon_m[:, 0], self.polygon_m[:, 1]

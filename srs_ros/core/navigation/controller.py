@@ -43,8 +43,9 @@ CYCLE_AHEAD_FROM_LAST_CYCLE = True
 STRAIGHT_WITHIN = 0.7
 #: Near the view's edge, the tracked point came at least this much closer to it over the last cycle (m): moving out.
 EDGE_APPROACH_M = 0.02
-#: Cycles the other direction is played once the robot was seen moving out of view.
-EDGE_HOLD_CYCLES = 2.0
+#: Cycles the other direction is played once the robot was seen moving out of view (past the change-over, so
+#: the track can show whether the new direction moves out too).
+EDGE_HOLD_CYCLES = 2.5
 
 
 class NavigationController(FineDriving):
@@ -200,30 +201,34 @@ class NavigationController(FineDriving):
 
         Judged on the camera's own track (the tracked point came closer to the edge over the last cycle), not on
         the learned travel heading, so it holds however wrong the model is (a physics that rolls the other way
-        round, a three-point turn backing out of view). The other direction, at the turn level learned to turn
-        least (the most predictable travel), is played for :data:`EDGE_HOLD_CYCLES`, and turned round again if
-        the track shows that it too moves out; then the controller chooses again.
+        round, a three-point turn backing out of view). The cruise gait only, once a direction has played past
+        its change-over (:data:`SETTLE_CYCLES`). The other direction, at the turn level learned to turn least
+        (the most predictable travel), is played for :data:`EDGE_HOLD_CYCLES`, and turned round again if the
+        track shows that it too moves out; then the controller chooses again.
         """
-        command, guard_m = self._command, self.settings.edge_guard_m
+        command, settings = self._command, self.settings
+        cruising = command.moving and command.amplitude_bar == settings.amplitude_bar and \
+            command.frequency_hz in (settings.cruise_frequency_hz, settings.approach_frequency_hz)
         holding = pose.time_s < self._edge_until_s
-        if self.area is None or guard_m <= 0.0 or not command.moving:
-            return holding
+        if math.isfinite(self._edge_until_s) and not (holding and cruising and settings.edge_guard_m > 0.0):
+            self._edge_until_s, holding = -math.inf, False  # the hold is over, or the guard switched off
+            gx, gy = self.goal
+            self._message = f"driving to goal {self._index + 1} of {len(self._goals)} at ({gx:.3f}, {gy:.3f}) m"
+        if self.area is None or settings.edge_guard_m <= 0.0 or not cruising:
+            return False
         period_s = 1.0 / command.frequency_hz
-        inside_m = self.area.inside_distance_m(pose.x_m, pose.y_m)
-        if inside_m >= guard_m or pose.time_s - self._direction_since_s < period_s:
+        if pose.time_s - self._direction_since_s < (1.0 + SETTLE_CYCLES) * period_s:
             return holding
-        rows = self.history.window(period_s)
-        if len(rows) < 2 or rows[-1, 0] - rows[0, 0] < 0.8 * period_s or \
-                self.area.inside_distance_m(rows[0, 1], rows[0, 2]) - inside_m < EDGE_APPROACH_M:
+        inside_m = self.area.leaving_by_m(self.history.window(period_s), settings.edge_guard_m, EDGE_APPROACH_M)
+        if inside_m is None:
             return holding
         direction = other_direction(command.direction)
         level = self.turns.choose(direction, 0.0, None)
         self._backing_from = None
         self._message = (f"{max(inside_m, 0.0):.2f} m from the edge of the camera's view and moving out of it: "
                          f"rolling back ({direction.replace('_', ' ')}) for {EDGE_HOLD_CYCLES:g} cycles")
-        self._set_command(pose.time_s, GaitCommand(direction, float(self.settings.turn_levels_rad[level]),
-                                                   self.settings.amplitude_bar, command.frequency_hz, self._message),
-                          level)
+        self._set_command(pose.time_s, GaitCommand(direction, float(settings.turn_levels_rad[level]),
+                                                   settings.amplitude_bar, command.frequency_hz, self._message), level)
         self._edge_until_s = pose.time_s + EDGE_HOLD_CYCLES * period_s
         return True
 

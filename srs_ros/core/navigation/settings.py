@@ -52,7 +52,7 @@ NAVIGATION_TABLE = Table("navigation", (
     Field("edge_guard_m", float, 0.2, 0.0, 2.0, "m",
           "the cruise gait keeps the robot in view: its tracked point this close to the edge of the camera's "
           "calibrated floor area and seen moving toward it over the last cycle, the robot rolls the other way "
-          "for two cycles; 0: off"),
+          "for 2.5 cycles (the cruise gait only); 0: off"),
     Field("amplitude_bar", float, 4.0, 0.5, 4.0, "bar", "pressure amplitude of the rolling gaits"),
     Field("cruise_frequency_hz", float, 1.0, 0.1, 2.0, "Hz", "cycle frequency away from the goal"),
     Field("approach_frequency_hz", float, 1.0, 0.1, 2.0, "Hz", "cycle frequency within approach_distance_m"),
