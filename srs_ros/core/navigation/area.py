@@ -62,10 +62,10 @@ class FloorArea:
         return distance if self.contains_point(x_m, y_m) else -distance
 
     def leaving_by_m(self, track: np.ndarray, within_m: float, closer_by_m: float) -> float | None:
-        """How far inside (m) the track's last point lies, if it is within ``within_m`` of the edge and the track
-        came at least ``closer_by_m`` closer to the edge from its first point (the robot moving out); else None.
+        """How far inside (m) the track's last point lies when the track is leaving the area; else None.
 
-        ``track``: rows of time_s, x_m, y_m (and more), oldest first (:meth:`PoseHistory.window`).
+        Leaving: the last point within ``within_m`` of the edge and at least ``closer_by_m`` closer to it than the
+        first point. ``track``: rows of time_s, x_m, y_m (and more), oldest first (:meth:`PoseHistory.window`).
         """
         if len(track) < 2:
             return None

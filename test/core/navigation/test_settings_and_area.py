@@ -70,7 +70,10 @@ def test_the_floor_area_is_the_simulated_cameras_view_less_the_margin():
 
 def test_a_track_leaving_the_area_is_told_from_one_near_the_edge_that_stays():
     area = FloorArea(np.array([[-1.4, -1.0], [1.4, -1.0], [1.4, 1.0], [-1.4, 1.0]]), 0.25)
-    track = lambda *xs: np.array([[i * 0.1, x, 0.0, 0.0] for i, x in enumerate(xs)])  # time_s, x_m, y_m, yaw_rad
+
+    def track(*xs):  # rows of time_s, x_m, y_m, yaw_rad along the x axis
+        return np.array([[i * 0.1, x, 0.0, 0.0] for i, x in enumerate(xs)])
+
     assert area.leaving_by_m(track(1.20, 1.25, 1.28), 0.2, 0.02) == pytest.approx(0.12)
     assert area.leaving_by_m(track(1.27, 1.28), 0.2, 0.02) is None   # near the edge but hardly moving out
     assert area.leaving_by_m(track(1.28, 1.20), 0.2, 0.02) is None   # moving in
