@@ -201,10 +201,10 @@ class NavigationController(FineDriving):
 
         Judged on the camera's own track (the tracked point came closer to the edge over the last cycle), not on
         the learned travel heading, so it holds however wrong the model is (a physics that rolls the other way
-        round, a three-point turn backing out of view). The cruise gait only, once a direction has played past
-        its change-over (:data:`SETTLE_CYCLES`). The other direction, at the turn level learned to turn least
-        (the most predictable travel), is played for :data:`EDGE_HOLD_CYCLES`, and turned round again if the
-        track shows that it too moves out; then the controller chooses again.
+        round, a three-point turn backing out of view); not when the goal lies as near the edge. The cruise gait
+        only, once a direction has played past its change-over (:data:`SETTLE_CYCLES`). The other direction, at
+        the turn level learned to turn least (the most predictable travel), is played for :data:`EDGE_HOLD_CYCLES`,
+        and turned round again if the track shows that it too moves out; then the controller chooses again.
         """
         command, settings = self._command, self.settings
         cruising = command.moving and command.amplitude_bar == settings.amplitude_bar and \
@@ -220,8 +220,8 @@ class NavigationController(FineDriving):
         if pose.time_s - self._direction_since_s < (1.0 + SETTLE_CYCLES) * period_s:
             return holding
         inside_m = self.area.leaving_by_m(self.history.window(period_s), settings.edge_guard_m, EDGE_APPROACH_M)
-        if inside_m is None:
-            return holding
+        if inside_m is None or self.area.inside_distance_m(*self.goal) <= inside_m + EDGE_APPROACH_M:
+            return holding  # not leaving, or leaving toward a goal that lies as near the edge
         direction = other_direction(command.direction)
         level = self.turns.choose(direction, 0.0, None)
         self._backing_from = None

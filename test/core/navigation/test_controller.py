@@ -194,6 +194,17 @@ def test_a_robot_rolling_out_of_view_is_turned_back_by_the_edge_guard(edge_guard
         assert min(inside_m) < -0.5, min(inside_m)
 
 
+@pytest.mark.parametrize("goal", [(0.0, 0.74), (0.2, -0.74)])
+def test_the_edge_guard_lets_the_robot_drive_to_a_goal_near_the_edge(goal):
+    """Moving toward the edge is leaving the view only when the goal lies deeper inside than the robot (a wide
+    guard band, so that the robot drives several cycles in it toward the goal)."""
+    controller, roller = NavigationController(settings(edge_guard_m=0.6), AREA), LaggingRoller()
+    controller.set_goal(*goal, 0.0)
+    inside_m, messages = drive_near_the_edge(controller, roller, until_s=120.0)
+    assert controller.state is NavigationState.REACHED, controller.progress(120.0).message
+    assert min(inside_m) >= 0.0 and not any("rolling back" in m for m in messages)
+
+
 def test_the_edge_guard_lets_go_when_switched_off_and_leaves_the_creep_alone():
     """Set to 0 live, the guard's hold ends at once; it never acts on the creeping gait (a new goal while
     creeping near the edge: the cruise gait's steering takes over, no 4 bar command at the creep's frequency)."""
