@@ -49,7 +49,7 @@ NAVIGATION_TABLE = Table("navigation", (
           "no pose from the camera this long: stop, state pose_lost"),
     Field("view_margin_m", float, 0.25, 0.0, 2.0, "m",
           "goals must lie this far inside the camera's calibrated floor area (the 0.45 m body stays in view)"),
-    Field("edge_guard_m", float, 0.2, 0.0, 2.0, "m",
+    Field("edge_guard_m", float, 0.35, 0.0, 2.0, "m",
           "the cruise gait keeps the robot in view: its tracked point this close to the edge of the camera's "
           "calibrated floor area and seen moving toward it over the last cycle, the robot rolls the other way "
           "for 2.5 cycles (the cruise gait only); 0: off"),
