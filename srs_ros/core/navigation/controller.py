@@ -10,8 +10,9 @@ travel direction (:mod:`srs_ros.core.navigation.motion`), so the controller need
 A goal so close to the side that even the tightest turn cannot reach it is first backed away from: the robot
 rolls the other way while its body turns toward the goal (a three-point turn). The controller stops where it
 predicts the robot comes to rest (the learned stop offset: the body rolls on and straightens), waits for the
-robot to rest, and checks: within the tolerance the goal is reached, otherwise it drives on. No pose for
-``pose_timeout_s`` stops it; so do a cancel and a stall.
+robot to rest, and checks: within the tolerance the goal is reached, otherwise it drives on. Near the edge of
+the camera's view and moving out, it rolls back in. No pose for ``pose_timeout_s`` stops it; so do a cancel
+and a stall.
 """
 
 from __future__ import annotations
@@ -43,8 +44,7 @@ CYCLE_AHEAD_FROM_LAST_CYCLE = True
 STRAIGHT_WITHIN = 0.7
 #: Near the view's edge, the tracked point came at least this much closer to it over the last cycle (m): moving out.
 EDGE_APPROACH_M = 0.02
-#: Cycles the other direction is played once the robot was seen moving out of view (past the change-over, so
-#: the track can show whether the new direction moves out too).
+#: Cycles the other direction is played once the robot was seen moving out of view (past its change-over).
 EDGE_HOLD_CYCLES = 2.5
 
 
@@ -123,8 +123,11 @@ class NavigationController(FineDriving):
         self.state, self._started_s = NavigationState.DRIVING, float(now_s)
         self._best = (math.inf, float(now_s))
         self._last_pose_s = max(self._last_pose_s, float(now_s))
-        self._message = f"driving to goal 1 of {len(points)} at ({points[0][0]:.3f}, {points[0][1]:.3f}) m"
+        self._message = self._driving_message()
         return GoalDecision(True, self._message)
+
+    def _driving_message(self) -> str:
+        return "driving to goal {} of {} at ({:.3f}, {:.3f}) m".format(self._index + 1, len(self._goals), *self.goal)
 
     def _refuse(self, reason: str) -> GoalDecision:
         self._message = f"goal refused: {reason}" + (f"; still {self._message}" if self.state.active else "")
@@ -187,7 +190,7 @@ class NavigationController(FineDriving):
                 and self._stop_here(pose, crossed):
             self._begin_stop(pose, crossed)
             return
-        if self._keep_in_view(pose):
+        if self._keep_in_view(pose):  # near the view's edge and moving out: rolling back in
             return
         direction, wanted_deg = self._steer(pose.time_s, errors, distances)
         frequency = (self.settings.approach_frequency_hz if distance < self.settings.approach_distance_m
@@ -212,8 +215,7 @@ class NavigationController(FineDriving):
         holding = pose.time_s < self._edge_until_s
         if math.isfinite(self._edge_until_s) and not (holding and cruising and settings.edge_guard_m > 0.0):
             self._edge_until_s, holding = -math.inf, False  # the hold is over, or the guard switched off
-            gx, gy = self.goal
-            self._message = f"driving to goal {self._index + 1} of {len(self._goals)} at ({gx:.3f}, {gy:.3f}) m"
+            self._message = self._driving_message()
         if self.area is None or settings.edge_guard_m <= 0.0 or not cruising:
             return False
         period_s = 1.0 / command.frequency_hz
