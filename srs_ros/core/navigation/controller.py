@@ -483,7 +483,6 @@ class NavigationController(FineDriving):
         self._command = self._stop_command(message)
         self._level = None
         self._backing_from = None
-        self._edge_until_s = -math.inf
 
     def _stop_command(self, reason: str) -> GaitCommand:
         return GaitCommand(None, 0.0, self.settings.amplitude_bar, self.settings.cruise_frequency_hz, reason)

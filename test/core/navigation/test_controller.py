@@ -85,7 +85,8 @@ def settings(**overrides):
     return load_navigation_settings(overrides, turning_map=MAP)
 
 
-def drive(controller, roller, until_s, start_s=0.0, lost_after_s=math.inf):
+def drive(controller, roller, until_s, start_s=0.0, lost_after_s=math.inf, each_frame=None):
+    """Drive until ``until_s`` or the controller stops; ``each_frame(now)`` after every frame."""
     now = start_s
     while now < until_s:
         controller.update_gait_phase(roller.phase)
@@ -93,6 +94,8 @@ def drive(controller, roller, until_s, start_s=0.0, lost_after_s=math.inf):
             controller.update_pose(roller.pose(now))
         command = controller.tick(now)
         roller.step(command, now)
+        if each_frame is not None:
+            each_frame(now)
         now += FRAME_S
         if not controller.state.active and now > start_s + 0.1:
             break
@@ -167,14 +170,13 @@ class LaggingRoller(Roller):
 
 def drive_near_the_edge(controller, roller, until_s=60.0):
     """Drive; the tracked point's distance inside the view at every frame and the controller's messages."""
-    inside_m, now, messages = [], 0.0, set()
-    while now < until_s and controller.state.active:
-        controller.update_gait_phase(roller.phase)
-        controller.update_pose(roller.pose(now))
-        roller.step(controller.tick(now), now)
+    inside_m, messages = [], set()
+
+    def watch(now):
         inside_m.append(AREA.inside_distance_m(roller.x, roller.y))
         messages.add(controller.progress(now).message.split(" m from")[-1])
-        now += FRAME_S
+
+    drive(controller, roller, until_s, each_frame=watch)
     return inside_m, messages
 
 
