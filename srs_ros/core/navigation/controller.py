@@ -250,10 +250,10 @@ class NavigationController(FineDriving):
         return False
 
     def _travel_heading_rad(self, direction: str) -> float:
-        """Where the robot travels now in ``direction``: the smoothed yaw plus the learned offset of the level."""
+        """Where the robot travels in ``direction``: the smoothed yaw plus the learned offset, mean over the levels
+        (not the level played's: a change of level then moved the error it was chosen from; docs/navigation.md)."""
         period = 1.0 / max(self._command.frequency_hz, self.settings.cruise_frequency_hz)
-        level = self._level if direction == self._command.direction else None
-        return self.history.smoothed_yaw_rad(period) + self.travel.offset(direction, level)
+        return self.history.smoothed_yaw_rad(period) + self.travel.offset(direction, None)
 
     def _aims(self, pose: Pose2D) -> tuple[dict[str, float], dict[str, float]]:
         """Per direction: heading error (rad) and distance (m) to its aim point.

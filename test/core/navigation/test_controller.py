@@ -408,3 +408,22 @@ def test_stop_offsets_are_learned_per_turn_level_and_shared_with_unmeasured_leve
     np.testing.assert_allclose(after[4, 1], [0.05, 0.0], atol=0.03)
     # a rest offset in the floor frame: rotated by the heading
     np.testing.assert_allclose(stops.rest_offset("inward_rolling", 1, math.pi / 2, 3), [-0.05, 0.15], atol=1e-12)
+
+
+
+def test_the_heading_error_that_steers_does_not_move_when_only_the_turn_level_changes():
+    # Each level's travel direction is learned (a fast-turning body travels up to 40 deg off square). Steering by the
+    # offset of the level played moved the error at every change of level, and the level chosen from that error
+    # changed it back: on the simulated robot, a minute of three-point turns (docs/navigation.md, 2026-11-25).
+    controller = NavigationController(settings(), AREA)
+    controller.travel.offset_rad["inward_rolling"] = math.pi / 2 + math.radians(80.0) * LEVELS
+    controller.set_goal(0.4, 0.2, 0.0)
+    for i in range(31):
+        controller.update_pose(Pose2D(0.0, 0.0, 0.0, i * FRAME_S))
+    pose = Pose2D(0.0, 0.0, 0.0, 1.0)
+    errors = []
+    for level in (0, 3, 6):
+        controller._command = GaitCommand("inward_rolling", float(LEVELS[level]), 4.0, 1.0)
+        controller._level = level
+        errors.append(controller._aims(pose)[0]["inward_rolling"])
+    assert max(errors) - min(errors) < 1e-9, np.degrees(errors)  # steering by the level played: -26, -69, -109 deg
