@@ -250,9 +250,9 @@ class NavigationController(FineDriving):
         return False
 
     def _travel_heading_rad(self, direction: str) -> float:
-        """Where the robot travels in ``direction``: the smoothed yaw plus the learned offset, mean over the levels
-        (not the level played's: a change of level then moved the error it was chosen from; docs/navigation.md)."""
+        """Where the robot travels in ``direction``: the smoothed yaw plus the mean learned offset over the levels."""
         period = 1.0 / max(self._command.frequency_hz, self.settings.cruise_frequency_hz)
+        # not the level played's offset: a change of level moved the error it was chosen from (docs/navigation.md)
         return self.history.smoothed_yaw_rad(period) + self.travel.offset(direction, None)
 
     def _aims(self, pose: Pose2D) -> tuple[dict[str, float], dict[str, float]]:
