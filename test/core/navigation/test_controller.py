@@ -410,7 +410,6 @@ def test_stop_offsets_are_learned_per_turn_level_and_shared_with_unmeasured_leve
     np.testing.assert_allclose(stops.rest_offset("inward_rolling", 1, math.pi / 2, 3), [-0.05, 0.15], atol=1e-12)
 
 
-
 def test_the_heading_error_that_steers_does_not_move_when_only_the_turn_level_changes():
     # Each level's travel direction is learned (a fast-turning body travels up to 40 deg off square). Steering by the
     # offset of the level played moved the error at every change of level, and the level chosen from that error
