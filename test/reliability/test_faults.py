@@ -16,7 +16,7 @@ Each runs the nodes as processes over DDS and checks the safe outcome where it m
   log, the e-stop answers; reconfigure and activate recover with a ramp;
 - a FIFO as rig_file: configure refused at once with the reason; the e-stop answers.
 
-The CAN bus dying mid-run and the CAN board venting when the host dies are in test/backends/test_can_backend.py.
+The CAN bus dying mid-run and the CAN board venting when the host dies are in test/backends/test_can_hardware_node.py.
 """
 
 import os
