@@ -99,7 +99,13 @@ def run_rate(rate_hz: float, duration_s: float, env: dict[str, str], client: Ros
     finally:
         for proc in processes:
             proc.stop()
-    stamps = np.array(stamps_ns, dtype=np.int64)
+    return {"rate_hz": rate_hz, "published_total": published, "received_total": received_total[0],
+            **_stream_figures(np.array(stamps_ns, dtype=np.int64), rate_hz, diag),
+            **{f"cpu_{k}_pct": v for k, v in cpu.items()}}
+
+
+def _stream_figures(stamps: np.ndarray, rate_hz: float, diag: list[dict[str, str]]) -> dict[str, float]:
+    """Setpoints received against expected, gaps, period error (us) and the node's command latency (ms)."""
     period_ns = 1e9 / rate_hz
     dt = np.diff(stamps)
     error_us = np.abs(dt - period_ns) / 1e3
@@ -107,16 +113,12 @@ def run_rate(rate_hz: float, duration_s: float, env: dict[str, str], client: Ros
     p50 = [float(d["command_latency_p50_ms"]) for d in diag if d.get("command_latency_p50_ms", "n/a") != "n/a"]
     p99 = [float(d["command_latency_p99_ms"]) for d in diag if d.get("command_latency_p99_ms", "n/a") != "n/a"]
     return {
-        "rate_hz": rate_hz, "received": len(stamps), "expected": expected,
-        "published_total": published, "received_total": received_total[0],
-        "gaps": int(np.sum(dt > 1.5 * period_ns)),
+        "received": len(stamps), "expected": expected, "gaps": int(np.sum(dt > 1.5 * period_ns)),
         "period_p50_us": float(np.percentile(error_us, 50)), "period_p99_us": float(np.percentile(error_us, 99)),
         "period_max_us": float(error_us.max()),
         "latency_p50_ms": float(np.median(p50)) if p50 else float("nan"),
         "latency_p99_ms": float(np.max(p99)) if p99 else float("nan"),
-        **{f"cpu_{k}_pct": v for k, v in cpu.items()},
     }
-
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
