@@ -79,7 +79,7 @@ def _kill_busy_worker(client):
     return address, processing[address]
 
 
-@pytest.mark.slow(seconds=5)
+@pytest.mark.slow(seconds=47)  # with the module's LocalCluster start, in the whole suite, 2026-11-25
 def test_a_dask_cluster_gives_the_local_records_exactly_and_counts_every_run(cluster, config, local_records):
     finished, logs = [], []
     with runner_for(cluster.scheduler_address, 2, log=logs.append) as runner:
@@ -96,7 +96,7 @@ def test_a_dask_cluster_gives_the_local_records_exactly_and_counts_every_run(clu
         assert len(client.scheduler_info()["workers"]) == 2  # the runner closed its client, not the cluster
 
 
-@pytest.mark.slow(seconds=5)
+@pytest.mark.slow(seconds=23)
 def test_a_worker_killed_mid_sweep_has_its_runs_rescheduled_by_dask_with_identical_records(config, local_records):
     finished, killed, logs = [], [], []
 
@@ -115,7 +115,7 @@ def test_a_worker_killed_mid_sweep_has_its_runs_rescheduled_by_dask_with_identic
     assert len(finished) == len(CELLS)
 
 
-@pytest.mark.slow(seconds=6)
+@pytest.mark.slow(seconds=9)
 def test_runs_that_dask_gives_up_on_are_resubmitted_by_the_runner_with_a_message(config, local_records):
     """With no failure allowed, Dask fails a killed worker's runs (KilledWorker): the runner submits them again."""
     killed, logs = [], []
