@@ -110,7 +110,7 @@ class FineDriving:
         if speed is not None and passed is not None and direction == command.direction:
             target = next_stop_phase(passed, command.reverse)
             rest = fine.predicted_rest(pose, direction, heading, speed, 0.25 / command.frequency_hz, target)
-            if math.dist(rest, self.goal) <= STOP_WITHIN * settings.goal_tolerance_m:
+            if FineApproach.rests_on_goal(rest, self.goal, yaw, settings.goal_tolerance_m):
                 self._begin_fine_stop(pose, direction, target, rest)
                 return True
         self._message = f"creeping to the goal ({distance:.3f} m to go, {100 * abs(across):.1f} cm off the line)"

@@ -22,10 +22,12 @@ import numpy as np
 
 from srs_ros.core.navigation.motion import Pose2D, PoseHistory, wrap_rad
 from srs_ros.core.navigation.settings import DIRECTIONS, STOP_PHASES
-from srs_ros.core.navigation.stopping import rotate
+from srs_ros.core.navigation.stopping import STOP_WITHIN, rotate
 
-#: A goal farther across the creeping line than this (times goal_tolerance_m) is not crept to.
-FINE_LINE_WITHIN = 0.7
+#: A goal farther across the creeping line than this (times goal_tolerance_m) is not crept to. A line that passes
+#: the goal this close still ends within the tolerance; beyond it the robot turns on the spot, whose 4 bar strokes a
+#: rolling body does not repeat closely (docs/navigation.md, "The goal a little off the creeping line").
+FINE_LINE_WITHIN = 0.85
 #: Seconds after the fine gait starts (a cross-fade from the cruise gait, a start from rest or a reversal)
 #: before the line and the speed are taken from the camera: the body straightens and settles meanwhile.
 FINE_SETTLE_S = 2.0
@@ -104,6 +106,18 @@ class FineApproach:
         heading = yaw_rad + math.pi / 2
         dx, dy = goal[0] - pose.x_m, goal[1] - pose.y_m
         return (dx * math.cos(heading) + dy * math.sin(heading), -dx * math.sin(heading) + dy * math.cos(heading))
+
+    @staticmethod
+    def rests_on_goal(rest_xy_m, goal: tuple[float, float], yaw_rad: float, tolerance_m: float) -> bool:
+        """True when a creep stop predicted to rest at ``rest_xy_m`` is worth making.
+
+        The line passes the goal ``across`` away, so a rest on it ends within the tolerance only within
+        ``sqrt(tolerance^2 - across^2)`` along it; the stop is made within :data:`STOP_WITHIN` of that (on the line
+        itself: within STOP_WITHIN x the tolerance, as every other stop). A rule on the distance alone could never
+        stop on a line passing the goal farther than STOP_WITHIN x the tolerance, however close along it came.
+        """
+        along, across = FineApproach.line(Pose2D(float(rest_xy_m[0]), float(rest_xy_m[1]), 0.0, 0.0), goal, yaw_rad)
+        return abs(along) <= STOP_WITHIN * math.sqrt(max(tolerance_m ** 2 - across ** 2, 0.0))
 
     @staticmethod
     def direction(along_m: float, current: str | None, runup_m: float) -> str:
