@@ -49,7 +49,6 @@ def assert_nothing_more(bus):
     assert extra is None, f"unexpected frame {extra}"
 
 
-
 def wait_for(predicate, what: str, timeout_s: float = 5.0) -> None:
     end = time.monotonic() + timeout_s
     while not predicate():
