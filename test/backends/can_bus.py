@@ -1,10 +1,12 @@
 """The DAC board's side of a python-can bus for the CAN backend's tests: the DBC, frame decoding, waiting."""
 
 import time
+from pathlib import Path
 
 import cantools
 import numpy as np
 import pytest
+import yaml
 from backends.reference_dac_board import ReferenceDacBoard
 
 from srs_ros.backends.can_backend import CanBackend
@@ -58,3 +60,11 @@ def wait_for(predicate, what: str, timeout_s: float = 5.0) -> None:
 
 def board_applies(board: ReferenceDacBoard, volts: float):
     return lambda: (s := board.snapshot()) and not s[0] and s[1] == pytest.approx([volts] * 9, abs=0.001)
+
+
+def write_can_rig(path: Path, name: str, backend_options: dict, rate_hz: float, setpoint_timeout_s: float) -> Path:
+    """A rig file (config/rigs' schema) for the CAN backend with ITV3050 regulators."""
+    rig = {"name": name, "backend": "can", "regulator_model": "ITV3050", "command_rate_hz": rate_hz,
+           "setpoint_timeout_s": setpoint_timeout_s, "backend_options": backend_options}
+    path.write_text(yaml.safe_dump({"rig": rig}, sort_keys=False))
+    return path

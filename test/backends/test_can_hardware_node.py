@@ -1,7 +1,6 @@
 """End to end: the hardware node (its own process) on a CAN bus that fails and comes back, and a SIGKILL."""
 
 import socket
-import textwrap
 import threading
 import time
 from pathlib import Path
@@ -14,6 +13,7 @@ from backends.can_bus import (
     V_PER_BAR,
     board_applies,
     wait_for,
+    write_can_rig,
 )
 from backends.reference_dac_board import BoardTicker, ReferenceDacBoard
 
@@ -100,22 +100,10 @@ class FakeSocketcand:
 
 
 def socketcand_rig(tmp_path, port: int, rate_hz: float, setpoint_timeout_s: float, **options) -> Path:
-    """A rig file for the hardware node on python-can's socketcand interface, connected to FakeSocketcand."""
-    extra = "".join(f"    {key}: {value}\n" for key, value in options.items())
-    path = tmp_path / "socketcand.yaml"
-    path.write_text(textwrap.dedent(f"""\
-        rig:
-          name: socketcand_dac
-          backend: can
-          regulator_model: ITV3050
-          command_rate_hz: {rate_hz}
-          setpoint_timeout_s: {setpoint_timeout_s}
-          backend_options:
-            interface: socketcand
-            channel: can0
-            bus_options: {{host: 127.0.0.1, port: {port}}}
-        """) + extra)
-    return path
+    """A rig file for the hardware node on python-can's socketcand interface, connected to FakeSocketcand;
+    ``options``: more backend options (e.g. ``board_timeout_s``)."""
+    bus = {"interface": "socketcand", "channel": "can0", "bus_options": {"host": "127.0.0.1", "port": port}, **options}
+    return write_can_rig(tmp_path / "socketcand.yaml", "socketcand_dac", bus, rate_hz, setpoint_timeout_s)
 
 
 @pytest.mark.ros

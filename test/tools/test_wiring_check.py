@@ -5,7 +5,6 @@ import os
 import signal
 import subprocess
 import sys
-import textwrap
 import time
 import uuid
 
@@ -13,6 +12,7 @@ import can
 import cantools
 import numpy as np
 import pytest
+from backends.can_bus import write_can_rig
 from srs_testing import script_path
 
 from srs_ros.core.robot import config_dir
@@ -23,17 +23,8 @@ JOINTS = ["m1_pma1", "m1_pma2", "m1_pma3", "m2_pma1", "m2_pma2", "m2_pma3", "m3_
 
 
 def can_rig(tmp_path, channel: str, rate_hz: float = 100.0):
-    path = tmp_path / "virtual_can.yaml"
-    path.write_text(textwrap.dedent(f"""\
-        rig:
-          name: virtual_can
-          backend: can
-          regulator_model: ITV3050
-          command_rate_hz: {rate_hz}
-          setpoint_timeout_s: 0.2
-          backend_options: {{interface: virtual, channel: {channel}}}
-        """))
-    return path
+    return write_can_rig(tmp_path / "virtual_can.yaml", "virtual_can", {"interface": "virtual", "channel": channel},
+                         rate_hz, 0.2)
 
 
 def writes_from_frames(frames) -> list[tuple]:
