@@ -147,7 +147,10 @@ class FineDriving:
         needs at most FINE_PIVOT_MAX_RAD of turn, at most FINE_MAX_PIVOTS times per goal. The stroke played last
         is the direction that rolls on less after a stop (:meth:`StopModel.steadiest_direction`: at 4 bar 1 Hz
         outward rolling rests within about 5 cm of where it stopped, inward rolling 14-27 cm ahead), so the turn
-        leaves the robot where it was.
+        leaves the robot where it was. Each turn on the spot is measured from rest to rest: strokes seen to turn
+        the body the other way (a start from rest can kick it round more than the cycles turn it) are not played
+        for that sense again; the other order of the strokes, or the other sense's levels, are tried instead
+        (:meth:`FineApproach.pivot_choice`).
         """
         settings, fine = self.settings, self.fine
         if settings.fine_distance_m <= 0.0 or distance >= settings.fine_distance_m or \
@@ -157,13 +160,18 @@ class FineDriving:
         turn_rad = math.atan2(across, along) if along >= 0.0 else math.atan2(-across, -along)
         if abs(turn_rad) > FINE_PIVOT_MAX_RAD:
             return False
-        second = self.stops.steadiest_direction()  # the stroke before the stop: the shorter roll-on
-        first = other_direction(second)
+        steadiest = self.stops.steadiest_direction()  # the stroke before the stop: the shorter roll-on
         sign = 1 if turn_rad > 0.0 else -1
-        levels = {d: self.turns.fastest_deg(d, sign) for d in DIRECTIONS}
-        if all(rate * sign <= 1.0 for _, rate in levels.values()):
+        keys = [(first, nominal) for nominal in (sign, -sign) for first in (other_direction(steadiest), steadiest)
+                if any(self.turns.fastest_deg(d, nominal)[1] * nominal > 1.0 for d in DIRECTIONS)]
+        key = fine.pivot_choice(sign, keys)  # the strokes seen (else not yet seen) to turn the resting body that way
+        if key is None:
             return False
-        fine.start_pivot(pose.time_s, sign, [(first, levels[first][0]), (second, levels[second][0])])
+        first, nominal = key
+        levels = {d: self.turns.fastest_deg(d, nominal)[0] for d in DIRECTIONS}
+        second = other_direction(first)
+        fine.start_pivot(pose.time_s, sign, [(first, levels[first]), (second, levels[second])], nominal,
+                         self.history.smoothed_yaw_rad(FINE_YAW_WINDOW_S))
         return True
 
     def _resting_line(self, pose: Pose2D) -> tuple[str, float, float, float]:

@@ -466,6 +466,7 @@ class NavigationController(FineDriving):
                 self.fine.learn(plan.direction, plan.phase_index, plan.heading_rad, moved)
             else:
                 self.stops.learn(plan.direction, plan.phase_index, plan.heading_rad, moved, plan.level)
+        self.fine.learn_pivot(self.history.smoothed_yaw_rad(FINE_YAW_WINDOW_S))  # after a turn on the spot
         distance = self._distance(pose)
         if distance <= self.settings.goal_tolerance_m:
             self._finish(NavigationState.REACHED, f"goal reached: resting {distance:.3f} m from it "

@@ -62,6 +62,12 @@ class FineApproach:
         self.skew_rad = {d: 0.0 for d in DIRECTIONS}
         self._skew_measured = {d: 0 for d in DIRECTIONS}
         self._skew_episode: tuple[float, float] | None = None
+        #: Per turn on the spot, (its first stroke's direction, its nominal sense: +1 the strokes that turn the
+        #: body counter-clockwise by the learned rates), how far it was seen to turn the resting body (rad). Strokes
+        #: from rest are not the steady gait: a start can kick the body round more than the cycles turn it, even the
+        #: other way round, and which way depends on the direction of the first stroke (the calibrated physics).
+        self.pivot_turn_rad: dict[tuple[str, int], float] = {}
+        self._pivot_from: tuple[tuple[str, int], float] | None = None  # (its key, the resting yaw) under way
 
     def start(self, now_s: float) -> None:
         """Begin creeping (from rest: the controller starts it after a stop near the goal, on the goal's line)."""
@@ -76,11 +82,41 @@ class FineApproach:
         """A new goal: neither creeping nor turning, no turn on the spot done yet (what was learned is kept)."""
         self.leave()
         self.pivots = 0
+        self._pivot_from = None
 
-    def start_pivot(self, now_s: float, sense: int, strokes: list[tuple[str, int]]) -> None:
-        """Turn on the spot, ``sense`` +1 counter-clockwise: ``strokes`` (direction, turn level index), a cycle each."""
+    def pivot_choice(self, sign: int, keys: list[tuple[str, int]]) -> tuple[str, int] | None:
+        """The turn on the spot to play for ``sign`` (+1 counter-clockwise), or None.
+
+        Of ``keys`` (first stroke's direction, nominal sense), in order of preference: the first seen to turn the
+        resting body that way, else the first not yet seen (tried), else None (each was seen to turn the other way).
+        """
+        seen = self.pivot_turn_rad
+        for key in keys:
+            if key in seen and seen[key] * sign > 0.0:
+                return key
+        return next((key for key in keys if key not in seen), None)
+
+    def learn_pivot(self, resting_yaw_rad: float) -> None:
+        """The body rests after a turn on the spot: take how far it turned into that turn's estimate."""
+        if self._pivot_from is None:
+            return
+        key, before = self._pivot_from
+        self._pivot_from = None
+        turned = wrap_rad(resting_yaw_rad - before)
+        known = self.pivot_turn_rad.get(key)
+        self.pivot_turn_rad[key] = turned if known is None else known + self.learning_rate * (turned - known)
+
+    def start_pivot(self, now_s: float, sense: int, strokes: list[tuple[str, int]], nominal: int | None = None,
+                    resting_yaw_rad: float | None = None) -> None:
+        """Turn on the spot, ``sense`` +1 counter-clockwise: ``strokes`` (direction, turn level index), a cycle each.
+
+        ``nominal``: the sense whose strokes these are (default ``sense``); with ``resting_yaw_rad`` the turn is
+        measured once the body rests again (:meth:`learn_pivot`), under the key (first direction, nominal).
+        """
         self.pivot_sense, self.pivot_since_s, self._strokes = int(sense), float(now_s), list(strokes)
         self.pivots += 1
+        key = (strokes[0][0], int(sense) if nominal is None else int(nominal))
+        self._pivot_from = None if resting_yaw_rad is None else (key, float(resting_yaw_rad))
 
     def pivot_stroke(self, now_s: float, period_s: float) -> tuple[str, int] | None:
         """The stroke to play now (a cycle each), None once both are played."""

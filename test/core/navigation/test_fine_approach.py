@@ -278,3 +278,50 @@ def test_a_creep_stop_on_a_line_that_passes_the_goal_aside_is_made_where_it_ends
     assert FineApproach.rests_on_goal((0.0, 0.339), (0.0, 0.30), yaw, tolerance)  # on the line: 0.8 x 5 cm
     assert not FineApproach.rests_on_goal((0.0, 0.341), (0.0, 0.30), yaw, tolerance)
     assert not FineApproach.rests_on_goal((0.051, 0.30), (0.0, 0.30), yaw, tolerance)  # the line misses
+
+
+class KickedRoller(AmplitudeRoller):
+    """A 4 bar stroke started from rest kicks the body round, inward rolling counter-clockwise and outward rolling
+    clockwise, by more than a turn on the spot's cycles turn it (on the calibrated physics one stroke from rest
+    turned the body -24 deg inward and +28 deg outward, both ways more than its cycles: docs/navigation.md)."""
+
+    KICK_DEG = 15.0
+
+    def _roll(self, command):
+        if command.amplitude_bar > 2.5:  # its cycles turn it a quarter as fast as AmplitudeRoller's
+            self.scale, self.bias_deg = 0.175, 1.5
+        super()._roll(command)
+
+    def step(self, command, now_s):
+        if command.moving and command.amplitude_bar > 2.5 and not getattr(self, "_was_moving", False):
+            self.yaw += math.radians(self.KICK_DEG if command.direction == "inward_rolling" else -self.KICK_DEG)
+        self._was_moving = command.moving
+        super().step(command, now_s)
+
+
+def test_a_turn_on_the_spot_seen_to_turn_the_wrong_way_is_not_used_that_way_again():
+    """At rest 0.3 m from a goal 15 deg off its creeping line. The turn on the spot the map chooses starts with the
+    stroke whose kick turns the body away from the line, more than its cycles turn it toward it: the controller
+    measures each turn on the spot from rest to rest, and once the first is seen to turn the wrong way it tries the
+    strokes in the other order, which turn the right way, and reaches the goal. By the map alone (before) it played
+    the same strokes again, turned the wrong way again and failed the goal after a minute without progress."""
+    settings = load_navigation_settings({}, turning_map=MAP)
+    controller, roller = NavigationController(settings, AREA), KickedRoller()
+    goal = (0.3 * math.sin(math.radians(-15.0)), 0.3 * math.cos(math.radians(15.0)))  # 15 deg off the +y line
+    controller.set_goal(*goal, now_s=0.0)
+    starts, now = [], 0.0  # per turn on the spot: the sense asked, the body's yaw as it starts
+    while now < 120.0 and (controller.state.active or roller.moving_or_settling(now)):
+        controller.update_gait_phase(roller.phase)
+        controller.update_pose(roller.pose(now))
+        command = controller.tick(now)
+        if controller.fine.pivot_sense and len(starts) < controller.fine.pivots:
+            starts.append((controller.fine.pivot_sense, roller.yaw))
+        roller.step(command, now)
+        now += FRAME_S
+    yaws = [yaw for _, yaw in starts] + [roller.yaw]  # creeping in between hardly turns the body
+    turned = [(sense, math.degrees(after - before)) for (sense, before), after in zip(starts, yaws[1:])]
+    wrong = [turn for sense, turn in turned if turn * sense < 0.0]
+    assert turned and turned[0][1] * turned[0][0] < 0.0, turned  # the map's choice turned the body the wrong way
+    assert len(wrong) == 1, turned  # ... once
+    assert controller.state is NavigationState.REACHED, (controller.progress(now).message, turned)
+    assert math.dist(goal, (roller.x, roller.y)) <= settings.goal_tolerance_m
