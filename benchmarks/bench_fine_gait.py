@@ -28,6 +28,15 @@ def config_for(physics: str, robot):
     return load_sim_config(robot=robot).replace("contact", friction=friction)
 
 
+def grid(args, robot):
+    """(physics, its simulation config, amplitude, frequency) for every cell of the command line's grid."""
+    for physics in args.physics:
+        config = config_for(physics, robot)
+        for frequency in args.frequencies:
+            for amplitude in args.amplitudes:
+                yield physics, config, amplitude, frequency
+
+
 def measure(config, robot, amplitude_bar, frequency_hz, reverse):
     cycle, period = rolling_cycle(amplitude_bar, frequency_hz, 0.0, robot), 1.0 / frequency_hz
     offsets, travel, turns = [], [], []
@@ -58,16 +67,13 @@ def main() -> None:
     print("| physics | A (bar) | f (Hz) | direction | travel (cm/cycle) | turn (deg/cycle) | rest along: mean, sd, "
           "range over 8 stop phases (cm) | rest across: mean, sd (cm) |")
     print("| --- | --- | --- | --- | --- | --- | --- | --- |")
-    for physics in args.physics:
-        config = config_for(physics, robot)
-        for frequency in args.frequencies:
-            for amplitude in args.amplitudes:
-                for reverse in (False, True):
-                    offsets, travel, turn = measure(config, robot, amplitude, frequency, reverse)
-                    along, across = 100 * offsets[:, 0], 100 * offsets[:, 1]
-                    print(f"| {physics} | {amplitude:g} | {frequency:g} | {'outward' if reverse else 'inward'} | "
-                          f"{100 * travel:.1f} | {turn:+.1f} | {along.mean():+.1f}, {along.std():.1f}, "
-                          f"{np.ptp(along):.1f} | {across.mean():+.1f}, {across.std():.1f} |", flush=True)
+    for physics, config, amplitude, frequency in grid(args, robot):
+        for reverse in (False, True):
+            offsets, travel, turn = measure(config, robot, amplitude, frequency, reverse)
+            along, across = 100 * offsets[:, 0], 100 * offsets[:, 1]
+            print(f"| {physics} | {amplitude:g} | {frequency:g} | {'outward' if reverse else 'inward'} | "
+                  f"{100 * travel:.1f} | {turn:+.1f} | {along.mean():+.1f}, {along.std():.1f}, "
+                  f"{np.ptp(along):.1f} | {across.mean():+.1f}, {across.std():.1f} |", flush=True)
 
 
 if __name__ == "__main__":

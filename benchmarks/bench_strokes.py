@@ -16,7 +16,7 @@ import argparse
 import math
 
 import numpy as np
-from bench_fine_gait import config_for
+from bench_fine_gait import grid
 
 from srs_ros.core.navigation.commands import GaitCommand
 from srs_ros.core.robot import default_robot
@@ -68,18 +68,14 @@ def main() -> None:
     print("| physics | direction | A (bar) | f (Hz) | turn_phase_rad | turn, mean / sd (deg) | along the axis, "
           "mean / sd (cm) | across, mean / sd (cm) |")
     print("| --- | --- | --- | --- | --- | --- | --- | --- |")
-    for physics in args.physics:
-        config = config_for(physics, robot)
-        for amplitude in args.amplitudes:
-            for frequency in args.frequencies:
-                for direction in ("inward_rolling", "outward_rolling"):
-                    for level in args.levels:
-                        rows = strokes(config, robot, direction, amplitude, frequency, level, args.repeats,
-                                       args.rest_s)
-                        mean, sd = rows.mean(axis=0), rows.std(axis=0)
-                        print(f"| {physics} | {direction.split('_')[0]} | {amplitude:g} | {frequency:g} | {level:+g} "
-                              f"| {mean[0]:+.1f} / {sd[0]:.1f} | {mean[1]:+.1f} / {sd[1]:.1f} "
-                              f"| {mean[2]:+.1f} / {sd[2]:.1f} |", flush=True)
+    for physics, config, amplitude, frequency in grid(args, robot):
+        for direction in ("inward_rolling", "outward_rolling"):
+            for level in args.levels:
+                rows = strokes(config, robot, direction, amplitude, frequency, level, args.repeats, args.rest_s)
+                mean, sd = rows.mean(axis=0), rows.std(axis=0)
+                print(f"| {physics} | {direction.split('_')[0]} | {amplitude:g} | {frequency:g} | {level:+g} "
+                      f"| {mean[0]:+.1f} / {sd[0]:.1f} | {mean[1]:+.1f} / {sd[1]:.1f} "
+                      f"| {mean[2]:+.1f} / {sd[2]:.1f} |", flush=True)
 
 
 if __name__ == "__main__":
