@@ -169,10 +169,18 @@ def test_hostile_trajectories_are_refused_or_played_and_nothing_unsafe_reaches_t
         assert answers() == before + 1, player.output()[-3000:]  # one message, one answer
 
     def playing(samples, settle_s: float = 0.15) -> bool:
-        client.spin_for(settle_s)  # the cross-fade (0.05 s) and the setpoints in flight
+        client.spin_for(settle_s)  # the setpoints in flight
         start = len(setpoints)
         client.spin_until(lambda: len(setpoints) >= start + 20, 5.0, "20 more setpoints")
         return on_cycle(setpoints[start:], samples)
+
+    def switches_to(samples, within_s: float = 5.0) -> None:
+        """The player takes up ``samples``: 20 setpoints in a row on that cycle within ``within_s``. Waited for,
+        not slept: the cross-fade (0.05 s of the player's time) ends later when the player stalls (0.2-0.4 s
+        now and then on a busy machine; a fixed 0.15 s settle once caught the fade's middle)."""
+        start = len(setpoints)
+        client.spin_until(lambda: len(setpoints) >= start + 20 and on_cycle(setpoints[-20:], samples), within_s,
+                          "20 setpoints in a row on the cycle just sent")
 
     send(good)
     client.spin_until(lambda: len(setpoints) > 100, 10.0, "the good cycle playing")
@@ -194,9 +202,9 @@ def test_hostile_trajectories_are_refused_or_played_and_nothing_unsafe_reaches_t
             assert playing(good_samples), applied  # the previous cycle goes on
         else:
             assert answer != "ignored the trajectory", (applied, player.output()[-2000:])
-            assert playing(samples), applied
+            switches_to(samples)
             send(good)  # back to the reference cycle
-            assert playing(good_samples)
+            switches_to(good_samples)
         sent = np.array([m.position for m in setpoints[start:]])
         assert np.all(np.isfinite(sent)) and sent.min() >= 0.0 and sent.max() <= MAX_EXTENSION_M
         written = record.update().pressures_bar
