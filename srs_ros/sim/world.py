@@ -51,6 +51,10 @@ class Contacts:
         return int(np.sum(self.segments[:, 0] >= 0))
 
 
+#: A body whose middle lies closer than this to the midpoint of its ends (m) has no opening to speak of.
+OPENING_MIN_M = 1e-3
+
+
 @dataclass(frozen=True)
 class SimState:
     """The world at one instant; floor frame (x, y on the floor, z up), metres, radians, seconds.
@@ -84,6 +88,18 @@ class SimState:
     def pose(self) -> np.ndarray:
         """``(x_m, y_m, yaw_rad)`` of the reference point, as the camera tracker gives it."""
         return np.array([self.reference_xy_m[0], self.reference_xy_m[1], self.heading_rad])
+
+    @property
+    def opening_speed_m_s(self) -> float:
+        """How fast the reference point moves toward the body's opening (m/s; negative: away from it).
+
+        A bent body opens from its middle node toward the midpoint of its ends (the reference point), on the
+        floor. The paper's inward rolling moves toward the opening and outward rolling away from it (Sec.
+        IV-C/D). NaN when the body is too straight for an opening (its middle within 1 mm of the reference).
+        """
+        opening = self.reference_xy_m - self.nodes_m[len(self.nodes_m) // 2, :2]
+        size = float(np.linalg.norm(opening))
+        return float(self.reference_velocity_m_s @ opening) / size if size > OPENING_MIN_M else math.nan
 
 
 class SimWorld:

@@ -112,8 +112,9 @@ def build_parser() -> argparse.ArgumentParser:
     cal = parser.add_argument_group("--calibrate (fit the simulation to a measured table)")
     cal.add_argument("--calibrate", metavar="TABLE", help="measured table to fit (e.g. config/paper_table1.yaml)")
     cal.add_argument("--fit", nargs="+", metavar="PARAM",
-                     help=f"parameters to fit (default: friction, {', '.join(DEFAULT_FIT_BEYOND_FRICTION)}); "
-                          f"any of {', '.join(FIT_PARAMETERS)}")
+                     help=f"parameters to fit (default: the floor's friction, friction_coefficient or on an "
+                          f"anisotropic floor friction_along_body and friction_across_body, then "
+                          f"{', '.join(DEFAULT_FIT_BEYOND_FRICTION)}); any of {', '.join(FIT_PARAMETERS)}")
     cal.add_argument("--fit-duration-s", type=_number, default=DEFAULT_FIT_DURATION_S,
                      help=f"run time of the search's runs, s (default {DEFAULT_FIT_DURATION_S:g}; before and "
                           "after use the table's)")

@@ -1,6 +1,7 @@
 """config/sim.yaml: loaded into a SimConfig; every bad value refused with the key, the value and what is expected."""
 
 import copy
+import dataclasses
 
 import pytest
 import yaml
@@ -114,5 +115,8 @@ def test_replace_validates_the_new_value():
 def test_the_shipped_calibration_to_the_paper_loads_and_differs_from_the_defaults_in_fitted_values_only():
     calibrated = load_sim_config(config_dir() / "sim_calibrated_paper.yaml")
     default = load_sim_config()
-    assert calibrated.contact.roll_damping_nms_per_rad > 0.0 == default.contact.roll_damping_nms_per_rad
+    assert calibrated.contact.friction_coefficient != default.contact.friction_coefficient
+    assert calibrated.muscles != default.muscles and calibrated.body != default.body
+    assert dataclasses.replace(calibrated.contact, friction_coefficient=0.0) == dataclasses.replace(
+        default.contact, friction_coefficient=0.0)  # no roll damping: the default fit leaves it out
     assert calibrated.servo == default.servo and calibrated.physics == default.physics

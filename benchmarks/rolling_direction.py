@@ -1,0 +1,92 @@
+"""Which way the simulated robot rolls: to which side of its body, and toward or away from its opening.
+
+The paper's robot rolls inward toward the opening of its curve and outward away from it, the reverse gait the
+other way, at every pressure and frequency where it moves (Sec. IV-C/D). For each rolling gait, pressure (2-4 bar)
+and frequency (0.25-1 Hz) this runs the simulated robot from rest and prints the side of the body it travelled to
+(the sine of the angle from the tail -> head heading, averaged over the run, to the net displacement: +1 square to
+the left, -1 square to the right), the mean speed of the tracked point toward the body's opening
+(``SimState.opening_speed_m_s``, cm/s; negative: away; meaningful while the bend stays put in the world, as it
+does for a body that spins freely about its axis) and the net speed. A body whose spin about its own axis is held
+(a crankshaft rather than a rolling pin) steps to the other side (docs/simulation.md, "Which way a held spin
+rolls").
+
+Run: python benchmarks/rolling_direction.py [--sim-config FILE] [--set section.key=VALUE ...] [--duration-s 8]
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+
+import numpy as np
+import yaml
+
+from srs_ros.sim.config import load_sim_config, sim_config_from_dict, to_dict
+from srs_ros.sim.experiment import run_experiment
+
+AMPLITUDES_BAR = (2.0, 3.0, 4.0)
+FREQUENCIES_HZ = (0.25, 0.5, 0.75, 1.0)
+#: The paper's sign of the speed toward the opening, per gait.
+PAPER_SIGN = {"inward_rolling": 1.0, "outward_rolling": -1.0}
+
+
+def configured(path: str | None, changes: list[str]):
+    """The simulation config of ``path`` (default config/sim.yaml) with ``section.key=value`` changes."""
+    config = load_sim_config(path)
+    if not changes:
+        return config
+    data = to_dict(config)
+    for change in changes:
+        name, _, value = change.partition("=")
+        section, _, key = name.partition(".")
+        data[section][key] = yaml.safe_load(value)
+    return sim_config_from_dict({"sim": data}, source=f"{config.source} + {' '.join(changes)}")
+
+
+def roll(config, gait: str, amplitude_bar: float, frequency_hz: float, duration_s: float):
+    """(side travelled to, mean speed toward the opening in cm/s, net speed in cm/s) of one run from rest."""
+    toward = []
+
+    def on_frame(state) -> None:
+        if not math.isnan(state.opening_speed_m_s):
+            toward.append(state.opening_speed_m_s)
+
+    result = run_experiment(gait, amplitude_bar, frequency_hz, duration_s, config, on_frame=on_frame)
+    yaw = result.track[:, 3]
+    heading = math.atan2(float(np.mean(np.sin(yaw))), float(np.mean(np.cos(yaw))))
+    moved = result.track[-1, 1:3] - result.track[0, 1:3]
+    distance = float(np.linalg.norm(moved))
+    side = (math.cos(heading) * moved[1] - math.sin(heading) * moved[0]) / distance if distance > 0 else math.nan
+    return side, 100.0 * float(np.mean(toward)) if toward else math.nan, result.velocity.speed_cm_s
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--sim-config", help="simulation config (default config/sim.yaml)")
+    parser.add_argument("--set", action="append", default=[], metavar="SECTION.KEY=VALUE",
+                        help="change one value, e.g. contact.roll_damping_nms_per_rad=0.3")
+    parser.add_argument("--duration-s", type=float, default=8.0)
+    args = parser.parse_args()
+    config = configured(args.sim_config, args.set)
+    print(f"{config.source}, {args.duration_s:g} s from rest: side (+1 left of the heading) / speed toward the "
+          f"opening (cm/s) / net speed (cm/s)")
+    print("gait, bar | " + " | ".join(f"{f:g} Hz" for f in FREQUENCIES_HZ))
+    sides, opening = {gait: [] for gait in PAPER_SIGN}, 0
+    for gait, sign in PAPER_SIGN.items():
+        for amplitude in AMPLITUDES_BAR:
+            cells = []
+            for frequency in FREQUENCIES_HZ:
+                side, toward, speed = roll(config, gait, amplitude, frequency, args.duration_s)
+                sides[gait].append(side)
+                opening += int(toward * sign > 0.0)
+                cells.append(f"{side:+5.2f} / {toward:+5.1f} / {speed:4.1f}")
+            print(f"{gait} {amplitude:g} | " + " | ".join(cells), flush=True)
+    inward, outward = (np.sign(sides[g]) for g in PAPER_SIGN)
+    apart = int(np.sum(inward != outward))
+    print(f"inward rolling to the left in {int(np.sum(inward > 0))} of {len(inward)} cells, outward to the right in "
+          f"{int(np.sum(outward < 0))} of {len(outward)}; the two to opposite sides in {apart} of {len(inward)}; "
+          f"toward / away from the opening as the paper's: {opening} of {2 * len(inward)}")
+
+
+if __name__ == "__main__":
+    main()
