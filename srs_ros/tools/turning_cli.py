@@ -6,7 +6,7 @@ Examples::
     python -m srs_ros.tools.turning_cli --write-map config/turning_map.yaml
     python -m srs_ros.tools.turning_cli --grid             # turn_phase_rad at 2-4 bar, 0.25-1 Hz
     python -m srs_ros.tools.turning_cli --candidates       # steering candidates compared at 4 bar 1 Hz
-    python -m srs_ros.tools.turning_cli --serpentine       # serpentine c on anisotropic friction
+    python -m srs_ros.tools.turning_cli --serpentine       # serpentine c on anisotropic friction (or --friction)
 
 Every run starts at rest and plays the gait through the gait player's logic, as the navigator does
 (:mod:`srs_ros.experiments.turning`); each value is run from two start headings (the spread says how
@@ -35,7 +35,8 @@ def _parser() -> argparse.ArgumentParser:
     parser.add_argument("--candidates", action="store_true",
                         help="compare steering candidates (module phase offset, cone, unequal module amplitude, "
                              "alternating strokes) at 4 bar 1 Hz")
-    parser.add_argument("--serpentine", action="store_true", help="serpentine c_rad_per_unit on anisotropic friction")
+    parser.add_argument("--serpentine", action="store_true",
+                        help="serpentine c_rad_per_unit on anisotropic friction (or on --friction's floor)")
     parser.add_argument("--write-map", type=Path, metavar="FILE", help="write the navigator's turn map (YAML)")
     parser.add_argument("--amplitude-bar", type=float, default=NAVIGATION_TABLE["amplitude_bar"].default)
     parser.add_argument("--frequency-hz", type=float, default=NAVIGATION_TABLE["cruise_frequency_hz"].default)
@@ -120,13 +121,13 @@ def main(argv: list[str] | None = None) -> int:
             for inward, outward, turn, spread, drift in pivots:
                 print(f"| inward {inward:+g} / outward {outward:+g} | {turn:+.1f} | {spread:.1f} | {100 * drift:.1f} |")
         if args.serpentine:
-            anisotropic = config.replace("contact", friction="anisotropic")
+            floor = config if args.friction else config.replace("contact", friction="anisotropic")
             runs = []
             for c in (-0.2, -0.1, 0.0, 0.1, 0.2):
                 _say(f"  serpentine c {c:+g} ...")
-                runs += turning.measure_serpentine(c, args.amplitude_bar, args.frequency_hz, anisotropic,
+                runs += turning.measure_serpentine(c, args.amplitude_bar, args.frequency_hz, floor,
                                                    cycles=args.cycles)
-            print(f"serpentine on {anisotropic.contact.describe()}:")
+            print(f"serpentine on {floor.contact.describe()}:")
             print(turning.table_markdown(runs, "c_rad_per_unit"))
         if not (args.grid or args.candidates or args.serpentine) or args.write_map:
             _print_map(config, args)
