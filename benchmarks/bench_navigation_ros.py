@@ -14,7 +14,7 @@ success rate (reached and resting within goal_tolerance_m), and the median time 
 straight speed (measured on the same physics) would need (the issue asks for at most 2).
 
 Run: python benchmarks/bench_navigation_ros.py [--goals 3] [--seed 20] [--friction anisotropic]
-     [--sim-config FILE] [--pose-timeout-s 3]
+     [--sim-config FILE] [--pose-timeout-s 3] [--turning-map FILE]
 """
 
 from __future__ import annotations
@@ -123,6 +123,9 @@ def main(argv=None) -> None:
     parser.add_argument("--friction", default="", help="floor friction: isotropic, anisotropic, 0.8 or 0.3,0.9")
     parser.add_argument("--pose-timeout-s", type=float, default=3.0,
                         help="the navigator's pose_timeout_s (default 3: a loaded machine's tracker drops frames)")
+    parser.add_argument("--turning-map", default="",
+                        help="the navigator's turning_map_file (e.g. config/turning_map_calibrated_paper.yaml with the "
+                             "calibrated physics; default: the navigator's own)")
     args = parser.parse_args(argv)
     os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
     settings = load_navigation_settings()
@@ -140,7 +143,10 @@ def main(argv=None) -> None:
     session = RosSession(folder, "bench_navigation_ros")
     outcomes = []
     try:
-        system = NavigationSystem(session, {"pose_timeout_s": args.pose_timeout_s}, sim_config_file=str(sim_file))
+        params = {"pose_timeout_s": args.pose_timeout_s}
+        if args.turning_map:
+            params["turning_map_file"] = str(Path(args.turning_map).resolve())
+        system = NavigationSystem(session, params, sim_config_file=str(sim_file))
         for goal in goals:
             outcomes.append(drive(system, goal))
             print("  " + line(outcomes[-1]), flush=True)

@@ -95,7 +95,9 @@ class SimState:
 
         A bent body opens from its middle node toward the midpoint of its ends (the reference point), on the
         floor. The paper's inward rolling moves toward the opening and outward rolling away from it (Sec.
-        IV-C/D). NaN when the body is too straight for an opening (its middle within 1 mm of the reference).
+        IV-C/D). Averaged over a run it says so while the bend stays put in the world (a body spinning freely
+        about its axis); one whose shape turns with it averages about 0. NaN when the body is too straight for
+        an opening (its middle within 1 mm of the reference).
         """
         opening = self.reference_xy_m - self.nodes_m[len(self.nodes_m) // 2, :2]
         size = float(np.linalg.norm(opening))
