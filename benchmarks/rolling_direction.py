@@ -20,8 +20,9 @@ import math
 
 import numpy as np
 import yaml
+from model_study import Variant  # benchmarks/: a configuration with section.key changes
 
-from srs_ros.sim.config import load_sim_config, sim_config_from_dict, to_dict
+from srs_ros.sim.config import load_sim_config
 from srs_ros.sim.experiment import run_experiment
 
 AMPLITUDES_BAR = (2.0, 3.0, 4.0)
@@ -35,12 +36,8 @@ def configured(path: str | None, changes: list[str]):
     config = load_sim_config(path)
     if not changes:
         return config
-    data = to_dict(config)
-    for change in changes:
-        name, _, value = change.partition("=")
-        section, _, key = name.partition(".")
-        data[section][key] = yaml.safe_load(value)
-    return sim_config_from_dict({"sim": data}, source=f"{config.source} + {' '.join(changes)}")
+    values = {name: yaml.safe_load(value) for name, _, value in (change.partition("=") for change in changes)}
+    return Variant(" ".join(changes), values, "command line").config(config)
 
 
 def roll(config, gait: str, amplitude_bar: float, frequency_hz: float, duration_s: float):
