@@ -198,7 +198,8 @@ def study_variant(variant: Variant, base: SimConfig, runner, duration_s: float) 
                                       f"{max(r.speed_cm_s for r in serpentine):.2f}",
             "bend 4 bar deg": f"{bend_deg:.0f}", "spin turns/cycle": f"{spin:.2f}", "top cm": f"{lift_cm:.1f}",
             "turn deg/cycle": f"{figures.turning_deg_per_cycle:.1f}",
-            "reversing runs": str(figures.reversing_runs), "real time x": f"{realtime:.1f}"}
+            "reversing runs": str(figures.reversing_runs), "in left, out right": str(figures.rolling_sides),
+            "real time x": f"{realtime:.1f}"}
 
 
 def _markdown(rows: list[dict]) -> str:

@@ -22,13 +22,12 @@ import numpy as np
 import yaml
 from model_study import Variant  # benchmarks/: a configuration with section.key changes
 
+from srs_ros.experiments.fidelity import GAIT_SIDE, travel_side
 from srs_ros.sim.config import load_sim_config
 from srs_ros.sim.experiment import run_experiment
 
 AMPLITUDES_BAR = (2.0, 3.0, 4.0)
 FREQUENCIES_HZ = (0.25, 0.5, 0.75, 1.0)
-#: The paper's sign of the speed toward the opening, per gait.
-PAPER_SIGN = {"inward_rolling": 1.0, "outward_rolling": -1.0}
 
 
 def configured(path: str | None, changes: list[str]):
@@ -49,12 +48,8 @@ def roll(config, gait: str, amplitude_bar: float, frequency_hz: float, duration_
             toward.append(state.opening_speed_m_s)
 
     result = run_experiment(gait, amplitude_bar, frequency_hz, duration_s, config, on_frame=on_frame)
-    yaw = result.track[:, 3]
-    heading = math.atan2(float(np.mean(np.sin(yaw))), float(np.mean(np.cos(yaw))))
-    moved = result.track[-1, 1:3] - result.track[0, 1:3]
-    distance = float(np.linalg.norm(moved))
-    side = (math.cos(heading) * moved[1] - math.sin(heading) * moved[0]) / distance if distance > 0 else math.nan
-    return side, 100.0 * float(np.mean(toward)) if toward else math.nan, result.velocity.speed_cm_s
+    toward_cm_s = 100.0 * float(np.mean(toward)) if toward else math.nan
+    return travel_side(result.track), toward_cm_s, result.velocity.speed_cm_s
 
 
 def main() -> None:
@@ -68,8 +63,8 @@ def main() -> None:
     print(f"{config.source}, {args.duration_s:g} s from rest: side (+1 left of the heading) / speed toward the "
           f"opening (cm/s) / net speed (cm/s)")
     print("gait, bar | " + " | ".join(f"{f:g} Hz" for f in FREQUENCIES_HZ))
-    sides, opening = {gait: [] for gait in PAPER_SIGN}, 0
-    for gait, sign in PAPER_SIGN.items():
+    sides, opening = {gait: [] for gait in GAIT_SIDE}, 0
+    for gait, sign in GAIT_SIDE.items():
         for amplitude in AMPLITUDES_BAR:
             cells = []
             for frequency in FREQUENCIES_HZ:
@@ -78,7 +73,7 @@ def main() -> None:
                 opening += int(toward * sign > 0.0)
                 cells.append(f"{side:+5.2f} / {toward:+5.1f} / {speed:4.1f}")
             print(f"{gait} {amplitude:g} | " + " | ".join(cells), flush=True)
-    inward, outward = (np.sign(sides[g]) for g in PAPER_SIGN)
+    inward, outward = (np.sign(sides[g]) for g in GAIT_SIDE)
     apart = int(np.sum(inward != outward))
     print(f"inward rolling to the left in {int(np.sum(inward > 0))} of {len(inward)} cells, outward to the right in "
           f"{int(np.sum(outward < 0))} of {len(outward)}; the two to opposite sides in {apart} of {len(inward)}; "

@@ -13,7 +13,11 @@ figures say whether the model answers the paper's questions the right way round 
 - ``serpentine_top_cm_s``: the fastest serpentine cell (the paper's robot made no progress);
 - ``turning_deg_per_cycle``: the median absolute heading change per cycle of the rolling runs at 4 bar;
 - ``reversing_runs``: rolling runs at 2-4 bar with a cycle that moved against the run's net direction (the
-  paper's robot "occasionally flipped back" at 2 bar 1 Hz).
+  paper's robot "occasionally flipped back" at 2 bar 1 Hz);
+- ``rolling_sides``: rolling runs at 2-4 bar that travelled to their gait's side of the body
+  (:func:`travel_side`): inward rolling to the left of the tail -> head heading, toward the opening of a body whose
+  bend stays put as it rolls, outward rolling to the right. The paper's robot kept its direction at every pressure
+  and frequency; a body whose spin is held steps to the other side (docs/simulation.md).
 
 Only the rows of ``records`` matter (a failed run counts against every figure it belongs to).
 """
@@ -57,6 +61,7 @@ class FidelityFigures:
     serpentine_top_cm_s: float
     turning_deg_per_cycle: float
     reversing_runs: Count
+    rolling_sides: Count
 
 
 def _speed(by_cell: dict, cell) -> float:
@@ -118,6 +123,29 @@ def cycle_motion(record: RunRecord) -> tuple[np.ndarray, np.ndarray]:
     return np.diff(rows[:, 1:3], axis=0), np.diff(heading)
 
 
+#: The side of the body each rolling gait travels to (+1: left of the tail -> head heading).
+GAIT_SIDE = {"inward_rolling": 1.0, "outward_rolling": -1.0}
+
+
+def travel_side(track: np.ndarray) -> float:
+    """Where a run went, seen from the body: the sine of the angle from its mean heading to its net displacement.
+
+    ``track`` rows are ``time_s, x_m, y_m, yaw_rad`` (yaw: tail -> head). +1 is square to the left, -1 square to the
+    right, 0 along the body; NaN for a run that did not move.
+    """
+    yaw = track[:, 3]
+    heading = math.atan2(float(np.mean(np.sin(yaw))), float(np.mean(np.cos(yaw))))
+    dx, dy = track[-1, 1:3] - track[0, 1:3]
+    distance = math.hypot(dx, dy)
+    return (math.cos(heading) * dy - math.sin(heading) * dx) / distance if distance > 0 else math.nan
+
+
+def side_count(records: Sequence[RunRecord]) -> Count:
+    """Rolling runs at 2-4 bar with a track that travelled to their gait's side (:data:`GAIT_SIDE`)."""
+    runs = [r for r in records if r.gait in GAIT_SIDE and r.amplitude_bar >= MOVING_FROM_BAR and r.track is not None]
+    return Count(sum(bool(r.ok and travel_side(r.track) * GAIT_SIDE[r.gait] > 0.0) for r in runs), len(runs))
+
+
 def motion_figures(records: Sequence[RunRecord]) -> tuple[float, Count]:
     """Median |turning| per cycle (deg) of rolling runs at the top pressure; runs that stepped backwards in a cycle."""
     rolling = [r for r in records if r.gait in ROLLING_GAITS and r.amplitude_bar >= MOVING_FROM_BAR and r.ok]
@@ -147,4 +175,4 @@ def fidelity_figures(records: Sequence[RunRecord], reference: MeasuredTable) -> 
         inward_faster=inward,
         still_cells=Count(sum(r.ok and r.speed_cm_s < STILL_CM_S for r in still), len(still)),
         serpentine_top_cm_s=max(serpentine, default=math.nan), turning_deg_per_cycle=turning,
-        reversing_runs=reversing)
+        reversing_runs=reversing, rolling_sides=side_count(records))

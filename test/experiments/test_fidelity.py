@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 
-from srs_ros.experiments.fidelity import Count, cycle_motion, fidelity_figures, trend_counts
+from srs_ros.experiments.fidelity import Count, cycle_motion, fidelity_figures, travel_side, trend_counts
 from srs_ros.experiments.table import RunRecord, paper_table
 
 PAPER = paper_table()
@@ -60,3 +60,26 @@ def test_a_run_that_steps_back_in_one_cycle_counts_as_reversing():
     track = np.column_stack([t, x, 0.0 * t, 0.0 * t])
     records = [_record("inward_rolling", 2.0, 1.0, 5.0, track)]
     assert fidelity_figures(records, PAPER).reversing_runs == Count(1, 1)
+
+
+def _track_to(dx_m, dy_m, yaw_rad=0.0):
+    """Four seconds from the origin straight to (dx, dy), the body's heading fixed."""
+    t = np.arange(0.0, 4.0 + 1e-9, 0.1)
+    return np.column_stack([t, dx_m * t / 4.0, dy_m * t / 4.0, np.full_like(t, yaw_rad)])
+
+
+def test_the_side_of_travel_is_seen_from_the_body_whatever_its_heading():
+    assert travel_side(_track_to(0.0, 0.3)) == 1.0                         # heading +x, moved +y: left
+    assert math.isclose(travel_side(_track_to(0.3, 0.0, math.pi / 2)), -1.0)  # heading +y, moved +x: right
+    assert math.isclose(travel_side(_track_to(0.2, 0.2)), math.sqrt(0.5))
+    assert math.isnan(travel_side(_track_to(0.0, 0.0)))
+
+
+def test_rolling_runs_count_when_inward_goes_left_and_outward_right_and_not_otherwise():
+    left, right = _track_to(0.0, 0.3), _track_to(0.0, -0.3)
+    kept = [_record("inward_rolling", 4.0, 1.0, 7.5, left), _record("outward_rolling", 4.0, 1.0, 7.5, right),
+            _record("inward_rolling", 1.0, 1.0, 0.0, right)]                   # 1 bar: not a moving cell
+    swapped = [_record("inward_rolling", 4.0, 1.0, 7.5, right), _record("outward_rolling", 2.0, 0.5, 7.5, left)]
+    assert fidelity_figures(kept, PAPER).rolling_sides == Count(2, 2)
+    assert fidelity_figures(swapped, PAPER).rolling_sides == Count(0, 2)
+    assert fidelity_figures(_paper_records(), PAPER).rolling_sides == Count(0, 0)  # a table has no tracks
