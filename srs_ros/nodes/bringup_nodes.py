@@ -10,6 +10,7 @@
 
 from __future__ import annotations
 
+import collections
 import math
 import sys
 import time
@@ -50,6 +51,10 @@ if TYPE_CHECKING:
     from srs_ros.nodes.trajectory_server import TrajectoryServer
 
 
+#: With the navigator, the status line's travel speeds are over this many seconds of poses (s).
+NAVIGATING_SPEED_WINDOW_S = 5.0
+
+
 class StatusMonitor(Node):
     """Counts setpoints and commands and prints one status line per period (with speeds on the sim rig).
 
@@ -68,8 +73,12 @@ class StatusMonitor(Node):
         self._since_s = time.monotonic()
         self._start_s = self._since_s
         self._tty = sys.stdout.isatty()
-        self._tracked = SpeedMeter()
-        self._truth = SpeedMeter() if simulated else None
+        # Open loop: Table I's speed (displacement since the start over time); a patrol returns to where it began,
+        # so with the navigator the speed is over the last few seconds (how fast it is rolling now).
+        window_s = NAVIGATING_SPEED_WINDOW_S if navigating else None
+        self._speed_label = f"travel speed over {window_s:g} s" if window_s else "travel speed"
+        self._tracked = SpeedMeter(window_s)
+        self._truth = SpeedMeter(window_s) if simulated else None
         self._tracker_status = tracker_status
         self._view: tuple[ViewStatus, float] | None = None  # the tracker's last report, when it arrived (steady s)
         self.create_subscription(JointState, SETPOINT_TOPIC, self._on_setpoint, setpoint_qos())
@@ -108,14 +117,14 @@ class StatusMonitor(Node):
         """The sim rig's speeds; the tracked one is ``--`` while the tracker has no current pose (said why)."""
         view = self._view[0].aged(now_s - self._view[1]) if self._view is not None else None
         current = view is None or view.pose_current
-        text = f" | travel speed tracked {self._tracked.take() if current else '  --'} truth {self._truth.take()} cm/s"
+        text = f" | {self._speed_label} tracked {self._tracked.take() if current else '  --'} truth {self._truth.take()} cm/s"
         return text if current else f"{text} | {view.summary()}"
 
     def status_line(self) -> str:
         """One line: gait, cycles played, rates (Hz), the largest pressure in the period, speeds (sim rig).
 
         On the simulated robot it ends with the traveling speed since the start (Table I's displacement over
-        time), tracked by the camera beside the ground truth (cm/s), or ``--`` and e.g. ``robot out of the
+        time; with the navigator over the last :data:`NAVIGATING_SPEED_WINDOW_S`), tracked by the camera beside the ground truth (cm/s), or ``--`` and e.g. ``robot out of the
         camera's view: last seen 2.1 s ago at x 1.234 y 0.056 m (floor)`` while the tracker says so.
         Cycles played (e.g. ``cycle  12.37``: 12 whole cycles, phase 0.37) rather than the bare phase,
         which a 1 s status period samples at the same value every time for a 1 Hz gait.
@@ -260,24 +269,32 @@ class Patrol(Node):
 
 
 class SpeedMeter:
-    """Traveling speed (cm/s) of a PoseStamped stream since its first pose, by the stamps.
+    """Traveling speed (cm/s) of a PoseStamped stream, by the stamps: since its first pose, or over a window.
 
-    The paper's Table I measure (displacement over time): a gait that only sways in place shows about 0.
+    Since the first pose (``window_s`` None) it is the paper's Table I measure (displacement over time): a gait
+    that only sways in place shows about 0. Over the last ``window_s`` seconds of stamps it is how fast the robot
+    travels now (a patrol comes back to where it started, so its speed since the start falls toward 0).
     """
 
-    def __init__(self) -> None:
+    def __init__(self, window_s: float | None = None) -> None:
+        self.window_s = window_s
         self._first: tuple[float, float, float] | None = None
-        self._last: tuple[float, float, float] | None = None
+        self._recent: collections.deque[tuple[float, float, float]] = collections.deque()
 
     def add(self, msg: PoseStamped) -> None:
         """One pose (stamp s, x m, y m)."""
         sample = (stamp_to_seconds(msg.header.stamp), msg.pose.position.x, msg.pose.position.y)
         self._first = self._first or sample
-        self._last = sample
+        self._recent.append(sample)
+        while self.window_s is not None and len(self._recent) > 2 and sample[0] - self._recent[1][0] >= self.window_s:
+            self._recent.popleft()  # keep the newest pose at least window_s older than the last
+        while self.window_s is None and len(self._recent) > 1:
+            self._recent.popleft()
 
     def take(self) -> str:
         """The speed so far as text (``--`` before two poses)."""
-        first, last = self._first, self._last
+        first = self._first if self.window_s is None else (self._recent[0] if self._recent else None)
+        last = self._recent[-1] if self._recent else None
         if first is None or last is None or last[0] <= first[0]:
             return "  --"
         return f"{100.0 * math.hypot(last[1] - first[1], last[2] - first[2]) / (last[0] - first[0]):4.1f}"

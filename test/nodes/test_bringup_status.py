@@ -14,7 +14,7 @@ from geometry_msgs.msg import PoseStamped
 
 from srs_ros.core.vision.tracking import TrackResult
 from srs_ros.core.vision.view import ViewWatch
-from srs_ros.nodes.bringup import StatusMonitor
+from srs_ros.nodes.bringup import SpeedMeter, StatusMonitor
 from srs_ros.nodes.camera_tracker import tracking_status
 from srs_ros.ros.interfaces import GROUND_TRUTH_TOPIC, POSE_TOPIC, seconds_to_stamp
 
@@ -112,7 +112,8 @@ def test_with_the_navigator_the_status_line_shows_its_state_goal_distance_to_go_
     from srs_ros.nodes.navigator import progress_fields
     from srs_ros.ros.interfaces import NAVIGATION_PROGRESS_TOPIC, latched_qos, progress_message
 
-    monitor = StatusMonitor(*stand_ins(), period_s=3600.0, context=ros_client.context, navigating=True)
+    monitor = StatusMonitor(*stand_ins(), period_s=3600.0, simulated=True, context=ros_client.context,
+                            navigating=True)
     ros_client.executor.add_node(monitor)
     publisher = ros_client.node.create_publisher(String, NAVIGATION_PROGRESS_TOPIC, latched_qos())
 
@@ -138,7 +139,7 @@ def test_with_the_navigator_the_status_line_shows_its_state_goal_distance_to_go_
                               "the navigator's progress on the line")
         line = monitor.status_line()
         assert ("| nav driving to (0.400, -0.400) m [waypoint 2 of 4, round 2]: 0.31 m to go, heading error 12 deg, "
-                "inward_rolling turn +0.20 rad" in line), line
+                "inward_rolling turn +0.20 rad | travel speed over 5 s tracked   -- truth   -- cm/s" in line), line
         lost = progress(NavigationState.POSE_LOST, distance_m=float("nan"), message="no pose from the camera for 1.2 s",
                         refused="goal (3.000, 0.000) m is 1.57 m outside the camera's calibrated floor area")
         ros_client.spin_until(shown(lost, "nav pose_lost"), 10.0, "pose lost on the line")
@@ -148,3 +149,15 @@ def test_with_the_navigator_the_status_line_shows_its_state_goal_distance_to_go_
     finally:
         ros_client.executor.remove_node(monitor)
         monitor.destroy_node()
+
+
+def test_a_patrols_speed_is_over_the_last_seconds_where_the_open_loop_speed_is_since_the_start():
+    """A patrol comes back where it began: since the start its speed falls to 0, over 5 s it stays the speed."""
+    since_start, recent = SpeedMeter(), SpeedMeter(window_s=5.0)
+    assert recent.take() == "  --"
+    for t_s in np.arange(0.0, 20.01, 0.1):  # 10 s out along x at 8 cm/s, 10 s back
+        x_m = 0.08 * t_s if t_s <= 10.0 else 0.08 * (20.0 - t_s)
+        for meter in (since_start, recent):
+            meter.add(pose(t_s, x_m))
+    assert since_start.take() == " 0.0"
+    assert recent.take() == " 8.0"
