@@ -117,14 +117,16 @@ class StatusMonitor(Node):
         """The sim rig's speeds; the tracked one is ``--`` while the tracker has no current pose (said why)."""
         view = self._view[0].aged(now_s - self._view[1]) if self._view is not None else None
         current = view is None or view.pose_current
-        text = f" | {self._speed_label} tracked {self._tracked.take() if current else '  --'} truth {self._truth.take()} cm/s"
+        tracked = self._tracked.take() if current else "  --"
+        text = f" | {self._speed_label} tracked {tracked} truth {self._truth.take()} cm/s"
         return text if current else f"{text} | {view.summary()}"
 
     def status_line(self) -> str:
         """One line: gait, cycles played, rates (Hz), the largest pressure in the period, speeds (sim rig).
 
         On the simulated robot it ends with the traveling speed since the start (Table I's displacement over
-        time; with the navigator over the last :data:`NAVIGATING_SPEED_WINDOW_S`), tracked by the camera beside the ground truth (cm/s), or ``--`` and e.g. ``robot out of the
+        time; with the navigator over the last :data:`NAVIGATING_SPEED_WINDOW_S`), tracked by the camera beside
+        the ground truth (cm/s), or ``--`` and e.g. ``robot out of the
         camera's view: last seen 2.1 s ago at x 1.234 y 0.056 m (floor)`` while the tracker says so.
         Cycles played (e.g. ``cycle  12.37``: 12 whole cycles, phase 0.37) rather than the bare phase,
         which a 1 s status period samples at the same value every time for a 1 Hz gait.
