@@ -61,6 +61,17 @@ class FloorArea:
         distance = float(np.min(np.linalg.norm(point - nearest, axis=1)))
         return distance if self.contains_point(x_m, y_m) else -distance
 
+    def inward_normal(self, x_m: float, y_m: float) -> np.ndarray:
+        """Unit vector (2,) from the point's nearest edge into the area (either orientation of the polygon)."""
+        point = np.array([x_m, y_m], dtype=np.float64)
+        start, end = self.polygon_m, np.roll(self.polygon_m, -1, axis=0)
+        edge = end - start
+        t = np.clip(np.einsum("ij,ij->i", point - start, edge) / np.einsum("ij,ij->i", edge, edge), 0.0, 1.0)
+        nearest = int(np.argmin(np.linalg.norm(point - (start + t[:, None] * edge), axis=1)))
+        along = edge[nearest] / np.linalg.norm(edge[nearest])
+        left = np.array([-along[1], along[0]])  # left of a counter-clockwise edge is inside
+        return left if _signed_area(self.polygon_m) > 0.0 else -left
+
     def leaving_by_m(self, track: np.ndarray, within_m: float, closer_by_m: float) -> float | None:
         """How far inside (m) the track's last point lies when the track is leaving the area; else None.
 

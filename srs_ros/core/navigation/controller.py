@@ -46,6 +46,8 @@ STRAIGHT_WITHIN = 0.7
 EDGE_APPROACH_M = 0.02
 #: Cycles the other direction is played once the robot was seen moving out of view (past its change-over).
 EDGE_HOLD_CYCLES = 2.5
+#: A robot moving out of view at more than this angle from the edge's outward normal (deg) moves along the edge.
+EDGE_ALONG_DEG = 30.0
 
 
 class NavigationController(FineDriving):
@@ -224,15 +226,34 @@ class NavigationController(FineDriving):
         inside_m = self.area.leaving_by_m(self.history.window(period_s), settings.edge_guard_m, EDGE_APPROACH_M)
         if inside_m is None or self.area.inside_distance_m(*self.goal) <= inside_m + EDGE_APPROACH_M:
             return holding  # not leaving, or leaving toward a goal that lies as near the edge
-        direction = other_direction(command.direction)
-        level = self.turns.choose(direction, 0.0, None)
+        direction, level, action = self._away_from_edge(period_s)
         self._backing_from = None
         self._message = (f"{max(inside_m, 0.0):.2f} m from the edge of the camera's view and moving out of it: "
-                         f"rolling back ({direction.replace('_', ' ')}) for {EDGE_HOLD_CYCLES:g} cycles")
+                         f"{action} ({direction.replace('_', ' ')}) for {EDGE_HOLD_CYCLES:g} cycles")
         self._set_command(pose.time_s, GaitCommand(direction, float(settings.turn_levels_rad[level]),
                                                    settings.amplitude_bar, command.frequency_hz, self._message), level)
         self._edge_until_s = pose.time_s + EDGE_HOLD_CYCLES * period_s
         return True
+
+    def _away_from_edge(self, period_s: float) -> tuple[str, int, str]:
+        """Direction, turn level and what it does, for a robot seen moving out of the view over the last cycle.
+
+        Moving mostly out (the track more than :data:`EDGE_ALONG_DEG` away from the edge's line): the other
+        direction, at the level learned to turn least. Moving mostly along the edge (a body whose axis points at
+        the edge rolls along it, and rolling the other way only drifts along it too): the same direction, at
+        the level learned to turn its travel fastest toward the inside, so the body turns its end off the edge.
+        """
+        command = self._command
+        track = self.history.window(period_s)
+        moved = track[-1, 1:3] - track[0, 1:3]
+        inward = self.area.inward_normal(track[-1, 1], track[-1, 2])
+        out_angle = math.degrees(math.acos(max(-1.0, min(1.0, float(-moved @ inward) / max(np.hypot(*moved), 1e-9)))))
+        if out_angle < 90.0 - EDGE_ALONG_DEG:
+            direction = other_direction(command.direction)
+            return direction, self.turns.choose(direction, 0.0, None), "rolling back"
+        sign = 1 if moved[0] * inward[1] - moved[1] * inward[0] > 0.0 else -1  # rotate the travel toward inside
+        level, _ = self.turns.fastest_deg(command.direction, sign)
+        return command.direction, level, "turning its travel inward"
 
     def _distance(self, pose: Pose2D) -> float:
         gx, gy = self.goal

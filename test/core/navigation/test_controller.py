@@ -426,3 +426,30 @@ def test_the_heading_error_that_steers_does_not_move_when_only_the_turn_level_ch
         controller._level = level
         errors.append(controller._aims(pose)[0]["inward_rolling"])
     assert max(errors) - min(errors) < 1e-9, np.degrees(errors)  # steering by the level played: -26, -69, -109 deg
+
+
+class DriftingRoller(LaggingRoller):
+    """The lagging stand-in drifting ``drift_m`` per cycle toward -y whichever way it rolls (a body whose axis
+    points at the edge rolls along it, and the physics carries it a little out each cycle, both ways)."""
+
+    def __init__(self, drift_m=0.02, **kwargs):
+        super().__init__(**kwargs)
+        self.drift_m = drift_m
+
+    def _roll(self, command) -> None:
+        super()._roll(command)
+        self.y -= self.drift_m * abs(self.signed_hz) * FRAME_S
+
+
+def test_a_robot_drifting_out_along_the_edge_is_turned_inward_not_rolled_back_and_forth():
+    """Its axis pointing at the bottom edge, the robot rolls along it toward a goal and drifts out 2 cm a cycle
+    both ways. Rolled back and forth (the guard's answer to a robot moving straight out), it only drifts out
+    on the way back too, and leaves the view (the old guard: 13 cm past the edge); turning its travel inward keeps
+    it more than 15 cm inside, and it reaches the goal."""
+    controller = NavigationController(settings(), AREA)
+    roller = DriftingRoller(bias_deg=0.0, scale=0.7)
+    roller.x, roller.y, roller.yaw = -0.9, -0.72, -math.pi / 2
+    controller.set_goal(0.9, -0.62, 0.0)
+    inside_m, messages = drive_near_the_edge(controller, roller, until_s=90.0)
+    assert min(inside_m) >= 0.15 and controller.state is NavigationState.REACHED, (min(inside_m), messages)
+    assert any("turning its travel inward (inward rolling)" in m for m in messages), messages

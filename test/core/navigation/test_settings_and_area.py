@@ -79,3 +79,12 @@ def test_a_track_leaving_the_area_is_told_from_one_near_the_edge_that_stays():
     assert area.leaving_by_m(track(1.28, 1.20), 0.2, 0.02) is None   # moving in
     assert area.leaving_by_m(track(0.5, 1.0), 0.2, 0.02) is None     # moving out, still far inside
     assert area.leaving_by_m(track(1.28), 0.2, 0.02) is None         # one pose is no track
+
+
+def test_the_inward_normal_points_into_the_area_from_the_nearest_edge():
+    area = FloorArea(np.array([[-1.4, -1.0], [1.4, -1.0], [1.4, 1.0], [-1.4, 1.0]]), 0.25)
+    np.testing.assert_allclose(area.inward_normal(0.3, -0.9), [0.0, 1.0], atol=1e-12)   # bottom edge
+    np.testing.assert_allclose(area.inward_normal(1.3, 0.2), [-1.0, 0.0], atol=1e-12)   # right edge
+    np.testing.assert_allclose(area.inward_normal(-0.2, 0.95), [0.0, -1.0], atol=1e-12)  # top edge
+    clockwise = FloorArea(area.polygon_m[::-1].copy(), 0.25)
+    np.testing.assert_allclose(clockwise.inward_normal(0.3, -0.9), [0.0, 1.0], atol=1e-12)
