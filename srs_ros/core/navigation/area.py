@@ -51,24 +51,26 @@ class FloorArea:
         low, high = self.polygon_m.min(axis=0), self.polygon_m.max(axis=0)
         return f"x {low[0]:.2f} .. {high[0]:.2f} m, y {low[1]:.2f} .. {high[1]:.2f} m"
 
-    def inside_distance_m(self, x_m: float, y_m: float) -> float:
-        """Distance (m) from the point to the polygon's edge: positive inside, negative outside."""
+    def _nearest_edge(self, x_m: float, y_m: float) -> tuple[int, float]:
+        """Index of the polygon's edge nearest the point (from vertex i to i + 1) and the distance to it (m)."""
         point = np.array([x_m, y_m], dtype=np.float64)
         start, end = self.polygon_m, np.roll(self.polygon_m, -1, axis=0)
         edge = end - start
         t = np.clip(np.einsum("ij,ij->i", point - start, edge) / np.einsum("ij,ij->i", edge, edge), 0.0, 1.0)
-        nearest = start + t[:, None] * edge
-        distance = float(np.min(np.linalg.norm(point - nearest, axis=1)))
+        distances = np.linalg.norm(point - (start + t[:, None] * edge), axis=1)
+        index = int(np.argmin(distances))
+        return index, float(distances[index])
+
+    def inside_distance_m(self, x_m: float, y_m: float) -> float:
+        """Distance (m) from the point to the polygon's edge: positive inside, negative outside."""
+        distance = self._nearest_edge(x_m, y_m)[1]
         return distance if self.contains_point(x_m, y_m) else -distance
 
     def inward_normal(self, x_m: float, y_m: float) -> np.ndarray:
         """Unit vector (2,) from the point's nearest edge into the area (either orientation of the polygon)."""
-        point = np.array([x_m, y_m], dtype=np.float64)
-        start, end = self.polygon_m, np.roll(self.polygon_m, -1, axis=0)
-        edge = end - start
-        t = np.clip(np.einsum("ij,ij->i", point - start, edge) / np.einsum("ij,ij->i", edge, edge), 0.0, 1.0)
-        nearest = int(np.argmin(np.linalg.norm(point - (start + t[:, None] * edge), axis=1)))
-        along = edge[nearest] / np.linalg.norm(edge[nearest])
+        index = self._nearest_edge(x_m, y_m)[0]
+        edge = np.roll(self.polygon_m, -1, axis=0)[index] - self.polygon_m[index]
+        along = edge / np.linalg.norm(edge)
         left = np.array([-along[1], along[0]])  # left of a counter-clockwise edge is inside
         return left if _signed_area(self.polygon_m) > 0.0 else -left
 

@@ -46,7 +46,7 @@ STRAIGHT_WITHIN = 0.7
 EDGE_APPROACH_M = 0.02
 #: Cycles the other direction is played once the robot was seen moving out of view (past its change-over).
 EDGE_HOLD_CYCLES = 2.5
-#: A robot moving out of view at more than this angle from the edge's outward normal (deg) moves along the edge.
+#: A robot moving out of view within this angle of the edge's line (deg) moves along the edge: it turns, not reverses.
 EDGE_ALONG_DEG = 30.0
 
 
