@@ -11,9 +11,11 @@ SIGSTOP). So its silence has two meanings (docs/simulation.md, docs/safety.md):
 - a *short* silence (more than ``readback_timeout_s``, less than ``world_lost_timeout_s``) is a pause:
   :meth:`SimBackend.holding_reason` says so, the hardware node vents (0 bar on the bus) and ramps back in
   by itself when the world answers again, as after stale setpoints;
-- a *long* silence (``world_lost_timeout_s``), no first answer within ``startup_timeout_s``, or the world
-  gone from the ROS graph is a :class:`~srs_ros.core.errors.HardwareError`, as a dead board: vent, error
-  state, /diagnostics. The simulated rig then recovers by itself (``recovers_by_itself``): the hardware
+- a *long* silence (``world_lost_timeout_s``) heard by a listening bus, no first answer within
+  ``startup_timeout_s``, or the world gone from the ROS graph is a :class:`~srs_ros.core.errors.HardwareError`,
+  as a dead board: vent, error state, /diagnostics. A silence counts as long only while the backend's own bus
+  thread was there to hear it: on a busy machine the thread that receives the read-back can itself be held up
+  while the control loop goes on, and the world is not lost for that (a pause meanwhile: the output holds). The simulated rig then recovers by itself (``recovers_by_itself``): the hardware
   node configures and activates again and holds 0 bar until the world answers.
 
 ``sim_world`` itself vents like a real board when commands stop for :data:`SIM_BOARD_TIMEOUT_S` of world
@@ -50,10 +52,12 @@ from srs_ros.backends.base import ActuatorBackend
 from srs_ros.core.errors import HardwareError
 from srs_ros.core.robot import RobotDescription
 from srs_ros.core.schema import Field, Table, refusal
-from srs_ros.ros.interfaces import SIM_BOARD_TIMEOUT_S, SIM_COMMAND_TOPIC, SIM_MONITOR_TOPIC, bus_qos
+from srs_ros.ros.interfaces import SIM_BOARD_TIMEOUT_S, SIM_COMMAND_TOPIC, SIM_MONITOR_TOPIC, bus_qos, readback_qos
 
 #: The node name of the backend's bus (under the process's namespace).
 BUS_NODE_NAME = "sim_backend_bus"
+#: The bus thread silent this long (s; dead, or starved of CPU) counts as a lost world whatever it last heard.
+BUS_DEAF_TIMEOUT_S = 10.0
 #: How long closing the bus waits for the world to acknowledge the last command (the vent), s.
 VENT_ACK_TIMEOUT_S = 0.5
 
@@ -100,6 +104,7 @@ class SimBackend(ActuatorBackend):
         self._lock = threading.Lock()
         self._monitor: tuple[float, np.ndarray, np.ndarray] | None = None  # (monotonic s, bar, m)
         self._opened_s = 0.0
+        self._listened_s = 0.0  # monotonic s when the bus thread last finished taking what had arrived
         self.monitor_count = 0
 
     # -- the contract -----------------------------------------------------------------------
@@ -116,12 +121,14 @@ class SimBackend(ActuatorBackend):
         self._node = rclpy.create_node(BUS_NODE_NAME, cli_args=["--ros-args", "-r", f"__node:={BUS_NODE_NAME}"],
                                        start_parameter_services=False)
         self._publisher = self._node.create_publisher(JointState, self.command_topic, bus_qos())
-        self._node.create_subscription(JointState, self.monitor_topic, self._on_monitor, bus_qos())
+        # Best effort: only the newest read-back matters, and a reliable reader would hold later samples until a
+        # lost one is repaired. The world's reliable publisher serves it (and any reliable reader) alike.
+        self._node.create_subscription(JointState, self.monitor_topic, self._on_monitor, readback_qos())
         self._executor = EventsExecutor()  # spun by a timed spin_once loop (_spin): its spin() never runs a callback
         self._executor.add_node(self._node)
         self._stop.clear()
         self._monitor = None
-        self._opened_s = time.monotonic()
+        self._opened_s = self._listened_s = time.monotonic()
         self._thread = threading.Thread(target=self._spin, name="sim_backend_bus", daemon=True)
         self._thread.start()
         self._message = JointState(name=list(self.robot.joint_names))
@@ -184,6 +191,7 @@ class SimBackend(ActuatorBackend):
                 self._executor.spin_once(timeout_sec=0.05)
             except Exception:  # the context went down under us (process exit): the bus is gone
                 return
+            self._listened_s = time.monotonic()
 
     def _on_monitor(self, msg) -> None:
         count = self.robot.joint_count
@@ -211,7 +219,12 @@ class SimBackend(ActuatorBackend):
                                     "part of srs_bringup and the launch file) on the same ROS_DOMAIN_ID and namespace.")
             return
         silent_s = now_s - monitor[0]
-        if silent_s > self.world_lost_timeout_s:
+        heard_s = min(silent_s, self._listened_s - monitor[0])  # the part of the silence the bus was listening to
+        if now_s - self._listened_s > BUS_DEAF_TIMEOUT_S:
+            raise HardwareError(f"sim backend: its bus thread has not listened for {now_s - self._listened_s:.1f} s "
+                                f"(more than {BUS_DEAF_TIMEOUT_S:g} s: stopped, or starved of CPU); the read-back of "
+                                "sim_world cannot be heard. The sim rig reopens its backend by itself.")
+        if heard_s > self.world_lost_timeout_s:
             raise HardwareError(f"sim backend: sim_world silent for {silent_s:.3f} s on "
                                 f"{self._resolved_monitor_topic()!r} (more than world_lost_timeout_s "
                                 f"{self.world_lost_timeout_s:g} s): the simulated robot stopped, died or diverged; "

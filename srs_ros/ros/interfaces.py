@@ -307,10 +307,19 @@ SIM_BOARD_TIMEOUT_S = 0.5
 
 def bus_qos():
     """The command 'bus': reliable, depth 1 (only the newest command matters, none is silently dropped)."""
+    return _newest_only_qos(reliable=True)
+
+
+def readback_qos():
+    """A reader of a read-back stream: best effort, depth 1 (the newest sample; a lost one never holds up the next)."""
+    return _newest_only_qos(reliable=False)
+
+
+def _newest_only_qos(reliable: bool):
     from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
-    return QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1, reliability=ReliabilityPolicy.RELIABLE,
-                      durability=DurabilityPolicy.VOLATILE)
+    return QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1, durability=DurabilityPolicy.VOLATILE,
+                      reliability=ReliabilityPolicy.RELIABLE if reliable else ReliabilityPolicy.BEST_EFFORT)
 
 
 # ------------------------------------------------------------------------------------------

@@ -75,13 +75,58 @@ def test_commands_reach_the_world_a_pause_holds_and_a_long_silence_is_a_hardware
         spin_until(executor, lambda: monitor.publish(readback) or backend.monitor_count > count, what="the resume")
         assert backend.holding_reason() == ""  # it answers again: output may ramp back in
 
-        time.sleep(0.7)  # silent longer than world_lost_timeout_s: lost
+        time.sleep(0.7)  # silent longer than world_lost_timeout_s: lost (once the bus has listened that long)
         with pytest.raises(HardwareError, match="sim_world silent for"):
-            backend.holding_reason()
+            _poll_until_lost(backend, 5.0)
         with pytest.raises(HardwareError, match="sim_world silent for"):
             backend.write_pressures(np.full(9, 2.0))
         backend.vent()  # a vent still goes out on the bus and does not raise
         spin_until(executor, lambda: not any(commands[-1].effort), what="the vent on the bus")
+
+
+class _HeldUpExecutor:
+    """The backend's executor whose next ``spin_once`` is held up ``hold_s`` first: a bus thread starved of CPU."""
+
+    def __init__(self, executor, hold_s: float):
+        self._executor, self._hold_s = executor, hold_s
+
+    def spin_once(self, timeout_sec=None):
+        hold_s, self._hold_s = self._hold_s, 0.0
+        time.sleep(hold_s)
+        self._executor.spin_once(timeout_sec=timeout_sec)
+
+    def __getattr__(self, name):
+        return getattr(self._executor, name)
+
+
+def test_a_bus_thread_held_up_while_the_world_talks_is_a_pause_not_a_lost_world(ros):
+    node, _ = ros
+    monitor = node.create_publisher(JointState, SIM_MONITOR_TOPIC, bus_qos())
+    readback = JointState(name=NAMES, effort=[0.0] * 9, position=[0.0] * 9)
+    with create_backend("sim", options={"readback_timeout_s": 0.2, "world_lost_timeout_s": 0.6}) as backend:
+        end = time.monotonic() + 10.0
+        while backend.monitor_count == 0:
+            assert time.monotonic() < end, "no read-back reached the backend"
+            monitor.publish(readback)
+            time.sleep(0.01)
+        backend._executor = _HeldUpExecutor(backend._executor, 1.5)  # the world talks on; the bus hears nothing
+        reasons, count, end = set(), backend.monitor_count, time.monotonic() + 10.0
+        while backend.monitor_count <= count + 5:
+            assert time.monotonic() < end, "the bus never heard the world again"
+            monitor.publish(readback)
+            reasons.add(backend.holding_reason().split(" for ")[0])  # raises HardwareError if judged lost
+            time.sleep(0.01)
+        assert "sim_world silent" in reasons  # it held output meanwhile: a pause
+        assert backend.holding_reason() == ""
+
+
+def _poll_until_lost(backend, timeout_s: float) -> None:
+    """Call ``holding_reason`` until it raises (the error propagates); fail after ``timeout_s``."""
+    end = time.monotonic() + timeout_s
+    while time.monotonic() < end:
+        backend.holding_reason()
+        time.sleep(0.01)
+    pytest.fail(f"the silent world was not judged lost within {timeout_s:g} s")
 
 
 def test_a_world_that_leaves_the_graph_is_lost_at_once(ros):

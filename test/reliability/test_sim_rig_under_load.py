@@ -86,7 +86,7 @@ def test_the_launch_layout_keeps_moving_for_a_minute_beside_busy_processes_and_p
     print(f"{DURATION_S:g} s beside {BUSY_PROCESSES} busy processes, {reads} parameter reads, {len(getters)} "
           f"param-get processes: travel per 20 s {[round(m, 3) for m in windows_m]} m; hardware node: "
           f"{values['holding']!r} now, stale vents {values['stale_vents']}, stalls {values['command_stalls']}, "
-          f"recoveries {values['recoveries']}")
+          f"recoveries {values['recoveries']}; sim_world: {_sim_world_summary(diagnostics)}")
     faults = [s.message for s in hardware if s.level == DiagnosticStatus.ERROR]
     assert faults == [], faults
     assert values["recoveries"] == "0" and ros_client.lifecycle_state("/hardware_node") == "active"
@@ -94,6 +94,17 @@ def test_the_launch_layout_keeps_moving_for_a_minute_beside_busy_processes_and_p
         assert proc.alive(), f"{name} exited:\n{proc.output()[-2000:]}"
         assert "unexpected error" not in proc.output() and "Traceback" not in proc.output(), proc.output()[-3000:]
     assert min(windows_m) > 0.05, f"the robot stopped moving: travel per 20 s window {windows_m} m"
+
+
+def _sim_world_summary(diagnostics) -> str:
+    """sim_world's own account of the minute (its last diagnostics), for a failure's message."""
+    statuses = [s for m in diagnostics for s in m.status if s.name.startswith("sim_world")]
+    if not statuses:
+        return "no diagnostics"
+    values = diagnostic_values(statuses[-1])
+    rates = [float(diagnostic_values(s).get("world_rate", "nan")) for s in statuses]
+    return (f"slipped {values['slipped_s']} s in {values['slips']} slips, board silence vents "
+            f"{values['silence_vents']}, slowest world rate {min(rates):.2f} of real time")
 
 
 def _moved_m(poses, span_s: float, end_s: float | None = None) -> float:
