@@ -15,8 +15,9 @@ SIGSTOP). So its silence has two meanings (docs/simulation.md, docs/safety.md):
   ``startup_timeout_s``, or the world gone from the ROS graph is a :class:`~srs_ros.core.errors.HardwareError`,
   as a dead board: vent, error state, /diagnostics. A silence counts as long only while the backend's own bus
   thread was there to hear it: on a busy machine the thread that receives the read-back can itself be held up
-  while the control loop goes on, and the world is not lost for that (a pause meanwhile: the output holds). The simulated rig then recovers by itself (``recovers_by_itself``): the hardware
-  node configures and activates again and holds 0 bar until the world answers.
+  while the control loop goes on, and the world is not lost for that (a pause meanwhile: the output holds).
+  The simulated rig then recovers by itself (``recovers_by_itself``): the hardware node configures and
+  activates again and holds 0 bar until the world answers.
 
 ``sim_world`` itself vents like a real board when commands stop for :data:`SIM_BOARD_TIMEOUT_S` of world
 time, so a hardware node that dies leaves the simulated robot at rest (``host_loss_timeout_s``).

@@ -128,3 +128,24 @@ def test_without_autostart_the_node_says_it_waits_for_configure(hardware, capfd)
             "or start with autostart:=true") in capfd.readouterr().err
     hardware(autostart=True)
     assert "waiting for `ros2 lifecycle set" not in capfd.readouterr().err
+
+
+def test_a_node_frozen_between_deciding_and_writing_sends_0_bar_then_ramps(hardware):
+    rig = hardware(ramp_time_s=0.1, setpoint_timeout_s=0.2)
+    rig.start()
+    assert np.allclose(rig.step(40)[-1], COMMAND_BAR)
+    decide = rig.node.gate.decide
+
+    def decide_then_freeze(now_s, holding=""):
+        decided = decide(now_s, holding)
+        time.sleep(0.3)  # SIGSTOP between the decision and the write: a real board has vented meanwhile
+        return decided
+
+    rig.node.gate.decide = decide_then_freeze
+    rig.node._on_setpoint(setpoint())
+    rig.node._on_command_tick()
+    assert not rig.record.last().any()  # not the command decided 0.3 s ago
+    rig.node.gate.decide = decide
+    peaks = [float(p.max()) for p in rig.step(40)]
+    assert peaks[0] < 1.0 and peaks[-1] == pytest.approx(2.0)  # back with the ramp, not a step
+    assert rig.diagnostic("command_stalls") == "1"

@@ -169,7 +169,8 @@ def test_freezing_each_node_of_the_gait(launch_node, ros_client, tmp_path):
     start = freeze(hardware, 0.6, client, backend)
     backend.wait(lambda: len(backend) > start + 40 and backend.commanding_above(2.0), "commands after SIGCONT")
     # From the first row written after SIGCONT, by the rows' own monotonic stamps: a row the node wrote just before
-    # SIGSTOP can reach the file after the count above (seen once: one 2.06 bar row, then 0 and the ramp).
+    # SIGSTOP can reach the file after the count above. (A tick frozen between its decision and its write once
+    # wrote the old command after SIGCONT, 2.01 then 0 and the ramp: now withdrawn, CommandGate.withdraw_if_late.)
     start = int(np.searchsorted(backend.update().times_s, frozen_s + 0.3))
     assert backend.ramped_from_zero(start), backend.since(start).max(axis=1)[:20]
 

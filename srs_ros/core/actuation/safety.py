@@ -270,6 +270,19 @@ class CommandGate:
         self._output_since_s = None
         return np.zeros(self.joint_count), reason
 
+    def withdraw_if_late(self, pressure_bar: np.ndarray, decided_s: float, now_s: float) -> np.ndarray:
+        """The pressures decided at ``decided_s`` (s), or 0 bar if sending them comes more than ``max_gap_s`` later.
+
+        The caller frozen between deciding and sending (SIGSTOP, a stall of a busy machine) would otherwise send,
+        once, a command the hardware may have vented meanwhile. Counted in ``stalls``; output restarts with a ramp.
+        """
+        if now_s - decided_s <= self.max_gap_s:
+            return pressure_bar
+        self.stalls += 1
+        self._output_since_s = None
+        self._last_decision_s = now_s  # the stall is counted once: the next decision ramps from here
+        return np.zeros_like(pressure_bar)
+
     def _forget(self) -> None:
         self._pressure_bar, self._fresh_s = None, math.nan
         self._output_since_s = None

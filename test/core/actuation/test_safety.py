@@ -116,6 +116,21 @@ def test_a_stall_of_the_caller_restarts_output_with_a_ramp():
     assert gate.stalls == 1
 
 
+def test_a_decision_sent_later_than_the_stall_gap_is_withdrawn_and_output_ramps_again():
+    gate = CommandGate(joint_count=9, setpoint_timeout_s=0.2, ramp_time_s=1.0, active=True, max_gap_s=0.1)
+    command = np.full(9, 4.0)
+    for t in np.arange(0.0, 1.5, 0.005):
+        gate.accept(command, now_s=t)
+        pressure, _ = gate.decide(t)
+    assert gate.withdraw_if_late(pressure, 1.495, 1.5) == pytest.approx(command)  # sent at once: as decided
+    assert gate.withdraw_if_late(pressure, 1.495, 1.8) == pytest.approx(np.zeros(9))  # frozen in between
+    assert gate.stalls == 1
+    gate.accept(command, now_s=1.805)
+    assert gate.decide(1.805)[0] == pytest.approx(np.zeros(9))
+    gate.accept(command, now_s=1.81)
+    assert 0.0 < gate.decide(1.81)[0][0] < 0.1 and gate.stalls == 1  # a ramp from 0 bar, the stall counted once
+
+
 def test_a_rig_with_real_regulators_commands_nothing_until_armed():
     gate = CommandGate(joint_count=9, setpoint_timeout_s=0.2, requires_arm=True)
     assert "activate" in gate.arm() and not gate.armed  # inactive: refused with what to do
