@@ -107,12 +107,19 @@ def test_start_follows_the_trajectory_at_the_rate_and_stop_ramps_to_zero(player,
     steady = [m for m in setpoints if stamp_to_seconds(m.header.stamp) > stamps_s(setpoints[:1])[0] + 0.5]
     median_period_s = float(np.median(np.diff(stamps_s(steady))))
     assert median_period_s == pytest.approx(1 / 200.0, rel=0.2)
-    # Positions follow the cycle at phase = phase0 + f * t (phase0 found from the data, f = 1 Hz).
+    # Positions follow the cycle at phase = phase0 + f * t (f = 1 Hz; phase0 found from the data) between stalls
+    # of the player: after a stall (a busy machine, 0.2-0.4 s) it goes on where it was (test_faults.py), so each
+    # stretch between two stalls has its own phase0.
     cycle, grid = PeriodicTrajectory(samples), np.linspace(0.0, 1.0, 2000, endpoint=False)
     shapes, times = cycle.values(grid), stamps_s(steady)
     best = np.array([grid[np.argmin(np.sum((shapes - p) ** 2, axis=1))] for p in positions(steady)])
-    offsets = np.angle(np.mean(np.exp(2j * np.pi * (best - 1.0 * times)))) / (2 * np.pi)
-    errors = np.max(np.abs(cycle.values(offsets + 1.0 * times) - positions(steady)), axis=1)
+    stretches = [i for i in np.split(np.arange(times.size), np.flatnonzero(np.diff(times) > 0.05) + 1) if i.size > 20]
+    assert sum(i.size for i in stretches) > 0.8 * times.size, f"the player stalled {len(stretches) - 1} times"
+    errors, offsets = [], 0.0
+    for i in stretches:
+        offsets = np.angle(np.mean(np.exp(2j * np.pi * (best[i] - 1.0 * times[i])))) / (2 * np.pi)
+        errors.append(np.max(np.abs(cycle.values(offsets + 1.0 * times[i]) - positions(steady)[i]), axis=1))
+    errors = np.concatenate(errors)
     assert np.percentile(errors, 90) < 0.001, f"90th percentile error {np.percentile(errors, 90) * 1e3:.2f} mm"
     assert np.allclose(steady[-1].velocity, 1.0 * cycle.derivatives(offsets + times[-1]), atol=0.03)
 
