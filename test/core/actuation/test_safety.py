@@ -99,12 +99,18 @@ def test_output_ramps_up_from_zero_whenever_it_restarts():
     assert gate.decide(2.5)[0] == pytest.approx(np.zeros(9))  # after an e-stop reset, too
 
 
-def test_a_stall_of_the_caller_restarts_output_with_a_ramp():
+def commanding_gate(command: np.ndarray) -> tuple[CommandGate, np.ndarray, OutputReason]:
+    """A gate (stall gap 0.1 s, ramp 1 s) fed ``command`` every 5 ms for 1.5 s: its last decision and reason."""
     gate = CommandGate(joint_count=9, setpoint_timeout_s=0.2, ramp_time_s=1.0, active=True, max_gap_s=0.1)
-    command = np.full(9, 4.0)
     for t in np.arange(0.0, 1.5, 0.005):
         gate.accept(command, now_s=t)
         pressure, reason = gate.decide(t)
+    return gate, pressure, reason
+
+
+def test_a_stall_of_the_caller_restarts_output_with_a_ramp():
+    command = np.full(9, 4.0)
+    gate, _, reason = commanding_gate(command)
     assert reason is OutputReason.COMMANDING and gate.stalls == 0
     gate.accept(command, now_s=1.65)  # the process was frozen 0.15 s; a fresh setpoint came in first
     pressure, reason = gate.decide(1.65)
@@ -117,11 +123,8 @@ def test_a_stall_of_the_caller_restarts_output_with_a_ramp():
 
 
 def test_a_decision_sent_later_than_the_stall_gap_is_withdrawn_and_output_ramps_again():
-    gate = CommandGate(joint_count=9, setpoint_timeout_s=0.2, ramp_time_s=1.0, active=True, max_gap_s=0.1)
     command = np.full(9, 4.0)
-    for t in np.arange(0.0, 1.5, 0.005):
-        gate.accept(command, now_s=t)
-        pressure, _ = gate.decide(t)
+    gate, pressure, _ = commanding_gate(command)
     assert gate.withdraw_if_late(pressure, 1.495, 1.5) == pytest.approx(command)  # sent at once: as decided
     assert gate.withdraw_if_late(pressure, 1.495, 1.8) == pytest.approx(np.zeros(9))  # frozen in between
     assert gate.stalls == 1
