@@ -14,8 +14,10 @@ SIGSTOP). So its silence has two meanings (docs/simulation.md, docs/safety.md):
 - a *long* silence (``world_lost_timeout_s``) heard by a listening bus, no first answer within
   ``startup_timeout_s``, or the world gone from the ROS graph is a :class:`~srs_ros.core.errors.HardwareError`,
   as a dead board: vent, error state, /diagnostics. A silence counts as long only while the backend's own bus
-  thread was there to hear it: on a busy machine the thread that receives the read-back can itself be held up
-  while the control loop goes on, and the world is not lost for that (a pause meanwhile: the output holds).
+  thread was there to hear it (from its last return after a hold-up): on a busy machine the thread that receives
+  the read-back can itself be held up while the control loop goes on, and the world is not lost for that (a pause
+  meanwhile: the output holds). Any silence of ``BUS_DEAF_TIMEOUT_S`` (10 s, at least ``world_lost_timeout_s``)
+  is a lost world however often the bus was held up.
   The simulated rig then recovers by itself (``recovers_by_itself``): the hardware node configures and
   activates again and holds 0 bar until the world answers.
 
@@ -57,8 +59,11 @@ from srs_ros.ros.interfaces import SIM_BOARD_TIMEOUT_S, SIM_COMMAND_TOPIC, SIM_M
 
 #: The node name of the backend's bus (under the process's namespace).
 BUS_NODE_NAME = "sim_backend_bus"
-#: The bus thread silent this long (s; dead, or starved of CPU) counts as a lost world whatever it last heard.
+#: The bus thread silent this long (s; dead, or starved of CPU) counts as a lost world whatever it last heard; so does
+#: a silence this long however often the bus was held up (at least ``world_lost_timeout_s``).
 BUS_DEAF_TIMEOUT_S = 10.0
+#: Two returns of the bus thread's timed ``spin_once`` (0.05 s) this far apart (s): the thread was held up.
+BUS_HELD_UP_S = 0.25
 #: How long closing the bus waits for the world to acknowledge the last command (the vent), s.
 VENT_ACK_TIMEOUT_S = 0.5
 
@@ -105,7 +110,8 @@ class SimBackend(ActuatorBackend):
         self._lock = threading.Lock()
         self._monitor: tuple[float, np.ndarray, np.ndarray] | None = None  # (monotonic s, bar, m)
         self._opened_s = 0.0
-        self._listened_s = 0.0  # monotonic s when the bus thread last finished taking what had arrived
+        self._listened_s = 0.0  # monotonic s when the bus thread's spin_once last returned
+        self._resumed_s = 0.0  # ... and when it last returned after being held up (the silence before is not heard)
         self.monitor_count = 0
 
     # -- the contract -----------------------------------------------------------------------
@@ -129,7 +135,7 @@ class SimBackend(ActuatorBackend):
         self._executor.add_node(self._node)
         self._stop.clear()
         self._monitor = None
-        self._opened_s = self._listened_s = time.monotonic()
+        self._opened_s = self._listened_s = self._resumed_s = time.monotonic()
         self._thread = threading.Thread(target=self._spin, name="sim_backend_bus", daemon=True)
         self._thread.start()
         self._message = JointState(name=list(self.robot.joint_names))
@@ -192,7 +198,11 @@ class SimBackend(ActuatorBackend):
                 self._executor.spin_once(timeout_sec=0.05)
             except Exception:  # the context went down under us (process exit): the bus is gone
                 return
-            self._listened_s = time.monotonic()
+            now_s = time.monotonic()
+            with self._lock:
+                if now_s - self._listened_s > BUS_HELD_UP_S:  # a spin after a hold-up may take another handler first
+                    self._resumed_s = now_s
+                self._listened_s = now_s
 
     def _on_monitor(self, msg) -> None:
         count = self.robot.joint_count
@@ -212,7 +222,7 @@ class SimBackend(ActuatorBackend):
     def _check_alive(self, now_s: float) -> None:
         """Raise HardwareError if the world never answered, fell silent for good, or left the graph."""
         with self._lock:
-            monitor = self._monitor
+            monitor, listened_s, resumed_s = self._monitor, self._listened_s, self._resumed_s
         if monitor is None:
             if now_s - self._opened_s > self.startup_timeout_s:
                 raise HardwareError(f"sim backend: no read-back from sim_world on {self._resolved_monitor_topic()!r} "
@@ -220,12 +230,14 @@ class SimBackend(ActuatorBackend):
                                     "part of srs_bringup and the launch file) on the same ROS_DOMAIN_ID and namespace.")
             return
         silent_s = now_s - monitor[0]
-        heard_s = min(silent_s, self._listened_s - monitor[0])  # the part of the silence the bus was listening to
-        if now_s - self._listened_s > BUS_DEAF_TIMEOUT_S:
-            raise HardwareError(f"sim backend: its bus thread has not listened for {now_s - self._listened_s:.1f} s "
-                                f"(more than {BUS_DEAF_TIMEOUT_S:g} s: stopped, or starved of CPU); the read-back of "
-                                "sim_world cannot be heard. The sim rig reopens its backend by itself.")
-        if heard_s > self.world_lost_timeout_s:
+        heard_s = listened_s - max(monitor[0], resumed_s)  # the silence the bus listened to since it last resumed
+        deaf_limit_s, deaf_s = max(BUS_DEAF_TIMEOUT_S, self.world_lost_timeout_s), now_s - listened_s
+        lost = heard_s > self.world_lost_timeout_s or max(silent_s, deaf_s) > deaf_limit_s
+        if lost and deaf_s > self.world_lost_timeout_s:
+            raise HardwareError(f"sim backend: its bus thread has not listened for {deaf_s:.1f} s (stopped, or "
+                                f"starved of CPU; the limit is {deaf_limit_s:g} s): the read-back of sim_world cannot "
+                                "be heard. The sim rig reopens its backend by itself.")
+        if lost:
             raise HardwareError(f"sim backend: sim_world silent for {silent_s:.3f} s on "
                                 f"{self._resolved_monitor_topic()!r} (more than world_lost_timeout_s "
                                 f"{self.world_lost_timeout_s:g} s): the simulated robot stopped, died or diverged; "

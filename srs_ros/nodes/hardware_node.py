@@ -337,8 +337,8 @@ class HardwareNode(LifecycleNode):
             self._on_backend_fault(exc)
             return
         stalls = self.gate.stalls
-        pressure_bar, reason = self.gate.decide(now_s, holding)
-        pressure_bar = self.gate.withdraw_if_late(pressure_bar, now_s, time.monotonic())  # frozen in between?
+        decision = self.gate.decide(now_s, holding)
+        pressure_bar, reason = self.gate.withdraw_if_late(decision, now_s, time.monotonic())  # frozen in between?
         if self.gate.stalls > stalls:
             self.get_logger().warning(stall_message(self.gate.max_gap_s), throttle_duration_sec=LOG_THROTTLE_S)
         try:

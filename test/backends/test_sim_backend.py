@@ -8,7 +8,7 @@ import rclpy
 from rclpy.executors import SingleThreadedExecutor
 from sensor_msgs.msg import JointState
 
-from srs_ros.backends import create_backend
+from srs_ros.backends import create_backend, sim_backend
 from srs_ros.core.errors import ConfigurationError, HardwareError
 from srs_ros.core.robot import default_robot
 from srs_ros.ros.interfaces import SIM_COMMAND_TOPIC, SIM_MONITOR_TOPIC, bus_qos
@@ -77,7 +77,7 @@ def test_commands_reach_the_world_a_pause_holds_and_a_long_silence_is_a_hardware
 
         time.sleep(0.7)  # silent longer than world_lost_timeout_s: lost (once the bus has listened that long)
         with pytest.raises(HardwareError, match="sim_world silent for"):
-            _poll_until_lost(backend, 5.0)
+            _poll_until_lost(backend, 1.0)
         with pytest.raises(HardwareError, match="sim_world silent for"):
             backend.write_pressures(np.full(9, 2.0))
         backend.vent()  # a vent still goes out on the bus and does not raise
@@ -85,14 +85,21 @@ def test_commands_reach_the_world_a_pause_holds_and_a_long_silence_is_a_hardware
 
 
 class _HeldUpExecutor:
-    """The backend's executor whose next ``spin_once`` is held up ``hold_s`` first: a bus thread starved of CPU."""
+    """The backend's executor whose next ``spin_once`` is held up ``hold_s`` (a bus thread starved of CPU), whose spins
+    then run handlers of other topics for 0.1 s, not the read-back's (as ``/clock``'s, which sim_world publishes just
+    before each read-back under use_sim_time), and then spin as before."""
 
     def __init__(self, executor, hold_s: float):
-        self._executor, self._hold_s = executor, hold_s
+        self._executor, self._hold_s, self._others_until_s = executor, hold_s, None
 
     def spin_once(self, timeout_sec=None):
-        hold_s, self._hold_s = self._hold_s, 0.0
-        time.sleep(hold_s)
+        if self._hold_s:
+            hold_s, self._hold_s = self._hold_s, 0.0
+            time.sleep(hold_s)
+            self._others_until_s = time.monotonic() + 0.1
+        if self._others_until_s is not None and time.monotonic() < self._others_until_s:
+            time.sleep(0.005)  # another topic's handler
+            return
         self._executor.spin_once(timeout_sec=timeout_sec)
 
     def __getattr__(self, name):
@@ -118,6 +125,24 @@ def test_a_bus_thread_held_up_while_the_world_talks_is_a_pause_not_a_lost_world(
             time.sleep(0.01)
         assert "sim_world silent" in reasons  # it held output meanwhile: a pause
         assert backend.holding_reason() == ""
+
+
+def test_a_bus_thread_deaf_longer_than_the_deaf_limit_is_a_lost_world(ros, monkeypatch):
+    node, _ = ros
+    monkeypatch.setattr(sim_backend, "BUS_DEAF_TIMEOUT_S", 1.0)
+    monitor = node.create_publisher(JointState, SIM_MONITOR_TOPIC, bus_qos())
+    readback = JointState(name=NAMES, effort=[0.0] * 9, position=[0.0] * 9)
+    with create_backend("sim", options={"readback_timeout_s": 0.2, "world_lost_timeout_s": 0.6}) as backend:
+        end = time.monotonic() + 10.0
+        while backend.monitor_count == 0:
+            assert time.monotonic() < end, "no read-back reached the backend"
+            monitor.publish(readback)
+            time.sleep(0.01)
+        backend._executor = _HeldUpExecutor(backend._executor, 3.0)
+        started = time.monotonic()
+        with pytest.raises(HardwareError, match="its bus thread has not listened for 1.0 s"):
+            _poll_until_lost(backend, 2.0)
+        assert time.monotonic() - started < 1.5
 
 
 def _poll_until_lost(backend, timeout_s: float) -> None:

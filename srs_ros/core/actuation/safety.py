@@ -270,18 +270,20 @@ class CommandGate:
         self._output_since_s = None
         return np.zeros(self.joint_count), reason
 
-    def withdraw_if_late(self, pressure_bar: np.ndarray, decided_s: float, now_s: float) -> np.ndarray:
-        """The pressures decided at ``decided_s`` (s), or 0 bar if sending them comes more than ``max_gap_s`` later.
+    def withdraw_if_late(self, decision: tuple[np.ndarray, OutputReason], decided_s: float,
+                         now_s: float) -> tuple[np.ndarray, OutputReason]:
+        """A decision (:meth:`decide` at ``decided_s``, s), or 0 bar (STALE) if sent more than ``max_gap_s`` later.
 
         The caller frozen between deciding and sending (SIGSTOP, a stall of a busy machine) would otherwise send,
         once, a command the hardware may have vented meanwhile. Counted in ``stalls``; output restarts with a ramp.
+        Checked just before the write, it narrows the window to the write itself.
         """
         if now_s - decided_s <= self.max_gap_s:
-            return pressure_bar
+            return decision
         self.stalls += 1
         self._output_since_s = None
         self._last_decision_s = now_s  # the stall is counted once: the next decision ramps from here
-        return np.zeros_like(pressure_bar)
+        return np.zeros_like(decision[0]), OutputReason.STALE
 
     def _forget(self) -> None:
         self._pressure_bar, self._fresh_s = None, math.nan

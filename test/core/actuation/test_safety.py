@@ -124,9 +124,11 @@ def test_a_stall_of_the_caller_restarts_output_with_a_ramp():
 
 def test_a_decision_sent_later_than_the_stall_gap_is_withdrawn_and_output_ramps_again():
     command = np.full(9, 4.0)
-    gate, pressure, _ = commanding_gate(command)
-    assert gate.withdraw_if_late(pressure, 1.495, 1.5) == pytest.approx(command)  # sent at once: as decided
-    assert gate.withdraw_if_late(pressure, 1.495, 1.8) == pytest.approx(np.zeros(9))  # frozen in between
+    gate, pressure, reason = commanding_gate(command)
+    sent, why = gate.withdraw_if_late((pressure, reason), 1.495, 1.5)
+    assert sent == pytest.approx(command) and why is OutputReason.COMMANDING  # sent at once: as decided
+    sent, why = gate.withdraw_if_late((pressure, reason), 1.495, 1.8)
+    assert sent == pytest.approx(np.zeros(9)) and why is OutputReason.STALE  # frozen in between
     assert gate.stalls == 1
     gate.accept(command, now_s=1.805)
     assert gate.decide(1.805)[0] == pytest.approx(np.zeros(9))
