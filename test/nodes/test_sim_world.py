@@ -83,9 +83,10 @@ def test_an_image_is_stamped_at_the_state_it_shows_not_after_a_slow_render(ros_d
     from srs_ros.nodes.sim_world import SimWorldNode
     from srs_ros.sim.camera import OverheadCamera
 
-    render = OverheadCamera.render
+    render, render_started_s = OverheadCamera.render, []
 
     def slow_render(camera, *args, **kwargs):
+        render_started_s.append(time.time())  # the system clock, as the node's ROS clock without use_sim_time
         time.sleep(0.2)
         return render(camera, *args, **kwargs)
 
@@ -96,7 +97,6 @@ def test_an_image_is_stamped_at_the_state_it_shows_not_after_a_slow_render(ros_d
         published = []
         monkeypatch.setattr(node._image_pub, "publish", published.append)
         try:
-            called_s = node.get_clock().now().nanoseconds * 1e-9
             node._publish_image()
         finally:
             node.destroy_node()
@@ -104,4 +104,6 @@ def test_an_image_is_stamped_at_the_state_it_shows_not_after_a_slow_render(ros_d
         rclpy.shutdown()
     (image,) = published
     assert image.encoding == "bayer_rggb8"
-    assert stamp_to_seconds(image.header.stamp) - called_s < 0.05  # read with the state, before the 0.2 s render
+    # Read with the state, before the 0.2 s render: judged against the render's start, not a bound on the time it
+    # took to get there (a busy machine stalls a process 0.1-0.4 s anywhere; once it did between the two).
+    assert stamp_to_seconds(image.header.stamp) <= render_started_s[0] + 1e-3
