@@ -307,6 +307,7 @@ class NavigationController(FineDriving):
             if not held or self._out_of_reach(toward, error, distance_m, 1.2):
                 return other_direction(toward), math.copysign(limit, error)
             self._backing_from = None
+            self._message = self._driving_message()  # the status no longer says it is backing away
         direction = self._choose_direction(now_s, errors, settings.min_hold_cycles)
         error, distance_m = errors[direction], distances[direction]
         self._heading_error_rad = error

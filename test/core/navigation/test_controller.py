@@ -112,6 +112,20 @@ def test_reaches_goals_in_every_direction_with_a_wrong_turn_map(goal):
     assert controller.command.moving is False
 
 
+def test_the_status_says_backing_away_only_while_the_robot_backs_away():
+    """A goal along the body's axis is first backed away from (a three-point turn); then the status says so no more."""
+    controller, roller, said = NavigationController(settings(), AREA), Roller(), []
+    controller.set_goal(0.45, 0.0, 0.0)
+
+    def each_frame(now):
+        if controller.state is NavigationState.DRIVING:
+            said.append(("backing away" in controller.progress(now).message, controller._backing_from is not None))
+
+    drive(controller, roller, 60.0, each_frame=each_frame)
+    assert (True, True) in said and (False, False) in said  # it backed away, then drove on
+    assert (True, False) not in said, "the status said 'backing away' after the three-point turn ended"
+
+
 def test_learns_the_turn_rates_it_measures():
     controller, roller = NavigationController(settings(), AREA), Roller(bias_deg=8.0, scale=0.7)
     controller.set_goal(0.6, 0.6, 0.0)
