@@ -85,7 +85,7 @@ class FineDriving:
         settled = creeping and fine.settled(now_s, self._changed_s)
         body_yaw = self.history.smoothed_yaw_rad(FINE_YAW_WINDOW_S)
         if settled:  # the line the robot is seen to creep on (a nearly straight body still skews by up to 10 deg)
-            seen = FineApproach.line_yaw_rad(self.history, command.direction)
+            seen = FineApproach.line_yaw_rad(self.history, command.direction, body_yaw)
             if seen is not None:
                 fine.learn_skew(command.direction, seen, body_yaw, (fine.since_s, self._changed_s))
             yaw = body_yaw if seen is None else seen

@@ -37,6 +37,11 @@ FINE_REVERSE_SETTLE_S = 1.0
 FINE_SPEED_WINDOW_S = 0.5
 #: The creeping line is taken from the robot's motion once it moved this far within FINE_SPEED_WINDOW_S (m).
 FINE_MIN_MOVE_M = 0.01
+#: ... and only when that motion lies within this angle (rad) of square to the body in the gait's direction: a
+#: nearly straight body creeps up to 10 deg off square; a motion farther off is not the creep (the body still
+#: rolling on from the gait before, or pushed), and taken as the line it once taught the skew 180 deg and sent every
+#: later creep the wrong way (docs/navigation.md, "A skew learned backwards").
+FINE_MAX_SKEW_RAD = math.radians(30.0)
 #: First guess of where the robot rests after a stop at each stop phase: (along, across) its travel (m);
 #: measured 2 bar 0.25 Hz: -4 .. +10 cm along (direction and phase), under 1 cm across; learned at every stop.
 FINE_REST_GUESS_M = (0.02, 0.0)
@@ -178,16 +183,18 @@ class FineApproach:
                    quarter + float(np.max(self.offset_m[direction][:, 0])) + tolerance_m)
 
     @staticmethod
-    def line_yaw_rad(history: PoseHistory, direction: str) -> float | None:
+    def line_yaw_rad(history: PoseHistory, direction: str, body_yaw_rad: float) -> float | None:
         """The body yaw whose square is the way the robot was seen to creep.
 
-        Over the last :data:`FINE_SPEED_WINDOW_S`; None when it moved less than :data:`FINE_MIN_MOVE_M`.
+        Over the last :data:`FINE_SPEED_WINDOW_S`; None when it moved less than :data:`FINE_MIN_MOVE_M`, or more
+        than :data:`FINE_MAX_SKEW_RAD` off square to the body (``body_yaw_rad``) in ``direction``.
         """
         rows = history.window(FINE_SPEED_WINDOW_S)
         if len(rows) < 3 or float(np.linalg.norm(rows[-1, 1:3] - rows[0, 1:3])) < FINE_MIN_MOVE_M:
             return None
         dx, dy = rows[-1, 1:3] - rows[0, 1:3]
-        return math.atan2(dy, dx) - (math.pi / 2 if direction == DIRECTIONS[0] else -math.pi / 2)
+        line_yaw = math.atan2(dy, dx) - (math.pi / 2 if direction == DIRECTIONS[0] else -math.pi / 2)
+        return line_yaw if abs(wrap_rad(line_yaw - body_yaw_rad)) <= FINE_MAX_SKEW_RAD else None
 
     @staticmethod
     def speed_m_s(history: PoseHistory, heading_rad: float) -> float | None:

@@ -103,11 +103,15 @@ def test_the_line_is_taken_from_the_motion_and_the_roll_on_is_learned():
     for k in range(20):  # creeping inward along a line 10 deg off square to a body whose yaw is 0
         t = k / 30.0
         history.add(Pose2D(0.04 * t * math.cos(math.radians(100)), 0.04 * t * math.sin(math.radians(100)), 0.0, t))
-    assert math.degrees(FineApproach.line_yaw_rad(history, "inward_rolling")) == pytest.approx(10.0)
+    assert math.degrees(FineApproach.line_yaw_rad(history, "inward_rolling", 0.0)) == pytest.approx(10.0)
     still = PoseHistory()
     for k in range(20):  # hardly moved (a reversal through zero frequency): no line to learn a skew from
         still.add(Pose2D(0.001 * k / 20, 0.0, 0.0, k / 30.0))
-    assert FineApproach.line_yaw_rad(still, "inward_rolling") is None
+    assert FineApproach.line_yaw_rad(still, "inward_rolling", 0.0) is None
+    # the same motion seen while outward rolling is commanded (the body rolling on from the gait before) is 170 deg
+    # off square to the body that way: not the creep's line (it once taught the skew 180 deg)
+    assert FineApproach.line_yaw_rad(history, "outward_rolling", 0.0) is None
+    assert FineApproach.line_yaw_rad(history, "inward_rolling", math.radians(45.0)) is None  # 35 deg off square
     assert FineApproach.speed_m_s(history, math.radians(100)) == pytest.approx(0.04)
     fine = FineApproach(0.5)
     fine.learn("outward_rolling", 2, math.pi / 2, np.array([0.0, 0.06]))  # rolled on 6 cm along +y
