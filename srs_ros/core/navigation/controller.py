@@ -24,7 +24,13 @@ from collections.abc import Iterable, Sequence
 import numpy as np
 
 from srs_ros.core.errors import InvalidInputError
-from srs_ros.core.navigation.approach import FINE_MAX_PIVOTS, FINE_YAW_WINDOW_S, FineDriving, rests_near_enough
+from srs_ros.core.navigation.approach import (
+    FINE_MAX_PIVOTS,
+    FINE_STOP_NEAR,
+    FINE_YAW_WINDOW_S,
+    FineDriving,
+    rests_near_enough,
+)
 from srs_ros.core.navigation.area import FloorArea
 from srs_ros.core.navigation.commands import GaitCommand, GoalDecision, NavigationProgress, NavigationState
 from srs_ros.core.navigation.fine import FineApproach
@@ -48,6 +54,14 @@ EDGE_APPROACH_M = 0.02
 EDGE_HOLD_CYCLES = 2.5
 #: A robot moving out of view within this angle of the edge's line (deg) moves along the edge: it turns, not reverses.
 EDGE_ALONG_DEG = 30.0
+#: A robot that turns less than this (deg per cycle, the fastest level of either direction in the sense needed)
+#: has every goal inside its tightest turn, and backing away does not turn it toward one: on the calibrated physics
+#: (at most 7 deg per cycle; the default and anisotropic ones 14-21) it backed away from goals 4-10 deg off its line
+#: for the whole minute (docs/navigation.md, "Backing away without a turn"). Such a robot drives on to a goal that
+#: its line passes within BACK_UNLESS_MISS_WITHIN x FINE_STOP_NEAR x fine_distance_m (the fine approach on): the
+#: cruise stops near it and the fine approach finishes from rest.
+WEAK_TURN_DEG_PER_CYCLE = 8.0
+BACK_UNLESS_MISS_WITHIN = 0.5
 
 
 class NavigationController(FineDriving):
@@ -332,15 +346,18 @@ class NavigationController(FineDriving):
 
     def _out_of_reach(self, direction: str, error: float, distance_m: float, margin: float) -> bool:
         """True when the goal lies inside the tightest turn toward it and a straight line would miss it."""
-        if abs(error) >= 0.5 * math.pi or distance_m * abs(math.sin(error)) <= \
-                STRAIGHT_WITHIN * self.settings.goal_tolerance_m:
+        settings, miss_m = self.settings, distance_m * abs(math.sin(error))
+        if abs(error) >= 0.5 * math.pi or miss_m <= STRAIGHT_WITHIN * settings.goal_tolerance_m:
             return False
         sign = 1 if error >= 0.0 else -1
+        if max(self.turns.fastest_deg(d, sign)[1] * sign for d in DIRECTIONS) < WEAK_TURN_DEG_PER_CYCLE and \
+                miss_m <= BACK_UNLESS_MISS_WITHIN * FINE_STOP_NEAR * settings.fine_distance_m:
+            return False
         index, rate_deg = self.turns.fastest_deg(direction, sign)
         if rate_deg * sign <= 1.0:
             return True
         diameter = 2.0 * float(self.travel.travel_m[direction][index]) / math.radians(abs(rate_deg))
-        return distance_m < margin * self.settings.reach_margin * diameter * abs(math.sin(error))
+        return distance_m < margin * settings.reach_margin * diameter * abs(math.sin(error))
 
     def _choose_level(self, now_s: float, direction: str, wanted_deg: float) -> int:
         same = self._command.direction == direction and self._level is not None

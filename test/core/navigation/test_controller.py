@@ -126,6 +126,26 @@ def test_the_status_says_backing_away_only_while_the_robot_backs_away():
     assert (True, False) not in said, "the status said 'backing away' after the three-point turn ended"
 
 
+#: A body that turns at most 2.5 deg per cycle either way (the calibrated physics: at most 7).
+WEAK_MAP = TurningMap(4.0, 1.0, "weak turner", {
+    d: DirectionMap(LEVELS, -5.0 * LEVELS, np.full(len(LEVELS), 0.09),
+                    np.tile([0.05, 0.0], (len(STOP_PHASES), 1))) for d in DIRECTIONS})
+
+
+@pytest.mark.parametrize("goal, backs", [((0.08, 0.6), False), ((-0.1, 0.7), False), ((0.15, 0.5), True)])
+def test_a_robot_that_hardly_turns_drives_on_to_a_goal_its_line_nearly_passes(goal, backs):
+    """Backing away turns a weak turner no closer to the goal (on the calibrated physics it reversed for a minute):
+    a goal its line passes within the fine approach's reach (8 and 9 cm here) is driven on to; one 14 cm off is
+    still backed away from."""
+    controller, roller, backing = NavigationController(load_navigation_settings({}, turning_map=WEAK_MAP), AREA), \
+        Roller(bias_deg=0.0, scale=0.125), []
+    controller.set_goal(*goal, now_s=0.0)
+    end = drive(controller, roller, 120.0,
+                each_frame=lambda now: backing.append("backing away" in controller.progress(now).message))
+    assert controller.state is NavigationState.REACHED, controller.progress(end).message
+    assert any(backing) is backs
+
+
 def test_learns_the_turn_rates_it_measures():
     controller, roller = NavigationController(settings(), AREA), Roller(bias_deg=8.0, scale=0.7)
     controller.set_goal(0.6, 0.6, 0.0)
