@@ -33,13 +33,20 @@ from srs_ros.core.navigation.approach import (
 )
 from srs_ros.core.navigation.area import FloorArea
 from srs_ros.core.navigation.commands import GaitCommand, GoalDecision, NavigationProgress, NavigationState
+from srs_ros.core.navigation.edge import EdgeGuard
 from srs_ros.core.navigation.fine import FineApproach
-from srs_ros.core.navigation.motion import Pose2D, PoseHistory, TravelModel, TurnModel, measure_cycle, wrap_rad
+from srs_ros.core.navigation.motion import (
+    SETTLE_CYCLES,
+    Pose2D,
+    PoseHistory,
+    TravelModel,
+    TurnModel,
+    measure_cycle,
+    wrap_rad,
+)
 from srs_ros.core.navigation.settings import DIRECTIONS, STOP_PHASES, NavigationSettings, other_direction
 from srs_ros.core.navigation.stopping import StopModel, StopPlan, crossed_phase
 
-#: Cycles after a gait change before the camera's cycle measurements count (the cross-fade and the body settle).
-SETTLE_CYCLES = 0.5
 #: The same after a start from rest (the soft start and the body's first roll are not the steady gait).
 START_SETTLE_CYCLES = 1.5
 #: Cycles a direction must have been played before a stop counts on its learned resting point.
@@ -48,12 +55,6 @@ STOP_AFTER_CYCLES = 1.0
 CYCLE_AHEAD_FROM_LAST_CYCLE = True
 #: A straight line passing this close to the goal (times the tolerance) needs no three-point turn.
 STRAIGHT_WITHIN = 0.7
-#: Near the view's edge, the tracked point came at least this much closer to it over the last cycle (m): moving out.
-EDGE_APPROACH_M = 0.02
-#: Cycles the other direction is played once the robot was seen moving out of view (past its change-over).
-EDGE_HOLD_CYCLES = 2.5
-#: A robot moving out of view within this angle of the edge's line (deg) moves along the edge: it turns, not reverses.
-EDGE_ALONG_DEG = 30.0
 #: A robot that turns less than this (deg per cycle, the fastest level of either direction in the sense needed)
 #: has every goal inside its tightest turn, and backing away does not turn it toward one: on the calibrated physics
 #: (at most 7 deg per cycle; the default and anisotropic ones 14-21) it backed away from goals 4-10 deg off its line
@@ -64,7 +65,7 @@ WEAK_TURN_DEG_PER_CYCLE = 8.0
 BACK_UNLESS_MISS_WITHIN = 0.5
 
 
-class NavigationController(FineDriving):
+class NavigationController(FineDriving, EdgeGuard):
     """Goals and camera poses in, :class:`GaitCommand` out; see the module docstring and docs/navigation.md."""
 
     def __init__(self, settings: NavigationSettings, area: FloorArea | None = None):
@@ -214,60 +215,6 @@ class NavigationController(FineDriving):
         level = self._choose_level(pose.time_s, direction, wanted_deg)
         self._set_command(pose.time_s, GaitCommand(direction, float(self.settings.turn_levels_rad[level]),
                                                    self.settings.amplitude_bar, frequency, self._message), level)
-
-    def _keep_in_view(self, pose: Pose2D) -> bool:
-        """Near the edge of the camera's floor area and moving out of it: roll the other way; True while it does.
-
-        Judged on the camera's own track (the tracked point came closer to the edge over the last cycle), not on
-        the learned travel heading, so it holds however wrong the model is (a physics that rolls the other way
-        round, a three-point turn backing out of view); not when the goal lies as near the edge. The cruise gait
-        only, once a direction has played past its change-over (:data:`SETTLE_CYCLES`). The other direction, at
-        the turn level learned to turn least (the most predictable travel), is played for :data:`EDGE_HOLD_CYCLES`,
-        and turned round again if the track shows that it too moves out; then the controller chooses again.
-        """
-        command, settings = self._command, self.settings
-        cruising = command.moving and command.amplitude_bar == settings.amplitude_bar and \
-            command.frequency_hz in (settings.cruise_frequency_hz, settings.approach_frequency_hz)
-        holding = pose.time_s < self._edge_until_s
-        if math.isfinite(self._edge_until_s) and not (holding and cruising and settings.edge_guard_m > 0.0):
-            self._edge_until_s, holding = -math.inf, False  # the hold is over, or the guard switched off
-            self._message = self._driving_message()
-        if self.area is None or settings.edge_guard_m <= 0.0 or not cruising:
-            return False
-        period_s = 1.0 / command.frequency_hz
-        if pose.time_s - self._direction_since_s < (1.0 + SETTLE_CYCLES) * period_s:
-            return holding
-        inside_m = self.area.leaving_by_m(self.history.window(period_s), settings.edge_guard_m, EDGE_APPROACH_M)
-        if inside_m is None or self.area.inside_distance_m(*self.goal) <= inside_m + EDGE_APPROACH_M:
-            return holding  # not leaving, or leaving toward a goal that lies as near the edge
-        direction, level, action = self._away_from_edge(period_s)
-        self._backing_from = None
-        self._message = (f"{max(inside_m, 0.0):.2f} m from the edge of the camera's view and moving out of it: "
-                         f"{action} ({direction.replace('_', ' ')}) for {EDGE_HOLD_CYCLES:g} cycles")
-        self._set_command(pose.time_s, GaitCommand(direction, float(settings.turn_levels_rad[level]),
-                                                   settings.amplitude_bar, command.frequency_hz, self._message), level)
-        self._edge_until_s = pose.time_s + EDGE_HOLD_CYCLES * period_s
-        return True
-
-    def _away_from_edge(self, period_s: float) -> tuple[str, int, str]:
-        """Direction, turn level and what it does, for a robot seen moving out of the view over the last cycle.
-
-        Moving mostly out (the track more than :data:`EDGE_ALONG_DEG` away from the edge's line): the other
-        direction, at the level learned to turn least. Moving mostly along the edge (a body whose axis points at
-        the edge rolls along it, and rolling the other way only drifts along it too): the same direction, at
-        the level learned to turn its travel fastest toward the inside, so the body turns its end off the edge.
-        """
-        command = self._command
-        track = self.history.window(period_s)
-        moved = track[-1, 1:3] - track[0, 1:3]
-        inward = self.area.inward_normal(track[-1, 1], track[-1, 2])
-        out_angle = math.degrees(math.acos(max(-1.0, min(1.0, float(-moved @ inward) / max(np.hypot(*moved), 1e-9)))))
-        if out_angle < 90.0 - EDGE_ALONG_DEG:
-            direction = other_direction(command.direction)
-            return direction, self.turns.choose(direction, 0.0, None), "rolling back"
-        sign = 1 if moved[0] * inward[1] - moved[1] * inward[0] > 0.0 else -1  # rotate the travel toward inside
-        level, _ = self.turns.fastest_deg(command.direction, sign)
-        return command.direction, level, "turning its travel inward"
 
     def _distance(self, pose: Pose2D) -> float:
         gx, gy = self.goal

@@ -16,6 +16,8 @@ import numpy as np
 from srs_ros.core.errors import InvalidInputError
 from srs_ros.core.navigation.settings import DIRECTIONS, TurningMap
 
+#: Cycles after a gait change before the camera's cycle measurements count (the cross-fade and the body settle).
+SETTLE_CYCLES = 0.5
 #: Spread of one level's correction to its neighbours (rad of turn_phase): a measured bias is shared.
 NEIGHBOUR_SPREAD_RAD = 0.2
 #: The travel direction learned stays within this of square to the body (rad): a rolling body travels roughly
