@@ -53,6 +53,7 @@ from srs_ros.ros.interfaces import (
     ACTUATOR_STATE_TOPIC,
     COMMANDED_PRESSURE_TOPIC,
     DIAGNOSTICS_TOPIC,
+    FIT_BUSY_PREFIX,
     GROUND_TRUTH_TOPIC,
     POSE_TOPIC,
     SETPOINT_TOPIC,
@@ -80,6 +81,9 @@ VENTED_BAR = 0.01
 POSE_WINDOW_S = 0.5
 #: Spin period of the waits, s.
 SPIN_S = 0.02
+#: While trajectory_server is busy with another fit (its start-up fit, slow on a busy machine), ask again this
+#: often (s).
+BUSY_RETRY_S = 0.25
 
 
 def type_name(msg_class) -> str:
@@ -328,10 +332,24 @@ class RosSweep:
         self.set_parameters("trajectory_server", {"gait": gait, "amplitude_bar": float(amplitude_bar),
                                                   "frequency_hz": float(frequency_hz)})
         before = self._trajectories
-        self.trigger("trajectory_server", "regenerate", self.options.fit_timeout_s)
+        self.regenerate()
         if not self.spin_until(lambda: self._trajectories > before, self.options.service_timeout_s):
             raise RunAborted(f"the new trajectory did not arrive on {self.node.resolve_topic_name(TRAJECTORY_TOPIC)}")
         self.set_parameters("gait_player", {"frequency_hz": float(frequency_hz)})
+
+    def regenerate(self) -> None:
+        """Have trajectory_server fit the parameters set; while it is busy with another fit, wait and ask again.
+
+        :class:`RunAborted` if it refuses for another reason, or is still busy after ``fit_timeout_s``.
+        """
+        deadline_s = time.monotonic() + self.options.fit_timeout_s
+        while True:
+            response = self.call("trajectory_server", "regenerate", timeout_s=self.options.fit_timeout_s)
+            if response.success:
+                return
+            if not response.message.startswith(FIT_BUSY_PREFIX) or time.monotonic() >= deadline_s:
+                raise RunAborted(f"trajectory_server/regenerate: {response.message}")
+            self.spin_for(BUSY_RETRY_S)
 
     def vent(self) -> bool:
         """Stop the player and disarm (a real rig vents at once); True once the valves are known to be vented.

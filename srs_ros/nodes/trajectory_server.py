@@ -45,7 +45,7 @@ from srs_ros.core.errors import ConfigurationError, SrsError
 from srs_ros.core.gait.request import FREQUENCY_FIELD, SAMPLES_FIELD, gait_field
 from srs_ros.core.gait.trajectory import PoorFitWarning, generate_cycle, list_gaits
 from srs_ros.core.robot import RobotDescription, amplitude_field, load_robot
-from srs_ros.ros.interfaces import TRAJECTORY_TOPIC, latched_qos, nanoseconds_to_duration
+from srs_ros.ros.interfaces import FIT_BUSY_PREFIX, TRAJECTORY_TOPIC, latched_qos, nanoseconds_to_duration
 from srs_ros.ros.parameters import ParameterSpec, check_parameters, declare_parameters, startup_value
 from srs_ros.ros.process import run_node
 
@@ -150,7 +150,7 @@ class TrajectoryServer(Node):
         """Fit and publish the cycle for the current parameters; (success, what happened)."""
         if not self._fit_lock.acquire(blocking=False):
             started_s, what = self._fit_started
-            return False, (f"busy: a fit of {what} is running for {time.monotonic() - started_s:.1f} s; "
+            return False, (f"{FIT_BUSY_PREFIX} a fit of {what} is running for {time.monotonic() - started_s:.1f} s; "
                            "try again when it finishes")
         try:
             request = self._request()

@@ -40,6 +40,8 @@ DDS_PROFILE_FILE = "fastdds_camera_shm.xml"
 DDS_PROFILE_ENV = "FASTRTPS_DEFAULT_PROFILES_FILE"
 
 TRAJECTORY_TOPIC = "gait_trajectory"
+#: How trajectory_server's ``~/regenerate`` answers while another fit runs: a client may wait and call again.
+FIT_BUSY_PREFIX = "busy:"
 
 
 SETPOINT_TOPIC = "joint_setpoints"

@@ -18,12 +18,13 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import PoseStamped
 from srs_testing import RosClient, ros_args, script_path
 from std_msgs.msg import Float64MultiArray
+from std_srvs.srv import Trigger
 
 from srs_ros.core.robot import config_dir
 from srs_ros.experiments.recording import bag_message_counts, bag_topic_types
-from srs_ros.experiments.ros_sweep import RosSweep, RosSweepOptions, RunAborted
+from srs_ros.experiments.ros_sweep import BUSY_RETRY_S, RosSweep, RosSweepOptions, RunAborted
 from srs_ros.experiments.table import TABLE_COLUMNS, read_table_csv
-from srs_ros.ros.interfaces import POSE_TOPIC
+from srs_ros.ros.interfaces import FIT_BUSY_PREFIX, POSE_TOPIC
 
 SIM_RIG = str(config_dir() / "rigs" / "sim.yaml")
 
@@ -202,6 +203,39 @@ def test_a_tracker_still_starting_is_waited_for_and_a_missing_one_is_not(ros_dom
             rig.node.create_timer(0.1, lambda: time.monotonic() > first_pose_s and poses.publish(PoseStamped()))
             x_m, y_m, _yaw = sweep._wait_pose(0.0, "before the start")
             assert (x_m, y_m) == (0.0, 0.0) and time.monotonic() >= first_pose_s
+        finally:
+            stop.set()
+            spinner.join()
+            sweep.close()
+
+
+@pytest.mark.slow(seconds=4)
+def test_a_trajectory_server_busy_with_another_fit_is_asked_again_and_another_refusal_ends_the_run(ros_domain,
+                                                                                                   monkeypatch):
+    """trajectory_server answers "busy" while its start-up fit runs (2.5 s under the suite's load made a sweep's first
+    run fail before the operator was asked): the sweep asks again until the fit is done; any other refusal ends the
+    run at once with the server's reason."""
+    monkeypatch.setenv("ROS_DOMAIN_ID", str(ros_domain))
+    sweep, stop, answers, calls = RosSweep(RosSweepOptions(fit_timeout_s=10.0)), threading.Event(), [], []
+
+    def regenerate(_request, response):
+        calls.append(time.monotonic())
+        response.success, response.message = answers.pop(0) if answers else (True, "published")
+        return response
+
+    with RosClient(ros_domain, "trajectory_server") as server:
+        server.node.create_service(Trigger, "/trajectory_server/regenerate", regenerate)  # the node is named with a pid
+        spinner = threading.Thread(target=lambda: [server.executor.spin_once(timeout_sec=0.05)
+                                                   for _ in iter(stop.is_set, True)])
+        spinner.start()
+        try:
+            answers += [(False, f"{FIT_BUSY_PREFIX} a fit of inward_rolling at 4 bar, 1 Hz is running for 2.1 s")] * 2
+            sweep.regenerate()
+            assert len(calls) == 3 and calls[-1] - calls[0] >= 2 * BUSY_RETRY_S
+            answers.append((False, "fit failed: amplitude_bar 9 is outside [0, 4] bar"))
+            with pytest.raises(RunAborted, match=r"trajectory_server/regenerate: fit failed: amplitude_bar 9"):
+                sweep.regenerate()
+            assert len(calls) == 4
         finally:
             stop.set()
             spinner.join()
