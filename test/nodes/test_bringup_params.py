@@ -25,9 +25,10 @@ def test_ros_args_win_and_the_temporary_params_file_is_gone_while_running(launch
     assert list(temp.iterdir()) == []
 
 
-@pytest.mark.slow(seconds=6)
+@pytest.mark.slow(seconds=9)
 def test_status_line_counts_cycles_so_a_1_hz_gait_sampled_each_second_visibly_advances(launch_node):
-    proc = launch_node("srs_bringup", ["--duration-s", "5"])  # status period 1 s, gait 1 Hz
+    # status period 1 s, gait 1 Hz; 8 s: under the suite's load the start-up fit alone took 3.4 s of a 5 s run once
+    proc = launch_node("srs_bringup", ["--duration-s", "8"])
     assert proc.process.wait(60) == 0, proc.output()
     cycles = [float(v) for v in re.findall(r"running cycle +([0-9.]+)", proc.output())]
     assert len(cycles) >= 2, proc.output()
