@@ -118,6 +118,14 @@ VARIANTS = [Variant(*v) for v in (
                            "tether.damping_nms_per_rad": 0.01, "tether.anchor_slip_torque_nm": 0.1},
      "stiff but bounded: tether_rigid slipping above 0.1 N m (a third of the torque at which the tied bundle "
      "tumbled the body; not an estimate)"),
+    # Issue 19, a flow-limited supply: a muscle fills and vents no faster than the line lets air through.
+    ("flow_limit", {"muscles.max_pressure_rate_bar_per_s": 5.0},
+     "the muscles fill and vent at most 5 bar/s (estimate: a 0-4 bar sine at 1 Hz then reaches 60 % of its "
+     "swing, the attenuation that P = 100 l fitted at 1 Hz against 0.065 m static at 4 bar suggests)"),
+    ("flow_limit_slow", {"muscles.max_pressure_rate_bar_per_s": 2.5},
+     "half that rate (longer or thinner lines): every rolling cell above 0.6 Hz rate-limited at 4 bar"),
+    ("flow_limit_roll_damping", {"muscles.max_pressure_rate_bar_per_s": 5.0, "contact.roll_damping_nms_per_rad": 0.02},
+     "flow_limit with roll_damping's viscous resistance to the spin"),
     ("axis_points", {"contact.floor_contact": "points"},
      "floor contact at one sphere per segment (5 per module) on the axis instead of continuous capsules"),
     ("lobed_points", {"contact.floor_contact": "points", "contact.points_around": 3},

@@ -3,8 +3,9 @@
 Options (``backend_options`` of a rig file, each validated with the key named on error):
 
 - ``pressure_time_constant_s``: first-order lag of regulator + muscle, in [0, 10] s;
-- ``transport_delay_s``: supply-line delay, in [0, 2] s (defaults of both:
-  :data:`srs_ros.core.actuation.muscle_model.MUSCLE_OPTION_DEFAULTS`);
+- ``transport_delay_s``: supply-line delay, in [0, 2] s;
+- ``max_pressure_rate_bar_per_s``: fastest filling or venting (a flow-limited supply), in [0, 1000] bar/s, 0 = no
+  limit (defaults of these three: :data:`srs_ros.core.actuation.muscle_model.MUSCLE_OPTION_DEFAULTS`);
 - ``deadzone_bar`` (default: the robot's ``deadzone_bar``): no extension below this pressure;
 - ``max_extension_m`` (default: the robot's ``max_extension_m``): extension reached at the robot's
   ``max_pressure_bar`` and never exceeded;

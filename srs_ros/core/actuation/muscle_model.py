@@ -4,8 +4,10 @@ The model of one muscle (vectorised over all muscles with NumPy):
 
 1. transport delay: a command issued at ``t`` reaches the regulator at ``t + transport_delay_s``
    (the supply line);
-2. first-order pressure lag: ``dP/dt = (P_cmd - P) / pressure_time_constant_s``, integrated exactly
-   for the piecewise-constant delayed command;
+2. first-order pressure lag: ``dP/dt = (P_cmd - P) / pressure_time_constant_s``, no faster than
+   ``max_pressure_rate_bar_per_s`` (a flow-limited supply: a choked orifice or a long thin line fills and
+   empties the muscle at a bounded rate; 0 = no limit), integrated exactly for the piecewise-constant delayed
+   command;
 3. extension: nothing below the deadzone, then linear up to ``max_extension_m`` at
    ``full_extension_pressure_bar`` and saturated beyond:
    ``l = l_max * clip((P - P_dz) / (P_full - P_dz), 0, 1)``.
@@ -30,6 +32,8 @@ from srs_ros.core.validation import finite_array
 MUSCLE_OPTIONS = Table("", (
     Field("pressure_time_constant_s", float, 0.08, 0.0, 10.0, "s", "first-order lag of regulator + muscle"),
     Field("transport_delay_s", float, 0.03, 0.0, 2.0, "s", "supply-line transport delay"),
+    Field("max_pressure_rate_bar_per_s", float, 0.0, 0.0, 1000.0, "bar/s",
+          "fastest filling or venting of a muscle (a flow-limited supply); 0 = no limit"),
     Field("deadzone_bar", float, REQUIRED, 0.0, ABSOLUTE_MAX_PRESSURE_BAR, "bar",
           "no extension below this pressure (default: the robot's)"),
     Field("max_extension_m", float, REQUIRED, 1e-4, 1.0, "m",
@@ -55,6 +59,7 @@ class MuscleParameters:
     transport_delay_s: float
     max_extension_m: float
     full_extension_pressure_bar: float
+    max_pressure_rate_bar_per_s: float = 0.0
 
 
 def muscle_parameters_from_options(options: Mapping[str, Any], robot: RobotDescription, where: str,
@@ -85,14 +90,26 @@ def extension_m(pressure_bar, params: MuscleParameters) -> np.ndarray:
     return params.max_extension_m * np.clip((pressure - params.deadzone_bar) / span_bar, 0.0, 1.0)
 
 
-def lag_step(pressure_bar: np.ndarray, target_bar: np.ndarray, dt_s: float, time_constant_s: float) -> np.ndarray:
-    """Exact step of ``dP/dt = (target - P) / tau`` over ``dt_s`` for a constant target (tau 0 = no lag)."""
+def lag_step(pressure_bar: np.ndarray, target_bar: np.ndarray, dt_s: float, time_constant_s: float,
+             max_rate_bar_per_s: float = 0.0) -> np.ndarray:
+    """Exact step over ``dt_s`` of ``dP/dt = clip((target - P) / tau, -rate, rate)`` for a constant target.
+
+    tau 0 = no lag; ``max_rate_bar_per_s`` 0 = no rate limit. With both, a muscle far from its target
+    ramps at the limit until it is ``rate * tau`` away, then closes in exponentially.
+    """
     if dt_s <= 0.0:
         return pressure_bar
+    target = np.asarray(target_bar, dtype=np.float64)
+    if max_rate_bar_per_s <= 0.0:
+        if time_constant_s <= 0.0:
+            return np.array(target, dtype=np.float64)
+        return pressure_bar + (1.0 - math.exp(-dt_s / time_constant_s)) * (target - pressure_bar)
+    error = target - pressure_bar
+    ramp_s = np.minimum(np.maximum(np.abs(error) / max_rate_bar_per_s - time_constant_s, 0.0), dt_s)
+    ramped = pressure_bar + np.sign(error) * max_rate_bar_per_s * ramp_s
     if time_constant_s <= 0.0:
-        return np.array(target_bar, dtype=np.float64)
-    alpha = 1.0 - math.exp(-dt_s / time_constant_s)
-    return pressure_bar + alpha * (target_bar - pressure_bar)
+        return np.where(ramp_s < dt_s, target, ramped)
+    return target - (target - ramped) * np.exp(-(dt_s - ramp_s) / time_constant_s)
 
 
 class MuscleModel:
@@ -136,5 +153,6 @@ class MuscleModel:
         dt_s = time_s - self._time_s
         if dt_s > 0.0:
             self._pressure_bar = lag_step(self._pressure_bar, self._input_bar, dt_s,
-                                          self.params.pressure_time_constant_s)
+                                          self.params.pressure_time_constant_s,
+                                          self.params.max_pressure_rate_bar_per_s)
             self._time_s = time_s

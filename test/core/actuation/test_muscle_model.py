@@ -31,6 +31,35 @@ def test_lag_step_is_the_exact_first_order_response():
     assert lag_step(np.zeros(2), np.full(2, 3.0), 0.01, 0.0) == pytest.approx([3.0, 3.0])  # no lag
 
 
+def test_a_flow_limited_muscle_ramps_at_its_rate_then_closes_in_exponentially():
+    # 0 -> 4 bar with tau 0.1 s and at most 5 bar/s: a ramp until 0.5 bar short (at 0.7 s), then the lag.
+    ramp = lag_step(np.zeros(2), np.array([4.0, 0.2]), dt_s=0.4, time_constant_s=0.1, max_rate_bar_per_s=5.0)
+    assert ramp == pytest.approx([2.0, 0.2 * (1 - math.exp(-4))])  # the small step is not rate-limited
+    after = lag_step(np.zeros(1), np.array([4.0]), dt_s=0.8, time_constant_s=0.1, max_rate_bar_per_s=5.0)
+    assert after == pytest.approx([4.0 - 0.5 * math.exp(-1)])
+    venting = lag_step(np.full(1, 4.0), np.zeros(1), dt_s=0.2, time_constant_s=0.0, max_rate_bar_per_s=5.0)
+    assert venting == pytest.approx([3.0]) and lag_step(venting, np.zeros(1), 1.0, 0.0, 5.0) == pytest.approx([0.0])
+    # In pieces or at once: the same exact solution.
+    pieces = np.zeros(1)
+    for _ in range(80):
+        pieces = lag_step(pieces, np.array([4.0]), 0.01, 0.1, 5.0)
+    assert pieces == pytest.approx(after)
+
+
+def test_a_flow_limit_shrinks_a_fast_swing_and_not_a_slow_one():
+    limited = muscle_parameters_from_options({"max_pressure_rate_bar_per_s": 5.0}, default_robot(), "test")
+    swings = {}
+    for frequency_hz in (0.25, 1.0):
+        model = MuscleModel(limited, 1)
+        times = np.arange(0.0, 8.0, 0.01)
+        seen = []
+        for t in times:
+            model.command(np.array([2.0 - 2.0 * math.cos(2 * math.pi * frequency_hz * t)]), t)
+            seen.append(model.state(t)[0][0])
+        swings[frequency_hz] = np.ptp(seen[len(seen) // 2:])
+    assert swings[0.25] > 3.8 and swings[1.0] < 0.7 * swings[0.25]
+
+
 def test_a_command_arrives_after_the_transport_delay_then_lags():
     model = MuscleModel(PARAMS, count=9, start_s=10.0)
     model.command(np.full(9, 4.0), now_s=10.0)
