@@ -37,6 +37,18 @@ def test_fitted_values_land_in_their_sections_and_are_validated():
         fit_parameters(["grip"])
 
 
+def test_the_flow_limit_is_fitted_only_from_a_starting_estimate():
+    from srs_ros.experiments.calibration import _search_space
+    config = load_sim_config()
+    limited = apply_values(config, {"max_pressure_rate_bar_per_s": 5.0})
+    assert limited.muscles.max_pressure_rate_bar_per_s == 5.0
+    space = _search_space(paper_table(), limited, ["max_pressure_rate_bar_per_s"], 8.0, 10)
+    assert space.initial == {"max_pressure_rate_bar_per_s": 5.0} and (space.lows[0], space.highs[0]) == (1.0, 40.0)
+    # 0 is "no limit", not a slow line: the search would jump from no limit to the slowest; a start is asked for.
+    with pytest.raises(InvalidInputError, match="no flow limit .* starting estimate"):
+        _search_space(paper_table(), config, ["max_pressure_rate_bar_per_s"], 8.0, 10)
+
+
 def test_the_written_sim_yaml_reads_back_as_the_same_configuration():
     config = apply_values(load_sim_config(), {"skin_radius_m": 0.0271, "transport_delay_s": 0.05})
     text = sim_yaml_text(config, "fitted for a test\n\nsecond line")
