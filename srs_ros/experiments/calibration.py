@@ -82,7 +82,7 @@ FIT_PARAMETERS: dict[str, FitParameter] = {p.name: p for p in (
     FitParameter("transport_delay_s", "muscles", "transport_delay_s", 0.0, 0.3,
                  "supply-line transport delay"),
     FitParameter("max_pressure_rate_bar_per_s", "muscles", "max_pressure_rate_bar_per_s", 1.0, 40.0,
-                 "fastest filling or venting of a muscle (a flow-limited supply; the option's 0, no limit, is not searched)"),
+                 "fastest filling or venting of a muscle (a flow-limited supply; 0, no limit, is not searched)"),
     FitParameter("deadzone_bar", "muscles", "deadzone_bar", 1.0, 1.8,
                  "pressure below which a muscle does not extend (at least 1 bar: nothing moves at 1 bar)"),
     FitParameter("skin_bend_stiffness_nm_per_rad", "servo", "skin_bend_stiffness_nm_per_rad", 0.5, 10.0,
@@ -226,9 +226,9 @@ def _search_space(reference: MeasuredTable, config: SimConfig, parameters: Seque
             raise InvalidInputError(f"{p.name} is fitted but the floor friction is {config.contact.friction}; "
                                     "fit friction_coefficient, or use anisotropic friction (--friction A,B).")
         if p.name == "max_pressure_rate_bar_per_s" and p.value(config) <= 0.0:
-            raise InvalidInputError("max_pressure_rate_bar_per_s is fitted but the configuration has no flow limit (0); "
-                                    "give a starting estimate under muscles: (e.g. max_pressure_rate_bar_per_s: 5) "
-                                    "in the --sim-config file, then fit it.")
+            raise InvalidInputError("max_pressure_rate_bar_per_s is fitted but the configuration has no flow limit "
+                                    "(0); give a starting estimate under muscles: (e.g. "
+                                    "max_pressure_rate_bar_per_s: 5) in the --sim-config file, then fit it.")
     lows = np.array([min(p.low, p.value(config)) for p in params])
     highs = np.array([max(p.high, p.value(config)) for p in params])
     deadzone_floor = next((lows[i] for i, p in enumerate(params) if p.name == "deadzone_bar"),
