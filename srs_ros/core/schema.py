@@ -111,6 +111,21 @@ def section(data: Any, name: str, where: str, path: str = "", what: str = "a map
     return mapping(data[name], where, key, what, error)
 
 
+def document(data: Any, name: str, where: str, what: str = "a mapping of key: value",
+             error: type[Exception] = ConfigurationError) -> Mapping[str, Any]:
+    """The mapping under ``name``, the only top-level key of a file that holds one block (``sim:``).
+
+    A stray top-level key is refused, not ignored: a section written at the top instead of indented under
+    ``name`` (``muscles:`` beside ``sim:``) would otherwise silently have no effect.
+    """
+    block = section(data, name, where, what=what, error=error)
+    stray = sorted((k for k in data if k != name), key=str)
+    if stray:
+        raise error(f"{where}: the top-level key {stray[0]} is not known; expected only {name}: at the top "
+                    f"(if {stray[0]} is one of its sections, indent it under {name}:).")
+    return block
+
+
 def _is_bool(value: Any) -> bool:
     return isinstance(value, (bool, np.bool_))  # NumPy's bool is no int subclass, but a truth value
 

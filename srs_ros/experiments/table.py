@@ -29,7 +29,7 @@ from srs_ros.core.errors import ConfigurationError
 from srs_ros.core.gait.library import list_gaits
 from srs_ros.core.gait.request import FREQUENCY_FIELD, amplitude_field, gait_field
 from srs_ros.core.robot import RobotDescription, config_dir, default_robot, read_yaml
-from srs_ros.core.schema import Field, Table, refusal, section
+from srs_ros.core.schema import Field, Table, document, refusal
 
 #: The paper's Table I in ``config/``.
 PAPER_TABLE_FILE = "paper_table1.yaml"
@@ -105,7 +105,7 @@ def row_fields(robot: RobotDescription, gait_names: Iterable[str]) -> tuple[Fiel
 def measured_table_from_dict(data: Any, source: str = "<dict>", robot: RobotDescription | None = None
                              ) -> MeasuredTable:
     """Validate a parsed measured table (``measured_table:``); a :class:`ConfigurationError` says what is wrong."""
-    section_ = MEASURED_TABLE.read(section(data, "measured_table", source, what=MEASURED_TABLE.description), source)
+    section_ = MEASURED_TABLE.read(document(data, "measured_table", source, what=MEASURED_TABLE.description), source)
     if list(section_["columns"]) != list(MEASURED_COLUMNS):
         raise refusal(source, MEASURED_TABLE.key("columns"), list(section_["columns"]), f"{list(MEASURED_COLUMNS)}")
     columns = row_fields(robot or default_robot(), list_gaits())

@@ -18,7 +18,7 @@ from typing import Any
 from srs_ros.core.actuation.muscle_model import MuscleParameters, muscle_parameters_from_options
 from srs_ros.core.errors import ConfigurationError
 from srs_ros.core.robot import RobotDescription, config_dir, default_robot, read_yaml
-from srs_ros.core.schema import Field, Table, check_known, refusal, section
+from srs_ros.core.schema import Field, Table, check_known, document, refusal, section
 
 #: Name of the default file in ``config/``.
 DEFAULT_SIM_FILE = "sim.yaml"
@@ -312,7 +312,7 @@ def _check_control_period(physics: PhysicsConfig, source: str) -> None:
 def sim_config_from_dict(data: Mapping[str, Any], robot: RobotDescription | None = None,
                          source: str = "<dict>") -> SimConfig:
     """Validate the parsed YAML (with its top-level ``sim:`` key) into a :class:`SimConfig`."""
-    return _build(section(data, "sim", source, what=f"a mapping of the sections {list(SECTIONS)}"), source, robot)
+    return _build(document(data, "sim", source, what=f"a mapping of the sections {list(SECTIONS)}"), source, robot)
 
 
 def default_sim_config_path() -> Path:

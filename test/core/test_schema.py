@@ -246,3 +246,18 @@ def test_node_parameters_are_checked_by_the_schema():
     gait = ParameterSpec.from_field(Field("gait", str, "a", choices=("a", "b"), description="gait"))
     assert gait.check("c") == "gait is 'c'; expected one of ['a', 'b']; gait."
     assert gait.additional_constraints == "one of ['a', 'b']"
+
+
+#: The files that hold one top-level block: a section written beside it instead of under it is refused.
+SINGLE_BLOCK_FILES = ("sim", "measured table", "calibration")
+
+
+@pytest.mark.parametrize("what", SINGLE_BLOCK_FILES)
+def test_a_section_written_at_the_top_instead_of_under_the_files_block_is_refused_not_ignored(what):
+    make, load, place = FILES[what]
+    data = make()
+    data["muscles"] = {"max_pressure_rate_bar_per_s": 5.0}  # meant to be indented under the block
+    with pytest.raises(ConfigurationError) as refused:
+        load(data)
+    assert str(refused.value) == (f"f.yaml: the top-level key muscles is not known; expected only {place[0]}: at the "
+                                  f"top (if muscles is one of its sections, indent it under {place[0]}:).")

@@ -43,7 +43,7 @@ from srs_ros.core.actuation.pressure import (
 )
 from srs_ros.core.errors import ConfigurationError
 from srs_ros.core.robot import RobotDescription, default_robot, read_yaml
-from srs_ros.core.schema import REQUIRED, Field, Table, check_known, mapping, missing, refusal, section
+from srs_ros.core.schema import REQUIRED, Field, Table, check_known, document, mapping, missing, refusal
 from srs_ros.core.validation import finite_array
 
 #: Top-level key of a calibration file.
@@ -155,7 +155,7 @@ def calibration_from_dict(data: Any, robot: RobotDescription | None = None,
                           source: str = "<dict>") -> MuscleCalibration:
     """Validate a parsed calibration file (with its top-level ``muscle_calibration:`` key)."""
     robot = robot or default_robot()
-    section_ = section(data, CALIBRATION_SECTION, source, what="a mapping with muscles: one entry per joint with "
+    section_ = document(data, CALIBRATION_SECTION, source, what="a mapping with muscles: one entry per joint with "
                        "deadzone_bar, extension_per_bar_m, saturation_bar, ... (srs_identify writes it)")
     check_known(section_, ("muscles", *_INFO_KEYS), source, CALIBRATION_SECTION)
     info = {key: section_[key] for key in _INFO_KEYS if key in section_}

@@ -20,7 +20,7 @@ import numpy as np
 
 from srs_ros.core.errors import ConfigurationError
 from srs_ros.core.robot import config_file, read_yaml
-from srs_ros.core.schema import Field, Table, check_known, refusal, section
+from srs_ros.core.schema import Field, Table, check_known, document, refusal, section
 
 #: The two rolling directions the navigator drives (the robot rolls roughly across its body axis).
 DIRECTIONS = ("inward_rolling", "outward_rolling")
@@ -160,7 +160,7 @@ _DIRECTION_TABLE = Table("turning_map.<direction>", (
 
 def turning_map_from_dict(data: Any, source: str = "<dict>") -> TurningMap:
     """Validate a parsed turning map (its top-level ``turning_map:`` key) into a :class:`TurningMap`."""
-    block = section(data, "turning_map", source, what="a mapping with amplitude_bar, frequency_hz and one block "
+    block = document(data, "turning_map", source, what="a mapping with amplitude_bar, frequency_hz and one block "
                                                       f"per direction {list(DIRECTIONS)}")
     check_known(block, (*_MAP_TABLE.names, *DIRECTIONS), source, "turning_map")
     head = _MAP_TABLE.read({k: v for k, v in block.items() if k in _MAP_TABLE}, source)
