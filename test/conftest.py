@@ -124,7 +124,7 @@ def ros_sessions(tmp_path_factory):
     """Sessions (a private domain, a client, node processes) that live for a whole test module.
 
     For node processes that several tests share: ``session = ros_sessions()``; each test brings the shared
-    node back to a known state first (``SharedNode.prepare`` in test_hardware_node.py). Closed at the end of
+    node back to a known state first (``SharedNode.prepare`` in srs_testing.hardware_rig). Closed at the end of
     the module, pass or fail.
     """
     sessions: list[RosSession] = []

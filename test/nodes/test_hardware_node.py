@@ -1,6 +1,7 @@
 """The hardware node as a separate process, driven as `ros2 lifecycle set` / `ros2 topic pub` / `echo` would.
 
-Most tests share one node process (two: the paper's map and the calibrated one), each from a known state:
+Most tests share one node process (srs_testing.hardware_rig; the calibrated map's, in
+test_hardware_node_calibrated.py, another), each from a known state:
 unconfigured, e-stop released, every configurable parameter set for the test as `ros2 param set` would
 (they take effect at configure), counters read as growth during the test and the log from the test's
 start. Tests of start-up-only behaviour (the read-only pressure limit, use_sim_time, the shipped params
@@ -15,175 +16,19 @@ import time
 
 import numpy as np
 import pytest
-from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
+from diagnostic_msgs.msg import DiagnosticStatus
 from sensor_msgs.msg import JointState
-from srs_testing import note_killed, ros_args
-from std_msgs.msg import Float64MultiArray
-
-from srs_ros.core.actuation.muscle_calibration import calibration_from_values, save_calibration
-from srs_ros.core.robot import config_dir, default_robot
-from srs_ros.ros.interfaces import (
-    ACTUATOR_STATE_TOPIC,
-    COMMAND_VOLTAGE_TOPIC,
-    COMMANDED_PRESSURE_TOPIC,
-    DIAGNOSTICS_TOPIC,
-    SETPOINT_TOPIC,
-    diagnostic_values,
-    setpoint_qos,
+from srs_testing import note_killed
+from srs_testing.hardware_rig import (
+    LENGTHS_M,
+    NAMES,
+    NODE,
+    PRESSURES_BAR,
+    ZEROS,
+    setpoint,
 )
 
-NODE = "/hardware_node"
-NAMES = list(default_robot().joint_names)
-LENGTHS_M = np.array([0.0, 0.01, 0.02, 0.025, 0.03, 0.04, 0.05, 0.065, -0.01])
-PRESSURES_BAR = np.array([0.0, 1.0, 2.0, 2.5, 3.0, 4.0, 4.0, 4.0, 0.0])  # P = 100 l in [0, 4] bar
-ZEROS = np.zeros(9)
-#: What a test on a shared node starts from (set while it is unconfigured, before the test's own values): the
-#: mock rig's own timeout and command rate, the paper's map, no compensation, and no ramp (the ramp has its own
-#: tests: test_output_ramps_up_from_zero_at_activation_and_after_an_estop_reset and the shipped params file).
-BASELINE = {"rig_file": "", "backend": "", "setpoint_timeout_s": 0.0, "command_rate_hz": 0.0, "ramp_time_s": 0.0,
-            "pressure_map": "paper", "calibration_file": "", "lag_compensation": False,
-            "compensation_delay_s": 0.0, "compensation_time_constant_s": 0.0}
-
-
-def setpoint(lengths_m, names=NAMES) -> JointState:
-    return JointState(name=list(names), position=[float(v) for v in lengths_m])
-
-
-class Rig:
-    """The test client's view of a running hardware node: its setpoint publisher and output topics."""
-
-    def __init__(self, client, env=None):
-        self.client, self.env = client, env
-        self.publisher = client.node.create_publisher(JointState, SETPOINT_TOPIC, setpoint_qos())
-        self.pressure = client.subscribe(Float64MultiArray, COMMANDED_PRESSURE_TOPIC)
-        self.voltage = client.subscribe(Float64MultiArray, COMMAND_VOLTAGE_TOPIC)
-        self.state = client.subscribe(JointState, ACTUATOR_STATE_TOPIC)
-        self.diagnostics = client.subscribe(DiagnosticArray, DIAGNOSTICS_TOPIC)
-        self.last_publish_s = 0.0
-
-    def clear(self) -> None:
-        """Forget what was received (a new test begins on a shared node)."""
-        for received in (self.pressure, self.voltage, self.state, self.diagnostics):
-            received.clear()
-
-    def start(self, transitions=("configure", "activate")) -> None:
-        self.client.spin_until(lambda: self.client.lifecycle_state(NODE) == "unconfigured", what="hardware_node up")
-        for transition in transitions:
-            assert self.client.change_state(NODE, transition), transition
-
-    def stream(self, messages, until=None, timeout_s: float = 10.0, what: str = "condition", period_s=0.01):
-        """Publish ``messages`` in turn every ``period_s`` while spinning, for ``timeout_s`` or until ``until()``."""
-        messages = messages if isinstance(messages, list) else [messages]
-        end, sent, next_s = time.monotonic() + timeout_s, 0, 0.0
-        while time.monotonic() < end:
-            if until is not None and until():
-                return
-            if time.monotonic() >= next_s:
-                message = messages[sent % len(messages)]
-                self.publisher.publish(message() if callable(message) else message)
-                self.last_publish_s = time.monotonic()
-                sent, next_s = sent + 1, self.last_publish_s + period_s
-            self.client.executor.spin_once(timeout_sec=0.005)
-        if until is not None:
-            raise AssertionError(f"timed out after {timeout_s} s waiting for {what}")
-
-    def commanded(self, expected_bar) -> bool:
-        return bool(self.pressure) and np.allclose(self.pressure[-1].data, expected_bar, atol=1e-9)
-
-    def diagnostic(self, key=None):
-        if not self.diagnostics:
-            return None
-        status = self.diagnostics[-1].status[0]
-        return status if key is None else diagnostic_values(status).get(key)
-
-    def counted(self, key: str) -> int:
-        """How much the diagnostics counter ``key`` grew during this test (since its first diagnostics message)."""
-        values = [int(v) for v in ({kv.key: kv.value for kv in m.status[0].values}.get(key)
-                                   for m in self.diagnostics) if v is not None]
-        return values[-1] - values[0] if values else 0
-
-    def wait_vented(self, what: str) -> None:
-        self.client.spin_until(lambda: self.commanded(ZEROS), what=what)
-
-
-class LogSince:
-    """A node process as one test sees it: its output since the test began."""
-
-    def __init__(self, proc):
-        self.proc, self.offset = proc, len(proc.output())
-
-    def output(self) -> str:
-        return self.proc.output()[self.offset:]
-
-    def alive(self) -> bool:
-        return self.proc.alive()
-
-
-class SharedNode:
-    """One hardware_node process that tests drive in turn, each from a known state (:meth:`prepare`)."""
-
-    def __init__(self, session):
-        self.session, self.proc = session, None
-        self.rig = Rig(session.client, session.env)
-
-    def prepare(self, params: dict) -> tuple[LogSince, Rig]:
-        """Unconfigured, e-stop released, BASELINE and then ``params`` set; a dead or stuck node is replaced."""
-        if self.proc is None or not self.proc.alive() or not self._unconfigured():
-            self._restart()
-        client = self.session.client
-        assert client.trigger(f"{NODE}/reset").success  # an e-stop a test left latched is released
-        results = client.set_parameters(NODE, {**BASELINE, **params})
-        assert all(r.successful for r in results), [r.reason for r in results]
-        client.spin_for(0.1)  # what the node published before is still on its way: not this test's
-        self.rig.clear()
-        return LogSince(self.proc), self.rig
-
-    def _unconfigured(self) -> bool:
-        client = self.session.client
-        try:
-            state = client.lifecycle_state(NODE)
-            if state == "active":
-                assert client.change_state(NODE, "deactivate")
-                state = "inactive"
-            if state == "inactive":
-                assert client.change_state(NODE, "cleanup")
-            client.spin_until(lambda: client.lifecycle_state(NODE) == "unconfigured", 10.0, "unconfigured")
-        except AssertionError:
-            return False
-        return True
-
-    def _restart(self) -> None:
-        if self.proc is not None:
-            self.proc.stop()
-        self.proc = self.session.launch("hardware_node", ros_args({}))
-        self.rig.start(transitions=())
-
-
-@pytest.fixture(scope="module")
-def shared_nodes(ros_sessions):
-    """The module's shared hardware_node processes by group (each on its own domain), started on first use."""
-    nodes: dict[str, SharedNode] = {}
-
-    def _get(group: str) -> SharedNode:
-        if group not in nodes:
-            nodes[group] = SharedNode(ros_sessions(f"srs_test_client_{group}"))
-        return nodes[group]
-
-    return _get
-
-
-@pytest.fixture
-def hardware(shared_nodes, request):
-    """``hardware(params)``: the shared node of ``group`` prepared with ``params`` (taken at configure);
-    ``own_process=True`` starts a process of its own with ``params`` at start-up (and ``extra_args``)."""
-    def _start(params=None, extra_args=(), own_process=False, group="paper_map"):
-        if not own_process:
-            return shared_nodes(group).prepare(params or {})
-        launch_node, client = request.getfixturevalue("launch_node"), request.getfixturevalue("ros_client")
-        proc = launch_node("hardware_node", [*ros_args(params or {}), *extra_args])
-        return proc, Rig(client, request.getfixturevalue("ros_env"))
-
-    return _start
+from srs_ros.core.robot import config_dir
 
 
 def test_setpoints_become_clamped_pressures_and_volts_and_deactivate_vents(hardware):
@@ -493,98 +338,3 @@ def test_hardware_that_would_vent_between_commands_is_refused_at_configure(hardw
 
 
 # -- the calibrated map and the lag compensation (docs/identification.md) -----------------------------
-SIM_MUSCLE = {"deadzone_bar": 1.0, "extension_per_bar_m": 0.065 / 3.0, "saturation_bar": 4.0,
-              "transport_delay_s": 0.03, "pressure_time_constant_s": 0.08}
-ODD_MUSCLE = {"deadzone_bar": 1.4, "extension_per_bar_m": 0.015, "saturation_bar": 3.5,
-              "transport_delay_s": 0.03, "pressure_time_constant_s": 0.08}
-
-
-def calibration_file(tmp_path, dynamics=True):
-    """The mock muscles' calibration (m2_pma1 calibrated as another muscle); with or without the dynamics."""
-    entries = {name: dict(SIM_MUSCLE) for name in NAMES}
-    entries["m2_pma1"] = dict(ODD_MUSCLE)
-    if not dynamics:
-        entries = {name: {k: v for k, v in e.items() if k.endswith("_bar") or k.endswith("_m")}
-                   for name, e in entries.items()}
-    path = tmp_path / "calibration.yaml"
-    save_calibration(calibration_from_values(entries, default_robot()), path)
-    return str(path)
-
-
-def test_a_calibrated_map_commands_each_muscle_by_its_own_characteristic(hardware, tmp_path):
-    proc, rig = hardware({"ramp_time_s": 0.0, "pressure_map": "calibrated",
-                          "calibration_file": calibration_file(tmp_path)}, group="calibrated_map")
-    rig.start()
-    lengths = np.array([0.0, 0.01, 0.0325, 0.021, 0.05, 0.065, 0.02, 0.03, 0.04])
-    gain = SIM_MUSCLE["extension_per_bar_m"]
-    expected = np.r_[0.0, 1.0 + 0.01 / gain, 2.5, 1.4 + 0.021 / 0.015, 1.0 + 0.05 / gain, 4.0,
-                     1.0 + np.array([0.02, 0.03, 0.04]) / gain]
-    rig.stream(setpoint(lengths), until=lambda: rig.commanded(expected), what="each muscle's inverted characteristic")
-    # The mock muscles are the calibrated ones (but m2_pma1): their measured lengths meet the setpoints.
-    default = [0, 1, 2, 4, 5, 6, 7, 8]
-    rig.stream(setpoint(lengths), until=lambda: rig.state and np.allclose(
-        np.array(rig.state[-1].position)[default], lengths[default], atol=2e-4), what="lengths on actuator_state")
-    rig.stream(setpoint(lengths), until=lambda: rig.diagnostic("pressure_map") == "calibrated",
-               what="the map on /diagnostics")
-    assert rig.counted("limited_setpoints") == 0  # 50 mm and 65 mm are within the calibrated stroke
-
-    beyond = lengths.copy()
-    beyond[3] = 0.04  # beyond m2_pma1's saturation (31.5 mm at 3.5 bar)
-    rig.stream(setpoint(beyond), until=lambda: rig.counted("limited_setpoints") > 0,
-               what="a setpoint beyond the calibrated stroke, limited and counted")
-    assert rig.commanded(np.r_[expected[:3], 3.5, expected[4:]])
-    # said too (the warning is throttled to one per 5 s: after another test's on this node it comes a moment later)
-    rig.stream(setpoint(beyond), until=lambda: "limited by the clamp: ['m2_pma1'] ask [0.04] m" in proc.output(),
-               timeout_s=8.0, what="the clamp's warning")
-    assert "calibrated map" in proc.output()
-
-
-def test_lag_compensation_switches_live_leads_and_never_leaves_the_clamp(hardware, tmp_path):
-    proc, rig = hardware({"ramp_time_s": 0.0, "pressure_map": "calibrated",
-                          "calibration_file": calibration_file(tmp_path)}, group="calibrated_map")
-    rig.start()
-    gain, odd = SIM_MUSCLE["extension_per_bar_m"], ODD_MUSCLE["extension_per_bar_m"]
-    rising = JointState(name=NAMES, position=[0.02] * 9, velocity=[0.1] * 9)
-    plain = np.full(9, 1.0 + 0.02 / gain)
-    plain[3] = 1.4 + 0.02 / odd
-    rig.stream(rising, until=lambda: rig.commanded(plain), what="the map alone while compensation is off")
-
-    assert rig.client.set_parameters(NODE, {"lag_compensation": True})[0].successful
-    led = np.full(9, 1.0 + (0.02 + 0.03 * 0.1) / gain + 0.08 * 0.1 / gain)
-    led[3] = 1.4 + (0.02 + 0.003) / odd + 0.08 * 0.1 / odd
-    rig.stream(rising, until=lambda: rig.commanded(np.minimum(led, [4, 4, 4, 3.5, 4, 4, 4, 4, 4])),
-               what="commands leading the delay and inverting the lag")
-
-    jump = JointState(name=NAMES, position=[0.06] * 9, velocity=[5.0] * 9)  # a lead far beyond 4 bar
-    count = len(rig.pressure)
-    rig.stream(jump, until=lambda: rig.counted("compensation_clamped") > 0, what="the cut lead counted on /diagnostics")
-    assert rig.commanded([4, 4, 4, 3.5, 4, 4, 4, 4, 4]) and rig.diagnostic("lag_compensation") == "True"
-    rig.stream(jump, until=lambda: "lag compensation: the lead asked for more than [0, 4] bar" in proc.output(),
-               timeout_s=8.0, what="the cut lead said (throttled to one warning per 5 s)")
-    assert max(max(m.data) for m in rig.pressure[count:]) <= 4.0
-
-    bad = JointState(name=NAMES, position=[0.02] * 9, velocity=[float("nan")] + [0.1] * 8)
-    ignored = int(rig.diagnostic("ignored_velocities"))
-    rig.stream([bad, jump], until=lambda: int(rig.diagnostic("ignored_velocities")) > ignored
-               and "setpoint velocities ignored" in proc.output(),
-               what="a NaN velocity ignored, counted and said (the lengths are the command)")
-    assert all(np.all(np.isfinite(m.data)) for m in rig.pressure[count:])
-
-    assert rig.client.set_parameters(NODE, {"lag_compensation": False})[0].successful
-    rig.stream(rising, until=lambda: rig.commanded(plain), what="the map alone again")
-
-
-def test_lag_compensation_without_the_lines_dynamics_is_refused_with_the_reason(hardware, tmp_path):
-    proc, rig = hardware({"ramp_time_s": 0.0, "pressure_map": "calibrated",
-                          "calibration_file": calibration_file(tmp_path, dynamics=False)}, group="calibrated_map")
-    rig.start()
-    result = rig.client.set_parameters(NODE, {"lag_compensation": True})[0]
-    assert not result.successful and "compensation_delay_s" in result.reason
-    assert rig.client.change_state(NODE, "deactivate") and rig.client.change_state(NODE, "cleanup")
-    results = rig.client.set_parameters(NODE, {"compensation_delay_s": 0.03, "compensation_time_constant_s": 0.08,
-                                               "lag_compensation": True})  # the dynamics from parameters instead
-    assert all(result.successful for result in results)
-    rig.start(("configure", "activate"))
-    rig.stream(setpoint(np.full(9, 0.02)), until=lambda: rig.diagnostic("lag_compensation") == "True",
-               what="compensation on with the parameters' dynamics")
-    assert not rig.client.set_parameters(NODE, {"pressure_map": "linear"})[0].successful

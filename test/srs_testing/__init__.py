@@ -14,6 +14,9 @@ Modules:
   :class:`BackendRecord`), and a clock for a mock backend in the test's own process (:class:`ManualClock`).
 - :mod:`srs_testing.gaits`: gait cycles as a sender publishes them (:data:`JOINT_NAMES`, :func:`rolling_cycle`,
   :func:`trajectory`).
+- :mod:`srs_testing.hardware_rig`: the hardware node as a separate process, shared by the tests of a module
+  (the pytest fixtures ``hardware`` and ``shared_nodes``, :class:`~srs_testing.hardware_rig.Rig`); not imported
+  here: ``from srs_testing.hardware_rig import ...``.
 - :mod:`srs_testing.netns`: several hosts on one machine as network namespaces (:class:`NetnsLab`, root only).
 - :mod:`srs_testing.navigation`: the navigator on the simulated robot, every node a process
   (:class:`~srs_testing.navigation.NavigationSystem`); not imported here: ``from srs_testing.navigation import
