@@ -111,19 +111,22 @@ def section(data: Any, name: str, where: str, path: str = "", what: str = "a map
     return mapping(data[name], where, key, what, error)
 
 
-def document(data: Any, name: str, where: str, what: str = "a mapping of key: value",
+def document(data: Any, name: str, where: str, what: str = "a mapping of key: value", sections: Iterable[str] = (),
              error: type[Exception] = ConfigurationError) -> Mapping[str, Any]:
     """The mapping under ``name``, the only top-level key of a file that holds one block (``sim:``).
 
     A stray top-level key is refused, not ignored: a section written at the top instead of indented under
-    ``name`` (``muscles:`` beside ``sim:``) would otherwise silently have no effect.
+    ``name`` (``muscles:`` beside ``sim:``) would otherwise silently have no effect. ``sections``: the keys of
+    the block, named in the refusal when the stray key is one of them.
     """
     block = section(data, name, where, what=what, error=error)
     stray = sorted((k for k in data if k != name), key=str)
-    if stray:
-        raise error(f"{where}: the top-level key {stray[0]} is not known; expected only {name}: at the top "
-                    f"(if {stray[0]} is one of its sections, indent it under {name}:).")
-    return block
+    if not stray:
+        return block
+    key = stray[0]
+    hint = (f"{show(key)} belongs to the {name} block: indent it under {name}:" if key in set(sections) else
+            f"move it under {name}: if it belongs there, or remove it")
+    raise error(f"{where}: the top-level key {show(key)} is not known; expected only {name}: at the top ({hint}).")
 
 
 def _is_bool(value: Any) -> bool:

@@ -105,7 +105,8 @@ def row_fields(robot: RobotDescription, gait_names: Iterable[str]) -> tuple[Fiel
 def measured_table_from_dict(data: Any, source: str = "<dict>", robot: RobotDescription | None = None
                              ) -> MeasuredTable:
     """Validate a parsed measured table (``measured_table:``); a :class:`ConfigurationError` says what is wrong."""
-    section_ = MEASURED_TABLE.read(document(data, "measured_table", source, what=MEASURED_TABLE.description), source)
+    section_ = MEASURED_TABLE.read(document(data, "measured_table", source, what=MEASURED_TABLE.description,
+                                             sections=MEASURED_TABLE.names), source)
     if list(section_["columns"]) != list(MEASURED_COLUMNS):
         raise refusal(source, MEASURED_TABLE.key("columns"), list(section_["columns"]), f"{list(MEASURED_COLUMNS)}")
     columns = row_fields(robot or default_robot(), list_gaits())

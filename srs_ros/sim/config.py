@@ -312,7 +312,8 @@ def _check_control_period(physics: PhysicsConfig, source: str) -> None:
 def sim_config_from_dict(data: Mapping[str, Any], robot: RobotDescription | None = None,
                          source: str = "<dict>") -> SimConfig:
     """Validate the parsed YAML (with its top-level ``sim:`` key) into a :class:`SimConfig`."""
-    return _build(document(data, "sim", source, what=f"a mapping of the sections {list(SECTIONS)}"), source, robot)
+    return _build(document(data, "sim", source, what=f"a mapping of the sections {list(SECTIONS)}", sections=SECTIONS),
+                  source, robot)
 
 
 def default_sim_config_path() -> Path:

@@ -259,5 +259,8 @@ def test_a_section_written_at_the_top_instead_of_under_the_files_block_is_refuse
     data["muscles"] = {"max_pressure_rate_bar_per_s": 5.0}  # meant to be indented under the block
     with pytest.raises(ConfigurationError) as refused:
         load(data)
-    assert str(refused.value) == (f"f.yaml: the top-level key muscles is not known; expected only {place[0]}: at the "
-                                  f"top (if muscles is one of its sections, indent it under {place[0]}:).")
+    block = place[0]  # muscles is a section of sim: and of muscle_calibration:, not of measured_table:
+    known = f"'muscles' belongs to the {block} block: indent it under {block}:" if what != "measured table" else \
+        f"move it under {block}: if it belongs there, or remove it"
+    assert str(refused.value) == (f"f.yaml: the top-level key 'muscles' is not known; expected only {place[0]}: at "
+                                  f"the top ({known}).")

@@ -1,6 +1,6 @@
 """The hardware node as a separate process, as its tests drive it: a shared node per group, and its topics.
 
-``hardware(params)`` (a pytest fixture: import it and ``shared_nodes`` into a test module) prepares the shared
+``hardware(params)`` (a pytest fixture; test/nodes/conftest.py provides it and ``shared_nodes``) prepares the shared
 hardware_node process of a group from a known state: unconfigured, e-stop released, :data:`BASELINE` and then
 ``params`` set as `ros2 param set` would (they take effect at configure); ``own_process=True`` starts a process
 of the test's own. :class:`Rig` is the client's view of it: the setpoint publisher and the output topics.

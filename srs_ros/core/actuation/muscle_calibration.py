@@ -156,7 +156,8 @@ def calibration_from_dict(data: Any, robot: RobotDescription | None = None,
     """Validate a parsed calibration file (with its top-level ``muscle_calibration:`` key)."""
     robot = robot or default_robot()
     section_ = document(data, CALIBRATION_SECTION, source, what="a mapping with muscles: one entry per joint with "
-                       "deadzone_bar, extension_per_bar_m, saturation_bar, ... (srs_identify writes it)")
+                        "deadzone_bar, extension_per_bar_m, saturation_bar, ... (srs_identify writes it)",
+                        sections=("muscles", *_INFO_KEYS))
     check_known(section_, ("muscles", *_INFO_KEYS), source, CALIBRATION_SECTION)
     info = {key: section_[key] for key in _INFO_KEYS if key in section_}
     return calibration_from_values(section_.get("muscles"), robot, info, source)

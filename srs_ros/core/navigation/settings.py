@@ -161,7 +161,8 @@ _DIRECTION_TABLE = Table("turning_map.<direction>", (
 def turning_map_from_dict(data: Any, source: str = "<dict>") -> TurningMap:
     """Validate a parsed turning map (its top-level ``turning_map:`` key) into a :class:`TurningMap`."""
     block = document(data, "turning_map", source, what="a mapping with amplitude_bar, frequency_hz and one block "
-                                                      f"per direction {list(DIRECTIONS)}")
+                                                       f"per direction {list(DIRECTIONS)}",
+                     sections=(*_MAP_TABLE.names, *DIRECTIONS))
     check_known(block, (*_MAP_TABLE.names, *DIRECTIONS), source, "turning_map")
     head = _MAP_TABLE.read({k: v for k, v in block.items() if k in _MAP_TABLE}, source)
     directions = {}
@@ -242,6 +243,6 @@ def load_navigation_settings(overrides: Mapping[str, Any] | None = None, where: 
     try:
         mapped = turning_map or load_turning_map(values["turning_map_file"])
     except ConfigurationError as exc:
-        raise ConfigurationError(f"{exc} Write one with `python -m srs_ros.tools.turning_cli --write-map FILE`.") \
-            from None
+        raise ConfigurationError(f"{exc} Fix the file, or write a new one with `python -m srs_ros.tools.turning_cli "
+                                 "--write-map FILE`.") from None
     return NavigationSettings(**values, turning_map=mapped)

@@ -34,14 +34,15 @@ def test_a_bad_turning_map_is_refused_with_the_key():
         turning_map_from_dict({"turning_map": block}, "m.yaml")
 
 
-
 def test_a_direction_block_written_at_the_top_of_a_turning_map_is_refused_not_ignored():
     good = {"turn_phase_rad": [0.0, 0.2], "turn_rate_deg_per_cycle": [1.0, -3.0], "travel_m_per_cycle": [0.1, 0.1]}
     data = {"turning_map": {"amplitude_bar": 4.0, "frequency_hz": 1.0, **{d: dict(good) for d in DIRECTIONS}}}
     data["inward_rolling"] = dict(good)  # a second copy beside the block: which one would count?
-    with pytest.raises(ConfigurationError, match=r"^m.yaml: the top-level key inward_rolling is not known; expected "
-                                                 r"only turning_map: at the top"):
+    with pytest.raises(ConfigurationError, match=r"^m.yaml: the top-level key 'inward_rolling' is not known; expected "
+                                                 r"only turning_map: at the top \('inward_rolling' belongs to the "
+                                                 r"turning_map block: indent it under turning_map:\)"):
         turning_map_from_dict(data, "m.yaml")
+
 
 def test_stop_offsets_per_turn_level_are_read_in_order_and_interpolated_between_levels():
     good = {"turn_phase_rad": [-0.4, 0.0, 0.4], "turn_rate_deg_per_cycle": [10.0, 0.0, -10.0],
