@@ -8,7 +8,7 @@ own axis per cycle and the highest point of the body), then prints one row of
 :mod:`srs_ros.experiments.fidelity` figures per variant (markdown) and writes them to ``--csv``.
 
 Run: python benchmarks/model_study.py [--variants shipped,no_skin,...] [--duration-s 15] [--workers N]
-     [--scheduler tcp://HOST:8786] [--sim-config FILE] [--csv study.csv]
+     [--scheduler tcp://HOST:8786] [--sim-config FILE] [--set SECTION.KEY=VALUE ...] [--csv study.csv]
 ``--list`` prints the variants; ``--probe`` runs only a quick probe of each (3 inward rolls in this process:
 distance per cycle, bend, the tail's spin per cycle, highest point). A run of every variant takes about
 1.5 min per variant on 2 cores (4 min on one worker).
@@ -24,7 +24,9 @@ import time
 from dataclasses import dataclass
 
 import numpy as np
+import yaml
 
+from srs_ros.core.errors import ConfigurationError
 from srs_ros.experiments.cluster import add_runner_arguments, runner_from_args
 from srs_ros.experiments.fidelity import fidelity_figures
 from srs_ros.experiments.sweep import SweepGrid
@@ -47,6 +49,25 @@ class Variant:
             section, key = path.split(".")
             data[section][key] = value
         return sim_config_from_dict({"sim": data}, source=f"{base.source} + {self.name}")
+
+
+def configured(path: str | None, changes: list[str]) -> SimConfig:
+    """The simulation config of ``path`` (default config/sim.yaml) with ``section.key=value`` changes (YAML values)."""
+    config = load_sim_config(path)
+    if not changes:
+        return config
+    values = {}
+    for change in changes:
+        name, equals, value = change.partition("=")
+        if not equals or name.count(".") != 1:
+            raise ConfigurationError(f"--set {change!r}: expected SECTION.KEY=VALUE, e.g. "
+                                     "muscles.pressure_time_constant_s=0.3 (the sections of config/sim.yaml's sim:).")
+        values[name] = yaml.safe_load(value)
+    try:
+        return Variant(" ".join(changes), values, "command line").config(config)
+    except KeyError as exc:
+        raise ConfigurationError(f"--set: no section {exc} in the sim configuration; expected one of "
+                                 f"{sorted(to_dict(config))}.") from None
 
 
 _AUTHORS_BEND = 1.5 * 1750.0 * 0.0125 ** 2     # 3 muscles of 1750 N/m at r = 12.5 mm (Arachchige et al. 2023)
@@ -224,6 +245,9 @@ def main(argv: list[str] | None = None) -> int:
     add_runner_arguments(parser)
     parser.add_argument("--sim-config", default=None,
                         help="the configuration the variants change (default: config/sim.yaml), e.g. a calibrated one")
+    parser.add_argument("--set", action="append", default=[], metavar="SECTION.KEY=VALUE",
+                        help="change one value of that configuration before the variants, e.g. "
+                             "muscles.pressure_time_constant_s=0.3 (repeatable)")
     parser.add_argument("--csv", default=None, help="write the table here too")
     parser.add_argument("--list", action="store_true", help="print the variants and exit")
     parser.add_argument("--probe", action="store_true",
@@ -240,7 +264,11 @@ def main(argv: list[str] | None = None) -> int:
         print(f"unknown variant {unknown[0]!r}; expected some of {sorted(known)} (--list explains them)",
               file=sys.stderr)
         return 2
-    base, rows = load_sim_config(args.sim_config), []
+    try:
+        base, rows = configured(args.sim_config, args.set), []
+    except ConfigurationError as exc:
+        print(exc, file=sys.stderr)
+        return 2
     if args.probe:
         for name in names:
             rows += probe_rows(known[name], base)

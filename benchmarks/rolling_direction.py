@@ -19,24 +19,14 @@ import argparse
 import math
 
 import numpy as np
-import yaml
-from model_study import Variant  # benchmarks/: a configuration with section.key changes
+from model_study import configured  # benchmarks/: a configuration with section.key changes
 
+from srs_ros.core.errors import ConfigurationError
 from srs_ros.experiments.fidelity import GAIT_SIDE, travel_side
-from srs_ros.sim.config import load_sim_config
 from srs_ros.sim.experiment import run_experiment
 
 AMPLITUDES_BAR = (2.0, 3.0, 4.0)
 FREQUENCIES_HZ = (0.25, 0.5, 0.75, 1.0)
-
-
-def configured(path: str | None, changes: list[str]):
-    """The simulation config of ``path`` (default config/sim.yaml) with ``section.key=value`` changes."""
-    config = load_sim_config(path)
-    if not changes:
-        return config
-    values = {name: yaml.safe_load(value) for name, _, value in (change.partition("=") for change in changes)}
-    return Variant(" ".join(changes), values, "command line").config(config)
 
 
 def roll(config, gait: str, amplitude_bar: float, frequency_hz: float, duration_s: float):
@@ -59,7 +49,10 @@ def main() -> None:
                         help="change one value, e.g. contact.roll_damping_nms_per_rad=0.3")
     parser.add_argument("--duration-s", type=float, default=8.0)
     args = parser.parse_args()
-    config = configured(args.sim_config, args.set)
+    try:
+        config = configured(args.sim_config, args.set)
+    except ConfigurationError as exc:
+        raise SystemExit(str(exc)) from None
     print(f"{config.source}, {args.duration_s:g} s from rest: side (+1 left of the heading) / speed toward the "
           f"opening (cm/s) / net speed (cm/s)")
     print("gait, bar | " + " | ".join(f"{f:g} Hz" for f in FREQUENCIES_HZ))
