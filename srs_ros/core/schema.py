@@ -11,6 +11,12 @@ value and what is expected::
     config/rigs/can.yaml: rig.backend_options.bitrat is not a known key; expected one of [bitrate, ...].
     config/robot.yaml: robot.mass_kg is missing; expected a number > 0 (kg).
 
+A file that holds one block (``sim:``, ``turning_map:``, ...) is opened with :func:`document`, which refuses
+any other top-level key instead of ignoring it::
+
+    f.yaml: the top-level key 'muscles' is not known; expected only sim: at the top ('muscles' belongs to the sim
+    block: indent it under sim:).
+
 Rules that span several keys (a timeout at least another one, a period a whole number of time steps)
 stay with the code that knows them and raise through :func:`refusal`, so they read the same. A CSV table
 (:func:`read_csv_rows`) is checked a row at a time by a :class:`Table`, its refusals naming file and line.
