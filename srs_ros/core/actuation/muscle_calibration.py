@@ -65,6 +65,8 @@ STATIC_KEYS: dict[str, tuple[float, float]] = {
 DYNAMIC_KEYS: dict[str, tuple[float, float]] = {
     f.name: (f.minimum, f.maximum) for f in MUSCLE_ENTRY.only(("transport_delay_s", "pressure_time_constant_s"))}
 _INFO_KEYS = ("rig", "created", "method", "fit")
+#: Every key of the calibration block.
+_BLOCK_KEYS = ("muscles", *_INFO_KEYS)
 
 #: Values of the ``pressure_map`` choice: the paper's P = 100 l, or the rig's calibration.
 PAPER_MAP, CALIBRATED_MAP = "paper", "calibrated"
@@ -157,8 +159,8 @@ def calibration_from_dict(data: Any, robot: RobotDescription | None = None,
     robot = robot or default_robot()
     section_ = document(data, CALIBRATION_SECTION, source, what="a mapping with muscles: one entry per joint with "
                         "deadzone_bar, extension_per_bar_m, saturation_bar, ... (srs_identify writes it)",
-                        sections=("muscles", *_INFO_KEYS))
-    check_known(section_, ("muscles", *_INFO_KEYS), source, CALIBRATION_SECTION)
+                        sections=_BLOCK_KEYS)
+    check_known(section_, _BLOCK_KEYS, source, CALIBRATION_SECTION)
     info = {key: section_[key] for key in _INFO_KEYS if key in section_}
     return calibration_from_values(section_.get("muscles"), robot, info, source)
 

@@ -158,12 +158,16 @@ _DIRECTION_TABLE = Table("turning_map.<direction>", (
 ))
 
 
+#: Every key of the turning_map block.
+_MAP_KEYS = (*_MAP_TABLE.names, *DIRECTIONS)
+
+
 def turning_map_from_dict(data: Any, source: str = "<dict>") -> TurningMap:
     """Validate a parsed turning map (its top-level ``turning_map:`` key) into a :class:`TurningMap`."""
     block = document(data, "turning_map", source, what="a mapping with amplitude_bar, frequency_hz and one block "
                                                        f"per direction {list(DIRECTIONS)}",
-                     sections=(*_MAP_TABLE.names, *DIRECTIONS))
-    check_known(block, (*_MAP_TABLE.names, *DIRECTIONS), source, "turning_map")
+                     sections=_MAP_KEYS)
+    check_known(block, _MAP_KEYS, source, "turning_map")
     head = _MAP_TABLE.read({k: v for k, v in block.items() if k in _MAP_TABLE}, source)
     directions = {}
     for direction in DIRECTIONS:
