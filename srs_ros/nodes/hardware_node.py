@@ -40,8 +40,8 @@ Interfaces (relative names, remappable):
   configured (zeros when inactive, disarmed, stale or e-stopped); ``actuator_state`` (sensor_msgs/JointState)
   at ``state_publish_rate_hz``: ``position`` = measured length (m), ``effort`` = measured pressure (bar),
   empty where the backend cannot measure; ``/diagnostics`` (diagnostic_msgs/DiagnosticArray, 1 Hz, in
-  every state), with counters of setpoints received, rejected, limited and written, the pressure map and
-  ``compensation_clamped`` (setpoints whose lead the clamp cut).
+  every state, and at once on a backend fault), with counters of setpoints received, rejected, limited and
+  written, the pressure map and ``compensation_clamped`` (setpoints whose lead the clamp cut).
 - services ``~/emergency_stop`` (std_srvs/Trigger: vents at once and latches, in any state; the latch
   survives deactivate/cleanup/configure), ``~/reset`` (releases the latch; output resumes with the
   next fresh setpoint, after a new ``~/arm`` on a real rig), ``~/arm`` and ``~/disarm``; the lifecycle
@@ -357,7 +357,12 @@ class HardwareNode(LifecycleNode):
                                                         state.measured_length_m, state.measured_pressure_bar))
 
     def _on_backend_fault(self, exc: Exception) -> None:
-        """Vent (best effort), then fail the next transition so the node goes through ErrorProcessing."""
+        """Vent (best effort), fail the next transition so the node goes through ErrorProcessing, and say so.
+
+        The fault goes on /diagnostics at once, not only at the next 1 Hz report: a simulated rig is configured
+        again after :data:`RECOVERY_PERIOD_S`, and a report that came late (a stalled executor runs both timers
+        together) would find it recovered and the fault never reported.
+        """
         self.status.note_fault(_describe(exc), self.backend.recovers_by_itself, self.gate.active)
         self._report_error(f"backend fault while commanding (venting, going to the error state): {self.status.fault}")
         self._vent()
@@ -365,6 +370,7 @@ class HardwareNode(LifecycleNode):
             self.trigger_deactivate()
         else:
             self.trigger_cleanup()
+        self._publish_diagnostics()
 
     def _vent(self) -> Exception | None:
         """Command 0 bar now; on failure report it loudly and return the exception."""
@@ -428,7 +434,7 @@ class HardwareNode(LifecycleNode):
 
     # -- diagnostics -------------------------------------------------------------------------
     def _publish_diagnostics(self) -> None:
-        """The status report on /diagnostics (1 Hz, in every state)."""
+        """The status report on /diagnostics (1 Hz, in every state, and at once on a backend fault)."""
         setup = self._setup()
         report = self.status.report(time.monotonic(), setup, self.gate, self.shaper)
         status = diagnostic_status(f"{NODE_NAME}: actuators", setup.rig, report.level, report.message, report.values)

@@ -97,7 +97,9 @@ def test_a_dask_cluster_gives_the_local_records_exactly_and_counts_every_run(clu
 
 
 @pytest.mark.slow(seconds=23)
-def test_a_worker_killed_mid_sweep_has_its_runs_rescheduled_by_dask_with_identical_records(config, local_records):
+def test_a_worker_killed_mid_sweep_has_its_runs_rescheduled_by_dask_with_identical_records(cluster, config,
+                                                                                           local_records):
+    """The module's cluster: its nanny starts the killed worker again, as `dask worker` does on a machine."""
     finished, killed, logs = [], [], []
 
     def kill_once(record):
@@ -105,7 +107,7 @@ def test_a_worker_killed_mid_sweep_has_its_runs_rescheduled_by_dask_with_identic
             killed.append(_kill_busy_worker(runner.client))
         finished.append(record)
 
-    with _cluster() as cluster, runner_for(cluster.scheduler_address, 2, log=logs.append) as runner:
+    with runner_for(cluster.scheduler_address, 2, log=logs.append) as runner:
         records = runner.run(CELLS, DURATION_S, config, on_result=kill_once)
         workers_after = runner.client.scheduler_info()["workers"]
     assert logs == []  # Dask's scheduler moved the runs by itself: nothing was resubmitted
