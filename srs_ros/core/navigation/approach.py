@@ -17,7 +17,13 @@ import math
 import numpy as np
 
 from srs_ros.core.navigation.commands import GaitCommand, NavigationState
-from srs_ros.core.navigation.fine import FINE_LINE_WITHIN, FineApproach, next_stop_phase
+from srs_ros.core.navigation.fine import (
+    FINE_LINE_WITHIN,
+    FineApproach,
+    next_stop_phase,
+    stop_lead_s,
+    stop_quarters_ahead,
+)
 from srs_ros.core.navigation.motion import Pose2D
 from srs_ros.core.navigation.settings import DIRECTIONS, STOP_PHASES, other_direction
 from srs_ros.core.navigation.stopping import STOP_WITHIN, StopPlan
@@ -108,8 +114,8 @@ class FineDriving:
         heading = FineApproach.heading_rad(yaw, direction)
         self._heading_error_rad = math.atan2(across, along if direction == DIRECTIONS[0] else -along)
         if speed is not None and passed is not None and direction == command.direction:
-            target = next_stop_phase(passed, command.reverse)
-            rest = fine.predicted_rest(pose, direction, heading, speed, 0.25 / command.frequency_hz, target)
+            target = next_stop_phase(passed, command.reverse, stop_quarters_ahead(command.frequency_hz))
+            rest = fine.predicted_rest(pose, direction, heading, speed, stop_lead_s(command.frequency_hz), target)
             if FineApproach.rests_on_goal(rest, self.goal, yaw, settings.goal_tolerance_m):
                 self._begin_fine_stop(pose, direction, target, rest)
                 return True

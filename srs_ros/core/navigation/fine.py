@@ -8,10 +8,10 @@ about a skin circumference per cycle (12-18 cm) but, slowly (``fine_frequency_hz
 anisotropic and calibrated physics: docs/navigation.md). It hardly turns (under 1 deg per cycle) and it rolls
 both ways, so near the goal the robot moves on a line, square to its body: at rest near the goal it creeps along
 that line toward the goal, inward or outward rolling (back and forth with a run-up if it went past), and stops
-at the next stop phase when it is predicted to rest on the goal. A goal that lies off the line (farther across
-it than :data:`FINE_LINE_WITHIN` x the tolerance) is turned to on the spot first, or driven round to with the
-cruise gait (:mod:`srs_ros.core.navigation.approach` decides). :class:`FineApproach` holds that state and the
-resting points it learns.
+at a stop phase about a second ahead (:data:`FINE_STOP_LEAD_S`) when it is predicted to rest on the goal. A goal
+that lies off the line (farther across it than :data:`FINE_LINE_WITHIN` x the tolerance) is turned to on the spot
+first, or driven round to with the cruise gait (:mod:`srs_ros.core.navigation.approach` decides).
+:class:`FineApproach` holds that state and the resting points it learns.
 """
 
 from __future__ import annotations
@@ -47,6 +47,10 @@ FINE_MAX_SKEW_RAD = math.radians(30.0)
 FINE_REST_GUESS_M = (0.02, 0.0)
 #: A reversal needs the goal at least this far behind (times goal_tolerance_m), and the run-up a stop needs.
 FINE_REVERSE_BEYOND = 0.3
+#: A creep stop is set this long (s) before the gait reaches its phase, at least a quarter cycle and at most a whole
+#: one (:func:`stop_quarters_ahead`): a pose or a command that comes late by less still stops the gait at the phase
+#: the prediction was made for (at 0.25 Hz the next stop phase; at 1 Hz the same phase a cycle later).
+FINE_STOP_LEAD_S = 1.0
 
 
 class FineApproach:
@@ -176,11 +180,11 @@ class FineApproach:
     def runup_m(self, direction: str, speed_m_s: float, frequency_hz: float, tolerance_m: float) -> float:
         """How far before the goal a stop must be decided (m).
 
-        A quarter cycle of creeping (to the next stop phase), the learned roll-on and the stop window.
+        The creep to the stop phase it is set for (:func:`stop_lead_s`), the learned roll-on and the stop window.
         """
-        quarter = max(speed_m_s, 0.0) * 0.25 / max(frequency_hz, 1e-3)
+        lead = max(speed_m_s, 0.0) * stop_lead_s(frequency_hz)
         return max(FINE_REVERSE_BEYOND * tolerance_m,
-                   quarter + float(np.max(self.offset_m[direction][:, 0])) + tolerance_m)
+                   lead + float(np.max(self.offset_m[direction][:, 0])) + tolerance_m)
 
     @staticmethod
     def line_yaw_rad(history: PoseHistory, direction: str, body_yaw_rad: float) -> float | None:
@@ -244,6 +248,17 @@ class FineApproach:
         self.measured[direction][phase_index] += 1
 
 
-def next_stop_phase(phase_index: int, reverse: bool) -> int:
-    """The stop phase the gait reaches after ``phase_index`` (backward when ``reverse``)."""
-    return (phase_index + (-1 if reverse else 1)) % len(STOP_PHASES)
+def next_stop_phase(phase_index: int, reverse: bool, quarters: int = 1) -> int:
+    """The stop phase the gait reaches ``quarters`` stop phases after ``phase_index`` (backward when ``reverse``)."""
+    return (phase_index + (-quarters if reverse else quarters)) % len(STOP_PHASES)
+
+
+def stop_quarters_ahead(frequency_hz: float) -> int:
+    """How many stop phases (quarter cycles) ahead a creep stop is set: :data:`FINE_STOP_LEAD_S`, 1 to 4."""
+    quarters = math.ceil(FINE_STOP_LEAD_S * len(STOP_PHASES) * max(frequency_hz, 1e-3) - 1e-9)
+    return min(len(STOP_PHASES), max(1, quarters))
+
+
+def stop_lead_s(frequency_hz: float) -> float:
+    """The time (s) from a creep stop's decision to the stop phase it is set for, at ``frequency_hz``."""
+    return stop_quarters_ahead(frequency_hz) / (len(STOP_PHASES) * max(frequency_hz, 1e-3))

@@ -13,7 +13,7 @@ import pytest
 
 from srs_ros.core.navigation import NavigationController, NavigationState, Pose2D, load_navigation_settings
 from srs_ros.core.navigation.approach import rests_near_enough
-from srs_ros.core.navigation.fine import FineApproach, next_stop_phase
+from srs_ros.core.navigation.fine import FineApproach, next_stop_phase, stop_lead_s, stop_quarters_ahead
 from srs_ros.core.navigation.motion import PoseHistory
 from srs_ros.core.navigation.settings import DIRECTIONS, STOP_PHASES
 
@@ -96,6 +96,12 @@ def test_the_creeping_line_and_the_direction_with_its_run_up():
     # a quarter cycle at 3 cm/s and 0.25 Hz (3 cm), the roll-on guess (2 cm), the tolerance (5 cm)
     assert fine.runup_m("inward_rolling", 0.03, 0.25, 0.05) == pytest.approx(0.10)
     assert next_stop_phase(3, reverse=False) == 0 and next_stop_phase(0, reverse=True) == 3
+    # a faster creep sets its stop about a second ahead, at most a cycle: late poses still stop it at its phase
+    assert [stop_quarters_ahead(f) for f in (0.25, 0.5, 1.0, 2.0)] == [1, 2, 4, 4]
+    assert [stop_lead_s(f) for f in (0.25, 0.5, 1.0, 2.0)] == pytest.approx([1.0, 1.0, 1.0, 0.5])
+    assert next_stop_phase(1, reverse=False, quarters=4) == 1 and next_stop_phase(0, reverse=True, quarters=2) == 2
+    # a cycle at 12 cm/s and 1 Hz (12 cm), the roll-on guess, the tolerance
+    assert fine.runup_m("inward_rolling", 0.12, 1.0, 0.05) == pytest.approx(0.19)
 
 
 def test_the_line_is_taken_from_the_motion_and_the_roll_on_is_learned():
