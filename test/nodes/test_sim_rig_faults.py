@@ -101,7 +101,7 @@ def pause(process, seconds: float, client) -> tuple[float, float]:
     return start_s, time.monotonic()
 
 
-@pytest.mark.slow(seconds=9)
+@pytest.mark.slow(seconds=11)
 def test_a_paused_simulator_holds_a_stopped_one_faults_and_recovers_and_a_restarted_one_is_picked_up(
         launch_node, ros_client):
     world = launch_node("sim_world", WORLD_ARGS)
