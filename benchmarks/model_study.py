@@ -151,6 +151,16 @@ VARIANTS = [Variant(*v) for v in (
      "floor contact at one sphere per segment (5 per module) on the axis instead of continuous capsules"),
     ("lobed_points", {"contact.floor_contact": "points", "contact.points_around": 3},
      "floor contact at 3 spheres around the skin per segment, at the muscles: a lobed cross-section"),
+    # Issue 19, the muscles' force limit (srs_ros/sim/moment_limit.py): with the sleeve-only skin of the authors'
+    # body, a module's bending moment at most 0.2 N m at 4 bar (estimate: 10-40 N per muscle at about 0.01 m).
+    ("moment_limit", {"servo.bend_moment_limit_nm": 0.2, "servo.skin_bend_stiffness_nm_per_rad": 0.2},
+     "a module bends with at most 0.2 N m at 4 bar, scaled by its pressure (muscle force x arm, estimate), "
+     "against the rubber sleeve alone (0.2 N m/rad)"),
+    ("moment_limit_tether", {"servo.bend_moment_limit_nm": 0.2, "servo.skin_bend_stiffness_nm_per_rad": 0.2,
+                             "tether.enabled": True, "tether.twist_stiffness_nm2": 0.2,
+                             "tether.bend_stiffness_nm2": 0.3, "tether.damping_nms_per_rad": 0.01,
+                             "tether.anchor_slip_torque_nm": 0.1},
+     "moment_limit with tether_rigid_slip's spin hold: the held C cannot lift itself off the floor"),
 )]
 
 

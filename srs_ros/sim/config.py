@@ -60,6 +60,7 @@ class ServoConfig:
     muscle_stiffness_n_per_m: float
     muscle_damping_ns_per_m: float
     twist_stiffness_nm_per_rad: float
+    bend_moment_limit_nm: float
 
 
 @dataclass(frozen=True)
@@ -214,6 +215,9 @@ SIM_TABLES: dict[str, Table] = {table.path.split(".")[1]: table for table in (
               description="one muscle's damping (drive muscle_tendons)"),
         Field("twist_stiffness_nm_per_rad", float, minimum=0.0, maximum=1e4, unit="N m/rad",
               description="a module's torsional stiffness; 0 = rigid (no twist joint)"),
+        Field("bend_moment_limit_nm", float, minimum=0.0, maximum=100.0, unit="N m",
+              description="largest bending moment of a module's servos at max_pressure_bar, scaled by its "
+                          "highest pressure; 0 = no limit"),
     )),
     Table("sim.contact", (
         Field("friction", str, choices=FRICTION_MODES, description="the friction model of the floor"),

@@ -250,7 +250,8 @@ def _add_node_joints(body, k: int, with_hinges: bool, servo, n: int, spec: mujoc
     The servo follows its set-point through a first-order filter of ``smoothing_s`` (the control period),
     so set-points that change once per control period move the joints smoothly, not in steps. With
     ``drive: muscle_tendons`` the joints have no servo: the damping is the joint's own, the muscles
-    (tendons) move them. ``twist_stiffness_nm_per_rad > 0`` adds a passive twist hinge about the chord.
+    (tendons) move them. With ``bend_moment_limit_nm`` > 0 the hinges' damping is the joint's too
+    (:mod:`srs_ros.sim.moment_limit`). ``twist_stiffness_nm_per_rad > 0`` adds a passive twist hinge about the chord.
     """
     servos = servo.drive == "joint_servos"
     joints = [(f"slide_{k}", mujoco.mjtJoint.mjJNT_SLIDE, [0.0, 0.0, 1.0], servo.slide_armature_kg,
@@ -261,13 +262,18 @@ def _add_node_joints(body, k: int, with_hinges: bool, servo, n: int, spec: mujoc
             joints.append((f"bend_{axis_name}_{k}", mujoco.mjtJoint.mjJNT_HINGE, axis, servo.hinge_armature_kg_m2,
                            servo.bend_stiffness_nm_per_rad * n, servo.bend_damping_nms_per_rad * n,
                            servo.skin_bend_stiffness_nm_per_rad * n))
+    limited = servo.bend_moment_limit_nm > 0.0  # a force-limited servo's damping moves onto its joint
     for name, kind, axis, armature, kp, kv, skin in joints:
+        on_joint = not servos or (limited and kind == mujoco.mjtJoint.mjJNT_HINGE)
         # The skin is a passive spring toward the straight, unextended module (spring reference 0).
         body.add_joint(name=name, type=kind, axis=axis, armature=armature, stiffness=skin,
-                       damping=0.0 if servos else kv)
+                       damping=kv if on_joint else 0.0)
         if servos:
             actuator = spec.add_actuator(name=f"servo_{name}", target=name, trntype=mujoco.mjtTrn.mjTRN_JOINT)
-            actuator.set_to_position(kp=kp, kv=kv, timeconst=smoothing_s)
+            actuator.set_to_position(kp=kp, kv=0.0 if on_joint else kv, timeconst=smoothing_s)
+            if limited and kind == mujoco.mjtJoint.mjJNT_HINGE:  # the range is set each control period
+                actuator.forcelimited = mujoco.mjtLimited.mjLIMITED_TRUE
+                actuator.forcerange = [-servo.bend_moment_limit_nm, servo.bend_moment_limit_nm]
     if with_hinges and servo.twist_stiffness_nm_per_rad > 0:
         body.add_joint(name=f"twist_{k}", type=mujoco.mjtJoint.mjJNT_HINGE, axis=[0.0, 0.0, 1.0],
                        armature=servo.hinge_armature_kg_m2, stiffness=servo.twist_stiffness_nm_per_rad * n,

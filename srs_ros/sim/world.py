@@ -27,6 +27,7 @@ from srs_ros.core.kinematics import lengths_to_bend
 from srs_ros.core.robot import RobotDescription, default_robot
 from srs_ros.sim.config import SimConfig, load_sim_config
 from srs_ros.sim.model import BodyLayout, ShapeTargets, build_model
+from srs_ros.sim.moment_limit import BendMomentLimit
 
 
 @dataclass(frozen=True)
@@ -120,6 +121,8 @@ class SimWorld:
         self.config = config or load_sim_config(robot=self.robot)
         self.model, self.layout = build_model(self.config, self.robot)
         self.shape = ShapeTargets(self.layout, self.robot)
+        self._moment_limit = BendMomentLimit(self.model, self.layout, self.config.servo.bend_moment_limit_nm,
+                                             self.robot.module_count, self.robot.max_pressure_bar)
         self.data = mujoco.MjData(self.model)
         physics = self.config.physics
         self._dt_s = physics.time_step_s
@@ -203,7 +206,8 @@ class SimWorld:
             self._check_divergence()
 
     def _set_servo_targets(self) -> None:
-        _, length_m = self.muscles.state(self.time_s)
+        pressure_bar, length_m = self.muscles.state(self.time_s)
+        self._moment_limit.update(self.data, pressure_bar)
         ctrl, layout = self.data.ctrl, self.layout
         angles, slides = self.shape.joint_targets(length_m)
         if layout.muscle_actuator.size:

@@ -1,4 +1,5 @@
-"""The model options of the issue 19 study: tendon muscles, twist joints, point contacts, mass per module.
+"""The model options of the issue 19 study: tendon muscles, twist joints, point contacts, mass per module,
+the muscles' moment limit.
 
 Each option changes the built model (and only when it is set); the tendon drive reaches the kinematic shape
 with the skin taken away, as the joint servos do.
@@ -26,6 +27,7 @@ def test_the_shipped_model_has_none_of_the_options():
     assert not any(model.joint(j).name.startswith("twist_") for j in range(model.njnt))
     assert model.ngeom == 1 + layout.segment_count                    # the floor and one capsule per segment
     assert set(layout.floor_geom_segment) == set(layout.segment_geom.tolist())
+    assert not model.actuator_forcelimited.any()
 
 
 def test_muscle_tendons_replace_the_joint_servos_by_the_muscles_springs_one_piece_per_chord():
@@ -223,3 +225,47 @@ def test_a_slipping_anchor_limits_the_tethers_torque():
     assert _tail_spin_under_torque(slipping, 0.0004, 3.0) == pytest.approx(clamped[0.0004], rel=0.5)
     # Above it the twist runs away.
     assert _tail_spin_under_torque(slipping, 0.004, 3.0) > 3 * clamped[0.004]
+
+
+LIMITED = CONFIG.replace("servo", bend_moment_limit_nm=0.2)
+
+
+def node_moments_nm(world) -> np.ndarray:
+    """Each inner node's bending moment from its two hinge servos (N m)."""
+    force = world.data.actuator_force[world.layout.hinge_actuator]
+    return np.sqrt(np.einsum("ij,ij->i", force, force))
+
+
+def test_the_moment_limit_moves_the_hinge_servos_damping_onto_the_joints():
+    model, layout = build_model(LIMITED, ROBOT)
+    n = CONFIG.body.segments_per_module
+    hinges = layout.hinge_actuator.ravel()
+    dofs = model.jnt_dofadr[model.actuator_trnid[hinges, 0]]
+    np.testing.assert_allclose(model.dof_damping[dofs], n * CONFIG.servo.bend_damping_nms_per_rad)
+    np.testing.assert_allclose(model.actuator_biasprm[hinges, 2], 0.0)
+    slides = layout.slide_actuator
+    assert np.all(model.actuator_biasprm[slides, 2] < 0.0)             # the slides keep their servo damping
+    assert model.actuator_forcelimited[hinges].all() and not model.actuator_forcelimited[slides].any()
+
+
+@pytest.mark.parametrize("pressure_bar", [2.0, 4.0])
+def test_no_node_bends_with_more_than_the_limit_at_its_pressure(pressure_bar):
+    bent = [pressure_bar, 0.0, 0.0] * 3                               # every module bends toward its first muscle
+    limited, free = SimWorld(LIMITED, ROBOT), SimWorld(CONFIG, ROBOT)
+    peaks = []
+    for world in (limited, free):
+        world.command_pressures(bent)
+        peak = 0.0
+        for _ in range(100):                                         # 1 s in 10 ms steps
+            world.step(0.01)
+            peak = max(peak, float(node_moments_nm(world).max()))
+        peaks.append(peak)
+    allowed = 0.2 * pressure_bar / ROBOT.max_pressure_bar
+    assert peaks[0] <= allowed * (1.0 + 1e-6) and peaks[1] > 2.0 * allowed, (peaks, allowed)
+    assert limited.state().body_bend_rad.sum() < free.state().body_bend_rad.sum()
+
+
+def test_vented_muscles_give_no_bending_moment():
+    world = SimWorld(LIMITED, ROBOT)
+    world.step(0.2)
+    assert float(node_moments_nm(world).max()) < 1e-6
