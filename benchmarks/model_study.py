@@ -161,6 +161,26 @@ VARIANTS = [Variant(*v) for v in (
                              "tether.bend_stiffness_nm2": 0.3, "tether.damping_nms_per_rad": 0.01,
                              "tether.anchor_slip_torque_nm": 0.1},
      "moment_limit with tether_rigid_slip's spin hold: the held C cannot lift itself off the floor"),
+    ("tubes_twist", {"contact.roll_stiffness_nm_per_rad": 0.5, "contact.roll_damping_nms_per_rad": 0.002},
+     "the supply tubes' twist alone: a 0.5 N m/rad spring on the tail's spin (estimate: nine tubes bundled, "
+     "held by the carpet 0.2 m behind the tail)"),
+    ("moment_limit_tubes", {"servo.bend_moment_limit_nm": 0.2, "servo.skin_bend_stiffness_nm_per_rad": 0.25,
+                            "contact.roll_stiffness_nm_per_rad": 0.5, "contact.roll_damping_nms_per_rad": 0.002},
+     "moment_limit (skin 0.25 N m/rad) with tubes_twist: the tubes hold the spin, the muscles cannot lift the C"),
+    ("moment_limit_tubes_skin_0.3", {"servo.bend_moment_limit_nm": 0.2, "servo.skin_bend_stiffness_nm_per_rad": 0.3,
+                                     "contact.roll_stiffness_nm_per_rad": 0.5,
+                                     "contact.roll_damping_nms_per_rad": 0.002},
+     "moment_limit_tubes with a skin of 0.3 N m/rad (how sensitive the trends are to the sleeve)"),
+    ("moment_limit_tubes_line_lag", {"servo.bend_moment_limit_nm": 0.2, "servo.skin_bend_stiffness_nm_per_rad": 0.25,
+                                     "contact.roll_stiffness_nm_per_rad": 0.5,
+                                     "contact.roll_damping_nms_per_rad": 0.002, "muscles.pressure_time_constant_s": 0.2},
+     "moment_limit_tubes with line_lag's 0.2 s supply lines (less bend at high frequency)"),
+    ("moment_limit_soft_tubes_line_lag", {"servo.bend_moment_limit_nm": 0.2,
+                                          "servo.skin_bend_stiffness_nm_per_rad": 0.25,
+                                          "contact.roll_stiffness_nm_per_rad": 0.2,
+                                          "contact.roll_damping_nms_per_rad": 0.002,
+                                          "muscles.pressure_time_constant_s": 0.2},
+     "moment_limit_tubes_line_lag with a 0.2 N m/rad hold (nearer the tied bundle's estimate, 0.1)"),
 )]
 
 

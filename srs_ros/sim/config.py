@@ -74,6 +74,7 @@ class ContactConfig:
     torsional_friction_m: float
     rolling_friction_m: float
     roll_damping_nms_per_rad: float
+    roll_stiffness_nm_per_rad: float
     self_contact: bool
     self_contact_min_separation_m: float
     contact_time_constant_s: float
@@ -228,6 +229,8 @@ SIM_TABLES: dict[str, Table] = {table.path.split(".")[1]: table for table in (
         Field("rolling_friction_m", float, minimum=0.0, maximum=0.1, unit="m"),
         Field("roll_damping_nms_per_rad", float, minimum=0.0, maximum=10.0, unit="N m s/rad",
               description="viscous resistance to the body turning about its own axis"),
+        Field("roll_stiffness_nm_per_rad", float, minimum=0.0, maximum=100.0, unit="N m/rad",
+              description="a spring on the tail's accumulated spin about its own axis (the supply tubes' twist)"),
         Field("self_contact", bool, description="segments far apart along the body touch"),
         Field("self_contact_min_separation_m", float, minimum=0.0, maximum=10.0, unit="m",
               description="segments closer than this along the body never touch"),

@@ -121,6 +121,8 @@ class SimWorld:
         self.config = config or load_sim_config(robot=self.robot)
         self.model, self.layout = build_model(self.config, self.robot)
         self.shape = ShapeTargets(self.layout, self.robot)
+        base = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_JOINT, "base")
+        self._spin_dof = int(self.model.jnt_dofadr[base]) + 5   # the tail's spin about its own axis (local z)
         self._moment_limit = BendMomentLimit(self.model, self.layout, self.config.servo.bend_moment_limit_nm,
                                              self.robot.module_count, self.robot.max_pressure_bar)
         self.data = mujoco.MjData(self.model)
@@ -154,6 +156,7 @@ class SimWorld:
         self._step_count = 0
         self._diverged: str | None = None
         self._bad_qacc = 0
+        self._spin_rad = 0.0  # the tail's accumulated spin about its own axis (contact.roll_stiffness_nm_per_rad)
         mujoco.mj_forward(self.model, self.data)
 
     def command_pressures(self, pressure_bar, now_s: float | None = None) -> np.ndarray:
@@ -199,11 +202,20 @@ class SimWorld:
             into = self._step_count % per_control
             if into == 0:
                 self._set_servo_targets()
+                self._wind_supply_tubes(per_control * self._dt_s)
             chunk = min(per_control - into, steps)
             mujoco.mj_step(self.model, self.data, nstep=chunk)
             self._step_count += chunk
             steps -= chunk
             self._check_divergence()
+
+    def _wind_supply_tubes(self, period_s: float) -> None:
+        """The supply tubes' twist: a torque against the tail's spin since the start (``roll_stiffness``), set
+        once per control period, the spin summed from the tail's spin rate at each period's start."""
+        stiffness = self.config.contact.roll_stiffness_nm_per_rad
+        if stiffness > 0.0:
+            self._spin_rad += float(self.data.qvel[self._spin_dof]) * period_s
+            self.data.qfrc_applied[self._spin_dof] = -stiffness * self._spin_rad
 
     def _set_servo_targets(self) -> None:
         pressure_bar, length_m = self.muscles.state(self.time_s)

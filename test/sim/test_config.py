@@ -50,6 +50,7 @@ def test_the_package_file_loads_with_units_and_shared_muscle_defaults():
     ("servo", "drive", "pistons", "one of ['joint_servos', 'muscle_tendons']"),
     ("servo", "twist_stiffness_nm_per_rad", -0.1, "a number in [0, 10000] (N m/rad)"),
     ("servo", "bend_moment_limit_nm", -0.2, "a number in [0, 100] (N m)"),
+    ("contact", "roll_stiffness_nm_per_rad", -0.5, "a number in [0, 100] (N m/rad)"),
     ("contact", "floor_contact", "grid", "one of ['capsules', 'points']"),
     ("contact", "points_around", 2, "0 (one sphere on the axis) or 3 to 12 (spheres around the skin)"),
     ("body", "mass_per_module_kg", -1.0, "a number in [0, 100] (kg)"),

@@ -1,5 +1,5 @@
 """The model options of the issue 19 study: tendon muscles, twist joints, point contacts, mass per module,
-the muscles' moment limit.
+the muscles' moment limit, the supply tubes' twist.
 
 Each option changes the built model (and only when it is set); the tendon drive reaches the kinematic shape
 with the skin taken away, as the joint servos do.
@@ -269,3 +269,24 @@ def test_vented_muscles_give_no_bending_moment():
     world = SimWorld(LIMITED, ROBOT)
     world.step(0.2)
     assert float(node_moments_nm(world).max()) < 1e-6
+
+
+def spin_under_torque_rad(config, torque_nm: float = 0.005, duration_s: float = 1.0) -> float:
+    """How far the vented, straight body turns about its own axis under a steady torque about it (rad)."""
+    world = SimWorld(config, ROBOT)
+    tail = world.layout.segment_body[0]
+    world.step(0.1)
+    axis = world.data.xmat[tail].reshape(3, 3)[:, 2].copy()
+    up_before = world.data.xmat[tail].reshape(3, 3)[:, 1].copy()
+    for _ in range(int(duration_s / 0.01)):
+        world.data.xfrc_applied[tail, 3:] = torque_nm * axis
+        world.step(0.01)
+    up_after = world.data.xmat[tail].reshape(3, 3)[:, 1]
+    return float(np.arctan2(np.cross(up_before, up_after) @ axis, up_before @ up_after))
+
+
+def test_the_supply_tubes_twist_holds_the_tail_against_a_spin_torque():
+    free = spin_under_torque_rad(CONFIG)
+    held = spin_under_torque_rad(CONFIG.replace("contact", roll_stiffness_nm_per_rad=0.5, roll_damping_nms_per_rad=0.002))
+    assert abs(free) > 1.0, free                                      # a straight body rolls under 5 mN m
+    assert abs(held - 0.005 / 0.5) < 0.003, held                      # the spring holds it at torque / stiffness
