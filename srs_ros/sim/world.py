@@ -210,8 +210,10 @@ class SimWorld:
             self._check_divergence()
 
     def _wind_supply_tubes(self, period_s: float) -> None:
-        """The supply tubes' twist: a torque against the tail's spin since the start (``roll_stiffness``), set
-        once per control period, the spin summed from the tail's spin rate at each period's start."""
+        """The supply tubes' twist: a torque against the tail's spin since the start (``roll_stiffness``).
+
+        Set once per control period; the spin is summed from the tail's spin rate at each period's start.
+        """
         stiffness = self.config.contact.roll_stiffness_nm_per_rad
         if stiffness > 0.0:
             self._spin_rad += float(self.data.qvel[self._spin_dof]) * period_s

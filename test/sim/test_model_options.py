@@ -287,6 +287,7 @@ def spin_under_torque_rad(config, torque_nm: float = 0.005, duration_s: float = 
 
 def test_the_supply_tubes_twist_holds_the_tail_against_a_spin_torque():
     free = spin_under_torque_rad(CONFIG)
-    held = spin_under_torque_rad(CONFIG.replace("contact", roll_stiffness_nm_per_rad=0.5, roll_damping_nms_per_rad=0.002))
+    held = spin_under_torque_rad(CONFIG.replace("contact", roll_stiffness_nm_per_rad=0.5,
+                                                roll_damping_nms_per_rad=0.002))
     assert abs(free) > 1.0, free                                      # a straight body rolls under 5 mN m
     assert abs(held - 0.005 / 0.5) < 0.003, held                      # the spring holds it at torque / stiffness
