@@ -71,6 +71,16 @@ def configured(path: str | None, changes: list[str]) -> SimConfig:
 
 
 _AUTHORS_BEND = 1.5 * 1750.0 * 0.0125 ** 2     # 3 muscles of 1750 N/m at r = 12.5 mm (Arachchige et al. 2023)
+_TETHER_RIGID_SLIP = {"tether.enabled": True, "tether.twist_stiffness_nm2": 0.2, "tether.bend_stiffness_nm2": 0.3,
+                      "tether.damping_nms_per_rad": 0.01, "tether.anchor_slip_torque_nm": 0.1}
+_LIMIT = {"servo.bend_moment_limit_nm": 0.2}     # the muscles' force limit at 4 bar (N m per module)
+
+
+def _tubes(hold_nm_per_rad: float) -> dict:
+    """The supply tubes' twist held by a spring on the tail's spin (N m/rad), lightly damped."""
+    return {"contact.roll_stiffness_nm_per_rad": hold_nm_per_rad, "contact.roll_damping_nms_per_rad": 0.002}
+
+
 VARIANTS = [Variant(*v) for v in (
     ("shipped", {}, "config/sim.yaml as shipped"),
     ("no_skin", {"servo.skin_bend_stiffness_nm_per_rad": 0.0, "servo.skin_axial_stiffness_n_per_m": 0.0},
@@ -135,8 +145,7 @@ VARIANTS = [Variant(*v) for v in (
                           "tether.anchor_slip_torque_nm": 0.005},
      "the tied bundle's twist slips above 5 mN m (the bundle turning on the floor about its axis: 0.5 x 0.83 N/m x "
      "1.9 m x 6 mm, estimate)"),
-    ("tether_rigid_slip", {"tether.enabled": True, "tether.twist_stiffness_nm2": 0.2, "tether.bend_stiffness_nm2": 0.3,
-                           "tether.damping_nms_per_rad": 0.01, "tether.anchor_slip_torque_nm": 0.1},
+    ("tether_rigid_slip", _TETHER_RIGID_SLIP,
      "stiff but bounded: tether_rigid slipping above 0.1 N m (a third of the torque at which the tied bundle "
      "tumbled the body; not an estimate)"),
     # Issue 19, a flow-limited supply: a muscle fills and vents no faster than the line lets air through.
@@ -153,33 +162,22 @@ VARIANTS = [Variant(*v) for v in (
      "floor contact at 3 spheres around the skin per segment, at the muscles: a lobed cross-section"),
     # Issue 19, the muscles' force limit (srs_ros/sim/moment_limit.py): with the sleeve-only skin of the authors'
     # body, a module's bending moment at most 0.2 N m at 4 bar (estimate: 10-40 N per muscle at about 0.01 m).
-    ("moment_limit", {"servo.bend_moment_limit_nm": 0.2, "servo.skin_bend_stiffness_nm_per_rad": 0.2},
+    ("moment_limit", {**_LIMIT, "servo.skin_bend_stiffness_nm_per_rad": 0.2},
      "a module bends with at most 0.2 N m at 4 bar, scaled by its pressure (muscle force x arm, estimate), "
      "against the rubber sleeve alone (0.2 N m/rad)"),
-    ("moment_limit_tether", {"servo.bend_moment_limit_nm": 0.2, "servo.skin_bend_stiffness_nm_per_rad": 0.2,
-                             "tether.enabled": True, "tether.twist_stiffness_nm2": 0.2,
-                             "tether.bend_stiffness_nm2": 0.3, "tether.damping_nms_per_rad": 0.01,
-                             "tether.anchor_slip_torque_nm": 0.1},
+    ("moment_limit_tether", {**_LIMIT, "servo.skin_bend_stiffness_nm_per_rad": 0.2, **_TETHER_RIGID_SLIP},
      "moment_limit with tether_rigid_slip's spin hold: the held C cannot lift itself off the floor"),
-    ("tubes_twist", {"contact.roll_stiffness_nm_per_rad": 0.5, "contact.roll_damping_nms_per_rad": 0.002},
-     "the supply tubes' twist alone: a 0.5 N m/rad spring on the tail's spin (estimate: nine tubes bundled, "
-     "held by the carpet 0.2 m behind the tail)"),
-    ("moment_limit_tubes", {"servo.bend_moment_limit_nm": 0.2, "servo.skin_bend_stiffness_nm_per_rad": 0.25,
-                            "contact.roll_stiffness_nm_per_rad": 0.5, "contact.roll_damping_nms_per_rad": 0.002},
+    ("tubes_twist", _tubes(0.5),
+     "the supply tubes' twist alone: a 0.5 N m/rad spring on the tail's spin, anchored to the world (not measured: "
+     "the tubes' own torsion is 0.002-0.02, a tied bundle stretched helically about 0.1)"),
+    ("moment_limit_tubes", {**_LIMIT, "servo.skin_bend_stiffness_nm_per_rad": 0.25, **_tubes(0.5)},
      "moment_limit (skin 0.25 N m/rad) with tubes_twist: the tubes hold the spin, the muscles cannot lift the C"),
-    ("moment_limit_tubes_skin_0.3", {"servo.bend_moment_limit_nm": 0.2, "servo.skin_bend_stiffness_nm_per_rad": 0.3,
-                                     "contact.roll_stiffness_nm_per_rad": 0.5,
-                                     "contact.roll_damping_nms_per_rad": 0.002},
+    ("moment_limit_tubes_skin_0.3", {**_LIMIT, "servo.skin_bend_stiffness_nm_per_rad": 0.3, **_tubes(0.5)},
      "moment_limit_tubes with a skin of 0.3 N m/rad (how sensitive the trends are to the sleeve)"),
-    ("moment_limit_tubes_line_lag", {"servo.bend_moment_limit_nm": 0.2, "servo.skin_bend_stiffness_nm_per_rad": 0.25,
-                                     "contact.roll_stiffness_nm_per_rad": 0.5,
-                                     "contact.roll_damping_nms_per_rad": 0.002,
+    ("moment_limit_tubes_line_lag", {**_LIMIT, "servo.skin_bend_stiffness_nm_per_rad": 0.25, **_tubes(0.5),
                                      "muscles.pressure_time_constant_s": 0.2},
      "moment_limit_tubes with line_lag's 0.2 s supply lines (less bend at high frequency)"),
-    ("moment_limit_soft_tubes_line_lag", {"servo.bend_moment_limit_nm": 0.2,
-                                          "servo.skin_bend_stiffness_nm_per_rad": 0.25,
-                                          "contact.roll_stiffness_nm_per_rad": 0.2,
-                                          "contact.roll_damping_nms_per_rad": 0.002,
+    ("moment_limit_soft_tubes_line_lag", {**_LIMIT, "servo.skin_bend_stiffness_nm_per_rad": 0.25, **_tubes(0.2),
                                           "muscles.pressure_time_constant_s": 0.2},
      "moment_limit_tubes_line_lag with a 0.2 N m/rad hold (nearer the tied bundle's estimate, 0.1)"),
 )]
