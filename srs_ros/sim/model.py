@@ -342,14 +342,18 @@ def _piece_map(model: mujoco.MjModel, actuators: list[int], columns: list[int]) 
     return matrix
 
 
+def spin_dof(model: mujoco.MjModel) -> int:
+    """The dof of the tail's spin about its own axis: the free joint ``base``'s local z rotation (its dof 5)."""
+    return int(model.jnt_dofadr[mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, "base")]) + 5
+
+
 def _set_roll_damping(model: mujoco.MjModel, damping_nms_per_rad: float) -> None:
     """Viscous damping of the tail's spin about its own axis (the free joint's local z rotation, dof 5).
 
     The body cannot twist, so this resists the whole body rolling about its axis; turning on the floor
     and translation stay free. MuJoCo applies joint damping implicitly (stable at any value).
     """
-    base = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, "base")
-    model.dof_damping[int(model.jnt_dofadr[base]) + 5] = damping_nms_per_rad
+    model.dof_damping[spin_dof(model)] = damping_nms_per_rad
 
 
 class ShapeTargets:

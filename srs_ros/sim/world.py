@@ -26,7 +26,7 @@ from srs_ros.core.errors import InvalidInputError, SimulationError
 from srs_ros.core.kinematics import lengths_to_bend
 from srs_ros.core.robot import RobotDescription, default_robot
 from srs_ros.sim.config import SimConfig, load_sim_config
-from srs_ros.sim.model import BodyLayout, ShapeTargets, build_model
+from srs_ros.sim.model import BodyLayout, ShapeTargets, build_model, spin_dof
 from srs_ros.sim.moment_limit import BendMomentLimit
 
 
@@ -121,8 +121,7 @@ class SimWorld:
         self.config = config or load_sim_config(robot=self.robot)
         self.model, self.layout = build_model(self.config, self.robot)
         self.shape = ShapeTargets(self.layout, self.robot)
-        base = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_JOINT, "base")
-        self._spin_dof = int(self.model.jnt_dofadr[base]) + 5   # the tail's spin about its own axis (local z)
+        self._spin_dof = spin_dof(self.model)  # the tail's spin about its own axis
         self._moment_limit = BendMomentLimit(self.model, self.layout, self.config.servo.bend_moment_limit_nm,
                                              self.robot.module_count, self.robot.max_pressure_bar)
         self.data = mujoco.MjData(self.model)
