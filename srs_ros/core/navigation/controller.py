@@ -41,6 +41,7 @@ from srs_ros.core.navigation.motion import (
     PoseHistory,
     TravelModel,
     TurnModel,
+    arc_miss_m,
     measure_cycle,
     wrap_rad,
 )
@@ -59,8 +60,8 @@ STRAIGHT_WITHIN = 0.7
 #: has every goal inside its tightest turn, and backing away does not turn it toward one: on the calibrated physics
 #: (at most 7 deg per cycle; the default and anisotropic ones 14-21) it backed away from goals 4-10 deg off its line
 #: for the whole minute (docs/navigation.md, "Backing away without a turn"). Such a robot drives on to a goal that
-#: its line passes within BACK_UNLESS_MISS_WITHIN x FINE_STOP_NEAR x fine_distance_m (the fine approach on): the
-#: cruise stops near it and the fine approach finishes from rest.
+#: its line, or its tightest arc toward it, passes within BACK_UNLESS_MISS_WITHIN x FINE_STOP_NEAR x
+#: fine_distance_m (the fine approach on): the cruise stops near it and the fine approach finishes from rest.
 WEAK_TURN_DEG_PER_CYCLE = 8.0
 BACK_UNLESS_MISS_WITHIN = 0.5
 
@@ -296,15 +297,17 @@ class NavigationController(FineDriving, EdgeGuard):
         settings, miss_m = self.settings, distance_m * abs(math.sin(error))
         if abs(error) >= 0.5 * math.pi or miss_m <= STRAIGHT_WITHIN * settings.goal_tolerance_m:
             return False
-        sign = 1 if error >= 0.0 else -1
-        if max(self.turns.fastest_deg(d, sign)[1] * sign for d in DIRECTIONS) < WEAK_TURN_DEG_PER_CYCLE and \
-                miss_m <= BACK_UNLESS_MISS_WITHIN * FINE_STOP_NEAR * settings.fine_distance_m:
+        sign, reach_m = (1 if error >= 0.0 else -1), BACK_UNLESS_MISS_WITHIN * FINE_STOP_NEAR * settings.fine_distance_m
+        weak = max(self.turns.fastest_deg(d, sign)[1] * sign for d in DIRECTIONS) < WEAK_TURN_DEG_PER_CYCLE
+        if weak and miss_m <= reach_m:
             return False
         index, rate_deg = self.turns.fastest_deg(direction, sign)
         if rate_deg * sign <= 1.0:
             return True
-        diameter = 2.0 * float(self.travel.travel_m[direction][index]) / math.radians(abs(rate_deg))
-        return distance_m < margin * settings.reach_margin * diameter * abs(math.sin(error))
+        radius_m = float(self.travel.travel_m[direction][index]) / math.radians(abs(rate_deg))
+        if weak and arc_miss_m(radius_m, distance_m, error) <= reach_m:
+            return False
+        return distance_m < margin * settings.reach_margin * 2.0 * radius_m * abs(math.sin(error))
 
     def _choose_level(self, now_s: float, direction: str, wanted_deg: float) -> int:
         same = self._command.direction == direction and self._level is not None

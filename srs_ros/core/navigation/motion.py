@@ -50,6 +50,17 @@ def wrap_rad(angle_rad: float) -> float:
     return (float(angle_rad) + math.pi) % (2.0 * math.pi) - math.pi
 
 
+def arc_miss_m(radius_m: float, distance_m: float, error_rad: float) -> float:
+    """How far the tightest arc toward a goal passes from it (m); 0 when an arc at least that wide reaches it.
+
+    The arc has ``radius_m`` and starts heading ``error_rad`` away from a goal ``distance_m`` off. Its centre lies
+    ``radius_m`` square to the heading on the goal's side; a goal inside that circle is missed by the radius less
+    its distance from the centre, and no wider arc passes nearer to it.
+    """
+    along, across = distance_m * math.cos(error_rad), distance_m * abs(math.sin(error_rad))
+    return max(0.0, radius_m - math.hypot(along, across - radius_m))
+
+
 class PoseHistory:
     """The last ``keep_s`` seconds of poses, yaw unwrapped, with line fits over a recent window."""
 

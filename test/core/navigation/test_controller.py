@@ -22,6 +22,7 @@ from srs_ros.core.navigation import (
     load_navigation_settings,
 )
 from srs_ros.core.navigation.commands import GaitCommand
+from srs_ros.core.navigation.motion import arc_miss_m
 from srs_ros.core.navigation.settings import DIRECTIONS, STOP_PHASES, DirectionMap, TurningMap
 
 LEVELS = np.array([-0.5, -0.35, -0.2, 0.0, 0.2, 0.35, 0.5])
@@ -132,11 +133,12 @@ WEAK_MAP = TurningMap(4.0, 1.0, "weak turner", {
                     np.tile([0.05, 0.0], (len(STOP_PHASES), 1))) for d in DIRECTIONS})
 
 
-@pytest.mark.parametrize("goal, backs", [((0.08, 0.6), False), ((-0.1, 0.7), False), ((0.15, 0.5), True)])
-def test_a_robot_that_hardly_turns_drives_on_to_a_goal_its_line_nearly_passes(goal, backs):
+@pytest.mark.parametrize("goal, backs", [((0.08, 0.6), False), ((-0.1, 0.7), False), ((0.15, 0.5), False),
+                                         ((0.25, 0.45), True)])
+def test_a_robot_that_hardly_turns_drives_on_to_a_goal_its_line_or_arc_nearly_passes(goal, backs):
     """Backing away turns a weak turner no closer to the goal (on the calibrated physics it reversed for a minute):
-    a goal its line passes within the fine approach's reach (8 and 9 cm here) is driven on to; one 14 cm off is
-    still backed away from."""
+    a goal its line passes within the fine approach's reach (8 and 9 cm here), or its tightest arc does (the line
+    14 cm off, the arc 8.6 cm), is driven on to; one its arc misses by 19.5 cm is still backed away from."""
     controller, roller, backing = NavigationController(load_navigation_settings({}, turning_map=WEAK_MAP), AREA), \
         Roller(bias_deg=0.0, scale=0.125), []
     controller.set_goal(*goal, now_s=0.0)
@@ -144,6 +146,22 @@ def test_a_robot_that_hardly_turns_drives_on_to_a_goal_its_line_nearly_passes(go
                 each_frame=lambda now: backing.append("backing away" in controller.progress(now).message))
     assert controller.state is NavigationState.REACHED, controller.progress(end).message
     assert any(backing) is backs
+
+
+def test_the_arc_miss_is_the_nearest_that_any_arc_no_tighter_comes_to_the_goal():
+    """Brute force: arcs of radius 2 m to 200 m (and a straight line) from (0, 0) heading +x, turning to +y."""
+    radius, arc = 2.0, np.linspace(0.0, 1.0, 2001)[:, None]
+    radii = np.geomspace(radius, 100.0 * radius, 1500)[None, :]
+    sweep = np.minimum(arc * math.pi * radius / radii, math.pi)  # the same length along every arc, at most half
+    xs, ys = (radii * np.sin(sweep)).ravel(), (radii * (1.0 - np.cos(sweep))).ravel()
+    for distance, error in [(0.5, 0.3), (0.52, math.atan2(0.15, 0.5)), (0.3, 1.2), (1.0, -0.8), (3.0, 0.2)]:
+        gx, gy = distance * math.cos(error), distance * abs(math.sin(error))  # the arcs turn toward the goal
+        nearest = float(np.min(np.hypot(xs - gx, ys - gy)))
+        assert arc_miss_m(radius, distance, error) == pytest.approx(nearest, abs=4e-3), (distance, error)
+    weak_radius = 0.09 / math.radians(2.5)  # WEAK_MAP: 9 cm per cycle at 2.5 deg per cycle
+    assert arc_miss_m(weak_radius, math.hypot(0.15, 0.5), math.atan2(0.15, 0.5)) == pytest.approx(0.086, abs=1e-3)
+    assert arc_miss_m(weak_radius, math.hypot(0.25, 0.45), math.atan2(0.25, 0.45)) == pytest.approx(0.195, abs=1e-3)
+    assert arc_miss_m(0.5, 0.8, 0.2) == 0.0  # outside the tightest circle: a wider arc reaches it
 
 
 def test_learns_the_turn_rates_it_measures():
