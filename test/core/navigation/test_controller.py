@@ -149,7 +149,7 @@ def test_a_robot_that_hardly_turns_drives_on_to_a_goal_its_line_or_arc_nearly_pa
 
 
 def test_the_arc_miss_is_the_nearest_that_any_arc_no_tighter_comes_to_the_goal():
-    """Brute force: arcs of radius 2 m to 200 m (and a straight line) from (0, 0) heading +x, turning to +y."""
+    """Brute force: arcs of radius 2 m to 200 m (the widest nearly straight) from (0, 0) heading +x, turning to +y."""
     radius, arc = 2.0, np.linspace(0.0, 1.0, 2001)[:, None]
     radii = np.geomspace(radius, 100.0 * radius, 1500)[None, :]
     sweep = np.minimum(arc * math.pi * radius / radii, math.pi)  # the same length along every arc, at most half
