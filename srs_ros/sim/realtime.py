@@ -11,7 +11,9 @@ No ROS: the ``sim_world`` node wires these to its stepping thread.
 - :class:`SimulatedBoard` is the regulators' DAC board: it applies every command at the world time it arrived
   (so the loop need not wake up for each one) and vents by itself when commands stop for ``command_timeout_s``
   of *world* time, as docs/can.md demands of a real board (a world that is itself paused does not count its
-  own pause as silence).
+  own pause as silence). A real board reads its input at once; the simulated one hears of a command only when
+  the caller's receiving thread runs, so while that thread is behind (:meth:`SimulatedBoard.receiver_behind`)
+  silence is not counted: a stall of the simulator's own process is not the sender's silence.
 """
 
 from __future__ import annotations
@@ -26,6 +28,11 @@ import numpy as np
 MAX_CATCH_UP_S = 0.1
 #: Commands the board holds between two wake-ups; beyond it the oldest are dropped (a newer one replaces them).
 MAX_PENDING_COMMANDS = 256
+#: The receiving thread is *behind* when it last ran longer ago than this (s): a command may wait unread. A
+#: healthy executor runs every few tens of ms; a Python process on a busy 2-core machine stalls 0.2-0.4 s.
+RECEIVER_BEHIND_S = 0.25
+#: ... and *stuck* beyond this (s): the board counts silence again and vents, as for a dead sender.
+RECEIVER_STUCK_S = 5.0
 
 
 @dataclass
@@ -73,6 +80,7 @@ class SimulatedBoard:
     _pending: deque = field(default_factory=lambda: deque(maxlen=MAX_PENDING_COMMANDS), repr=False)
     _last_command_world_s: float = -math.inf
     _vented: bool = True  # starts vented: nothing to time out before the first command
+    _silence_from_world_s: float = -math.inf  # the last world time the receiver was behind: silence counts after it
 
     def receive(self, pressure_bar: np.ndarray, world_s: float | None = None) -> None:
         """A command arrived (already checked and clamped by the caller) at world time ``world_s`` (None: now)."""
@@ -89,15 +97,23 @@ class SimulatedBoard:
         if taken:
             self._vented = self.vented_by_silence = False
             return taken
-        if not self._vented and world_s - self._last_command_world_s > self.command_timeout_s:
+        silent_since_s = max(self._last_command_world_s, self._silence_from_world_s)
+        if not self._vented and world_s - silent_since_s > self.command_timeout_s:
             self._vented = self.vented_by_silence = True
             self.silence_vents += 1
             self._last_command_world_s = world_s  # a command dated before the vent comes after it
             return [(world_s, np.zeros(self.joint_count))]
         return []
 
+    def receiver_behind(self, world_s: float) -> None:
+        """The caller's receiving thread is behind at world time ``world_s`` (s): commands may be waiting unread.
+
+        Silence counts only from here, so the sender gets a whole ``command_timeout_s`` once the receiver runs again.
+        """
+        self._silence_from_world_s = max(self._silence_from_world_s, world_s)
+
     def reset(self) -> None:
         """Forget every command (the world was reset, vented)."""
         self._pending.clear()
-        self._last_command_world_s = -math.inf
+        self._last_command_world_s = self._silence_from_world_s = -math.inf
         self._vented, self.vented_by_silence = True, False

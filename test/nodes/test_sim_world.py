@@ -3,6 +3,7 @@
 sim_world paused, stopped, killed and restarted: test/nodes/test_sim_rig_faults.py.
 """
 
+import time
 
 import numpy as np
 import pytest
@@ -11,7 +12,7 @@ from sensor_msgs.msg import Image, JointState
 from srs_testing import ros_args
 from visualization_msgs.msg import MarkerArray
 
-from srs_ros.core.robot import config_dir
+from srs_ros.core.robot import config_dir, default_robot
 from srs_ros.ros.interfaces import SIM_COMMAND_TOPIC, bus_qos, stamp_to_seconds
 
 SIM_RIG = str(config_dir() / "rigs" / "sim.yaml")
@@ -76,8 +77,6 @@ def test_a_bad_sim_config_is_refused_with_the_key_and_what_is_expected(launch_no
 def test_an_image_is_stamped_at_the_state_it_shows_not_after_a_slow_render(ros_domain, monkeypatch):
     """A camera stamps its exposure: a render that a busy machine stalls (here 0.2 s) must not date the frame late,
     which for a robot rolling at 10 cm/s would put its tracked pose 2 cm behind the truth at that stamp."""
-    import time
-
     import rclpy
 
     from srs_ros.nodes.sim_world import SimWorldNode
@@ -107,3 +106,58 @@ def test_an_image_is_stamped_at_the_state_it_shows_not_after_a_slow_render(ros_d
     # Read with the state, before the 0.2 s render: judged against the render's start, not a bound on the time it
     # took to get there (a busy machine stalls a process 0.1-0.4 s anywhere; once it did between the two).
     assert stamp_to_seconds(image.header.stamp) <= render_started_s[0] + 1e-3
+
+
+@pytest.mark.slow(seconds=6)
+def test_a_stall_of_sim_worlds_own_executor_is_not_taken_for_a_silent_hardware_node(ros_domain):
+    """The physics thread steps on while sim_world's executor is starved (here: not spun for 1.2 s) and the
+    commands wait unread: the board must not vent a sender that kept sending. Once the sender really stops, it
+    vents within its timeout as before."""
+    import rclpy
+    from rclpy.executors import SingleThreadedExecutor
+
+    from srs_ros.nodes.sim_world import SimWorldNode
+
+    rclpy.init(args=["sim_world", "--ros-args", "-p", "camera_rate_hz:=0.0", "-p", "markers_rate_hz:=0.0"],
+               domain_id=ros_domain)
+    try:
+        executor = SingleThreadedExecutor()
+        world, sender = SimWorldNode(), rclpy.create_node("hardware_stand_in")
+        _stall_and_silence(executor, world, sender)
+    finally:
+        rclpy.shutdown()
+
+
+def _stall_and_silence(executor, world, sender) -> None:
+    try:
+        publisher = sender.create_publisher(JointState, SIM_COMMAND_TOPIC, bus_qos())
+        command = JointState(name=list(default_robot().joint_names), effort=[1.0] * 9)
+        executor.add_node(world)
+
+        def run(seconds: float, send: bool, spin: bool) -> None:
+            end_s = time.monotonic() + seconds
+            while time.monotonic() < end_s:
+                if send:
+                    publisher.publish(command)
+                if spin:
+                    executor.spin_once(timeout_sec=0.02)
+                else:
+                    time.sleep(0.02)
+
+        deadline_s = time.monotonic() + 15.0
+        while world.commands < 5 and time.monotonic() < deadline_s:
+            run(0.1, send=True, spin=True)
+        assert world.commands >= 5, "sim_world never received the stand-in's commands"
+        run(0.5, send=True, spin=True)
+        received_before_stall = world.commands
+        run(1.2, send=True, spin=False)  # the executor stalls; the physics thread and the sender go on
+        run(0.6, send=True, spin=True)
+        assert world.commands > received_before_stall
+        assert world.board.silence_vents == 0, "vented a sender that never stopped, during sim_world's own stall"
+        assert world.receiver_stalls >= 1 and not world.board.vented_by_silence
+        run(1.0, send=False, spin=True)  # now the sender is silent: vented within the timeout
+        assert world.board.silence_vents == 1 and world.board.vented_by_silence
+    finally:
+        executor.shutdown(timeout_sec=1.0)
+        for node in (world, sender):
+            node.destroy_node()

@@ -51,6 +51,27 @@ def test_the_board_vents_once_when_commands_stop_for_its_timeout_of_world_time()
     assert board.take(10.0) == [] and not board.vented_by_silence and board.silence_vents == 1
 
 
+def test_silence_counts_only_from_the_last_moment_the_receiver_was_behind():
+    """A stall of the simulator's own receiving thread is not the sender's silence: the sender gets a whole
+    timeout once the receiver runs again, and a sender that then stays silent is vented as always."""
+    board = SimulatedBoard(joint_count=9, command_timeout_s=0.5)
+    board.receive(np.full(9, 4.0), 0.99)
+    board.take(1.0)
+    for world_s in np.arange(1.1, 2.0, 0.1):  # the receiver is behind from 1.1 s to 1.9 s: nothing comes in
+        board.receiver_behind(world_s)
+        assert board.take(world_s) == []
+    assert board.take(2.3) == [] and board.silence_vents == 0  # 1.3 s after the command, 0.4 s after the stall
+    board.receive(np.full(9, 3.0), 2.35)  # the commands the stall held back arrive: followed, never vented
+    assert [p[0] for _, p in board.take(2.36)] == [3.0]
+    [(when_s, vent)] = board.take(2.86)  # then a real silence of 0.5 s: vented
+    assert when_s == 2.86 and not vent.any() and board.silence_vents == 1
+    board.receiver_behind(5.0)
+    board.reset()  # a reset forgets the stall as well as the commands
+    board.receive(np.full(9, 1.0), 0.0)
+    board.take(0.01)
+    assert board.take(0.52)[0][1].sum() == 0.0
+
+
 def test_a_command_dated_before_a_vent_the_board_applied_comes_after_it():
     """A command that arrived while the vent was applied is dated from the wake-up before: it follows the vent
     (the world refuses a command older than the last, and would stop)."""
