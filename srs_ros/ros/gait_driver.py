@@ -3,7 +3,7 @@
 A :class:`GaitDriver` turns each new :class:`~srs_ros.core.navigation.GaitCommand` into the calls an operator
 would make (relative names, resolved in the navigator's namespace)::
 
-    trajectory_server/set_parameters_atomically   gait, amplitude_bar, <gait>.turn_phase_rad (one call)
+    trajectory_server/set_parameters_atomically   gait, amplitude_bar, <gait>.turn_phase_rad or .c_rad_per_unit
     trajectory_server/regenerate                  the new cycle is fitted and latched; gait_player cross-fades
     gait_player/set_parameters                    frequency_hz and reverse (live; the signed frequency ramps,
                                                   through 0 for a reversal: outward rolling = inward backward)
@@ -167,7 +167,7 @@ class GaitDriver:
     # ------------------------------------------------------------- the calls
     def _set_gait(self, command) -> None:
         values = {"gait": command.gait, "amplitude_bar": float(command.amplitude_bar),
-                  f"{command.gait}.turn_phase_rad": float(command.turn_phase_rad)}
+                  **{f"{command.gait}.{name}": value for name, value in command.gait_parameters.items()}}
         request = SetParametersAtomically.Request(
             parameters=[Parameter(name, value=value).to_parameter_msg() for name, value in values.items()])
         self._sent_key = command.cycle_key

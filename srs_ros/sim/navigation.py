@@ -51,7 +51,8 @@ COLUMNS = ("time_s", "x_m", "y_m", "yaw_rad", "seen_x_m", "seen_y_m", "seen_yaw_
            "direction", "turn_phase_rad", "frequency_hz", "distance_to_go_m", "heading_error_rad")
 #: Codes of the ``state`` and ``direction`` columns.
 STATE_CODES = {state: i for i, state in enumerate(NavigationState)}
-DIRECTION_CODES = {None: 0, "inward_rolling": 1, "outward_rolling": -1}
+DIRECTION_CODES = {None: 0, "inward_rolling": 1, "outward_rolling": -1, "serpentine_forward": 2,
+                   "serpentine_backward": -2}
 
 
 @dataclass(frozen=True)
@@ -139,7 +140,8 @@ class GaitDriver:
             return
         self.playback.stop_at_phase(None)
         if command.cycle_key != self._key:
-            cycle = _cycle(command.gait, command.amplitude_bar, command.turn_phase_rad, self.samples, self.robot)
+            cycle = _cycle(command.gait, command.amplitude_bar, tuple(command.gait_parameters.items()), self.samples,
+                           self.robot)
             self.playback.load(cycle.lengths_m, cycle.frequency_hz)
             self._key = command.cycle_key
         if command.frequency_hz != self._frequency_hz:
@@ -157,9 +159,9 @@ class GaitDriver:
 
 
 @lru_cache(maxsize=64)
-def _cycle(gait: str, amplitude_bar: float, turn_phase_rad: float, samples: int,
+def _cycle(gait: str, amplitude_bar: float, parameters: tuple[tuple[str, float], ...], samples: int,
            robot: RobotDescription) -> GaitCycle:
-    return generate_cycle(gait, amplitude_bar, 1.0, samples, robot, {"turn_phase_rad": turn_phase_rad})
+    return generate_cycle(gait, amplitude_bar, 1.0, samples, robot, dict(parameters))
 
 
 class _Eyes:

@@ -62,3 +62,17 @@ def test_the_offline_driver_plays_outward_as_the_inward_cycle_backward():
     for _ in range(400):
         last = driver.pressures_bar(0.005)
     assert np.all(last == 0.0)
+
+
+def test_on_the_anisotropic_floor_a_goal_off_the_line_is_reached_by_a_move_along_the_axis():
+    """At rest, a goal 12 cm off the creeping line along the body's axis: the serpentine moves the body onto the line
+    (the floor's friction lets it, 3-4 cm per cycle), then it creeps to the goal. Real MuJoCo, about 3 s of CPU."""
+    from srs_ros.sim.config import with_friction
+    from srs_ros.sim.navigation import COLUMNS, DIRECTION_CODES
+
+    result = run_navigation([(-0.12, 0.25)], config=with_friction(load_sim_config(), "anisotropic"),
+                            goal_timeout_s=60.0)
+    (outcome,) = result.outcomes
+    assert outcome.reached and outcome.final_error_m <= 0.05, outcome.summary()
+    played = set(result.rows[:, COLUMNS.index("direction")].tolist())
+    assert played & {DIRECTION_CODES["serpentine_forward"], DIRECTION_CODES["serpentine_backward"]}, played

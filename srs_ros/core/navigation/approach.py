@@ -3,10 +3,11 @@
 :class:`FineDriving` is the part of :class:`~srs_ros.core.navigation.controller.NavigationController` that
 plays :mod:`srs_ros.core.navigation.fine` (why and what was measured: there and docs/navigation.md). At rest
 near the last goal (after a stop, or given the goal at rest) the robot creeps at ``fine_amplitude_bar`` and
-``fine_frequency_hz`` when the goal lies on the line square to its body, else it turns on the spot (an
-inward and an outward stroke of the cruise gait at the turn levels that turn fastest the same way) and looks
-again; while creeping it stops at the next stop phase where it is predicted to rest on the goal, reverses
-with a run-up when it went past, and stops when the goal drifts off the line.
+``fine_frequency_hz`` when the goal lies on the line square to its body, else it moves along its own axis onto
+that line where the floor lets it (:mod:`srs_ros.core.navigation.shuffle`) or turns on the spot (an inward and an
+outward stroke of the cruise gait at the turn levels that turn fastest the same way), and looks again; while
+creeping it stops at the next stop phase where it is predicted to rest on the goal, reverses with a run-up when
+it went past, and stops when the goal drifts off the line.
 """
 
 from __future__ import annotations
@@ -16,7 +17,7 @@ import math
 
 import numpy as np
 
-from srs_ros.core.navigation.commands import GaitCommand, NavigationState
+from srs_ros.core.navigation.commands import AXIS_DIRECTIONS, GaitCommand, NavigationState
 from srs_ros.core.navigation.fine import (
     FINE_LINE_WITHIN,
     FineApproach,
@@ -135,15 +136,46 @@ class FineDriving:
         self._level = None
 
     def _fine_from_rest(self, pose: Pose2D, distance: float) -> bool:
-        """At rest near the last goal: creep when it lies on the line, else turn on the spot toward it if it can."""
+        """At rest near the last goal: creep when it lies on the line, else move onto the line along the body's axis.
+
+        The move along the axis where the floor lets it, else a turn on the spot toward the line if it can.
+        """
         if self._on_the_line(pose, distance):
             self.fine.start(pose.time_s)
             self._message = f"at rest {distance:.3f} m from the goal, on its line: creeping to it"
+        elif self._move_along_axis(pose, distance):
+            pass
         elif self._pivot_toward(pose, distance):
             self._message = (f"at rest {distance:.3f} m from the goal, off its line: turning on the spot "
                              f"({'counter-' if self.fine.pivot_sense > 0 else ''}clockwise) to put it on the line")
         else:
             return False
+        return True
+
+    def _move_along_axis(self, pose: Pose2D, distance: float) -> bool:
+        """Near the goal but off its line: move the body along its own axis onto the line; False when it cannot.
+
+        The straight serpentine (:mod:`srs_ros.core.navigation.shuffle`); not where the floor was seen not to let
+        it move the body, nor farther than the move's reach. Counted with the turns on the spot (at most
+        FINE_MAX_PIVOTS moves from rest per goal).
+        """
+        settings, fine = self.settings, self.fine
+        if settings.fine_distance_m <= 0.0 or distance >= settings.fine_distance_m or \
+                fine.pivots >= FINE_MAX_PIVOTS:
+            return False
+        _, _, across, line_yaw = self._resting_line(pose)
+        body_yaw = self.history.smoothed_yaw_rad(FINE_YAW_WINDOW_S)
+        # The goal lies ``across`` to the left of inward rolling, i.e. toward line_yaw + pi: moving the body by m
+        # along its yaw moves the goal across the line by m cos(skew).
+        plan = self.shuffle.plan(-across / max(math.cos(line_yaw - body_yaw), 0.5), settings.axis_move_max_cycles)
+        if plan is None:
+            return False
+        direction, cycles = plan
+        self.shuffle.start(pose, body_yaw, direction, cycles)
+        fine.start_pivot(pose.time_s, 1 if direction == AXIS_DIRECTIONS[0] else -1, [(direction, None)] * cycles)
+        self._message = (f"at rest {distance:.3f} m from the goal, {100 * abs(across):.1f} cm off its line: moving "
+                         f"{cycles} cycle(s) {'forward' if direction == AXIS_DIRECTIONS[0] else 'backward'} along "
+                         "the body's axis onto it")
         return True
 
     def _pivot_toward(self, pose: Pose2D, distance: float) -> bool:
@@ -197,7 +229,7 @@ class FineDriving:
         return (direction, *lines[direction])
 
     def _pivot(self, pose: Pose2D) -> None:
-        """Play the turn on the spot: one cycle each of its two strokes, then stop and rest (then look again)."""
+        """Play the turn on the spot (or the move along the axis): a cycle a stroke, then stop, rest, look again."""
         stroke = self.fine.pivot_stroke(pose.time_s, 1.0 / self.settings.cruise_frequency_hz)
         if stroke is None:
             self.fine.pivot_sense = 0
@@ -207,10 +239,12 @@ class FineDriving:
             self._command = self._stop_command("turned on the spot; waiting for the robot to rest")
             self._level = None
             return
-        direction, level = stroke
-        self._set_command(pose.time_s, GaitCommand(direction, float(self.settings.turn_levels_rad[level]),
-                                                   self.settings.amplitude_bar, self.settings.cruise_frequency_hz,
-                                                   "turning on the spot toward the goal's line"), level)
+        direction, level = stroke  # level None: a move along the body's axis (no turn level, nothing learned)
+        turn = 0.0 if level is None else float(self.settings.turn_levels_rad[level])
+        reason = "turning on the spot toward the goal's line" if level is not None else \
+            "moving along the body's axis onto the goal's line"
+        self._set_command(pose.time_s, GaitCommand(direction, turn, self.settings.amplitude_bar,
+                                                   self.settings.cruise_frequency_hz, reason), level)
 
     def _on_the_line(self, pose: Pose2D, distance: float) -> bool:
         """True when the resting robot can creep to the goal: near it, the goal on the line square to its body."""

@@ -8,6 +8,12 @@ from dataclasses import dataclass
 
 #: The gait whose cycle the navigator plays (forward: inward rolling, backward: outward rolling).
 GAIT = "inward_rolling"
+#: The gait of the moves along the body's axis (:mod:`srs_ros.core.navigation.shuffle`): the paper's serpentine,
+#: straight (its steady turning ``c`` 0), played forward or backward in time.
+AXIS_GAIT = "serpentine"
+#: The two directions along the body's axis: the serpentine played forward and backward (a robot on an
+#: anisotropic floor moves head first and tail first; on an isotropic floor it hardly moves).
+AXIS_DIRECTIONS = ("serpentine_forward", "serpentine_backward")
 
 
 class NavigationState(enum.Enum):
@@ -34,7 +40,9 @@ class GaitCommand:
     ``direction`` is ``inward_rolling`` or ``outward_rolling``. Both are played as the one cycle of :data:`GAIT`
     (its ``turn_phase_rad`` set), outward rolling by playing it backward in time (:attr:`reverse`): outward
     rolling is inward rolling reversed in time, and a reversal then ramps the signed frequency through 0
-    instead of cross-fading two different shapes (which makes the body flop over).
+    instead of cross-fading two different shapes (which makes the body flop over). Or one of
+    :data:`AXIS_DIRECTIONS`: the straight serpentine (:data:`AXIS_GAIT`, ``turn_phase_rad`` unused), forward or
+    backward in time, only ever started from rest.
     """
 
     direction: str | None
@@ -53,19 +61,29 @@ class GaitCommand:
         return self.direction is not None
 
     @property
+    def along_axis(self) -> bool:
+        """True for a move along the body's axis (the serpentine), not a rolling direction."""
+        return self.direction in AXIS_DIRECTIONS
+
+    @property
     def gait(self) -> str:
         """The gait whose cycle is played (the trajectory_server's ``gait``)."""
-        return GAIT
+        return AXIS_GAIT if self.along_axis else GAIT
+
+    @property
+    def gait_parameters(self) -> dict[str, float]:
+        """The gait's parameters the navigator sets (trajectory_server's ``<gait>.<name>``)."""
+        return {"c_rad_per_unit": 0.0} if self.along_axis else {"turn_phase_rad": float(self.turn_phase_rad)}
 
     @property
     def reverse(self) -> bool:
-        """True when the cycle is played backward (outward rolling)."""
-        return self.direction == "outward_rolling"
+        """True when the cycle is played backward (outward rolling, the serpentine backward)."""
+        return self.direction in ("outward_rolling", AXIS_DIRECTIONS[1])
 
     @property
     def cycle_key(self) -> tuple[str, float, float]:
-        """What needs a new cycle when it changes: ``(gait, amplitude_bar, turn_phase_rad)``."""
-        return (GAIT, self.amplitude_bar, self.turn_phase_rad)
+        """What needs a new cycle when it changes: ``(gait, amplitude_bar, turn_phase_rad or 0)``."""
+        return (self.gait, self.amplitude_bar, 0.0 if self.along_axis else self.turn_phase_rad)
 
 
 @dataclass(frozen=True)

@@ -46,6 +46,7 @@ from srs_ros.core.navigation.motion import (
     wrap_rad,
 )
 from srs_ros.core.navigation.settings import DIRECTIONS, STOP_PHASES, NavigationSettings, other_direction
+from srs_ros.core.navigation.shuffle import AxisShuffle
 from srs_ros.core.navigation.stopping import StopModel, StopPlan, crossed_phase
 
 #: The same after a start from rest (the soft start and the body's first roll are not the steady gait).
@@ -78,6 +79,7 @@ class NavigationController(FineDriving, EdgeGuard):
         self.travel = TravelModel(settings.turn_levels_rad, settings.learning_rate, settings.turning_map)
         self.stops = StopModel(settings.turning_map, settings.learning_rate, settings.turn_levels_rad)
         self.fine = FineApproach(settings.learning_rate)
+        self.shuffle = AxisShuffle(settings.learning_rate)
         self.state = NavigationState.IDLE
         self._goals: list[tuple[float, float]] = []
         self._index = 0
@@ -138,6 +140,7 @@ class NavigationController(FineDriving, EdgeGuard):
         self._goals, self._index, self._backing_from, self._fresh_goal = points, 0, None, True
         self._edge_until_s = -math.inf
         self.fine.reset()
+        self.shuffle.forget_move()
         self.state, self._started_s = NavigationState.DRIVING, float(now_s)
         self._best = (math.inf, float(now_s))
         self._last_pose_s = max(self._last_pose_s, float(now_s))
@@ -456,6 +459,7 @@ class NavigationController(FineDriving, EdgeGuard):
             else:
                 self.stops.learn(plan.direction, plan.phase_index, plan.heading_rad, moved, plan.level)
         self.fine.learn_pivot(self.history.smoothed_yaw_rad(FINE_YAW_WINDOW_S))  # after a turn on the spot
+        self.shuffle.learn(pose)  # after a move along the body's axis
         distance = self._distance(pose)
         if distance <= self.settings.goal_tolerance_m:
             self._finish(NavigationState.REACHED, f"goal reached: resting {distance:.3f} m from it "
@@ -470,6 +474,7 @@ class NavigationController(FineDriving, EdgeGuard):
     def _finish(self, state: NavigationState, message: str) -> None:
         self.state, self._message = state, message
         self.fine.leave()
+        self.shuffle.forget_move()
         self._command = self._stop_command(message)
         self._level = None
         self._backing_from = None

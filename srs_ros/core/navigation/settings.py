@@ -60,13 +60,18 @@ NAVIGATION_TABLE = Table("navigation", (
           "closer than this the gait slows to approach_frequency_hz and a rolling direction is held a whole cycle"),
     Field("fine_distance_m", float, 0.35, 0.0, 5.0, "m",
           "the fine approach: at rest within this distance of the last goal, the robot creeps at fine_amplitude_bar "
-          "along the line square to its body when the goal lies on it (else turns on the spot toward it) and stops "
-          "at the next stop phase; the cruise gait also stops where it will rest on the goal's line; 0: off"),
+          "along the line square to its body when the goal lies on it (else moves along its axis onto the line, or "
+          "turns on the spot toward it) and stops at the next stop phase; the cruise gait also stops where it will "
+          "rest on the goal's line; 0: off"),
     Field("fine_amplitude_bar", float, 2.0, 0.5, 4.0, "bar",
           "amplitude of the fine approach: just above the muscles' deadzone the body bends little, so it rests "
           "within a few cm of where it stopped (at 4 bar: 10-35 cm)"),
     Field("fine_frequency_hz", float, 0.25, 0.1, 2.0, "Hz",
           "cycle frequency of the fine approach (slow: the 1 s ramp-out is a quarter cycle of roll-on)"),
+    Field("axis_move_max_cycles", int, 3, 0, 10, "cycles",
+          "the fine approach: at rest near the goal but off the creeping line, move along the body's axis first (the "
+          "straight serpentine, forward or backward, up to this many cycles at amplitude_bar and "
+          "cruise_frequency_hz; learned per floor and given up where it does not move the body); 0: off"),
     Field("pursuit_gain", float, 1.5, 0.2, 5.0, "",
           "turn rate asked = this x the rate of the arc through the goal (pure pursuit)"),
     Field("max_turn_rate_deg_per_cycle", float, 30.0, 1.0, 180.0, "deg per cycle", "largest turn rate asked"),
@@ -215,6 +220,7 @@ class NavigationSettings:
     fine_distance_m: float
     fine_amplitude_bar: float
     fine_frequency_hz: float
+    axis_move_max_cycles: int
     pursuit_gain: float
     max_turn_rate_deg_per_cycle: float
     turn_levels_rad: tuple[float, ...]

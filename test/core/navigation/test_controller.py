@@ -37,8 +37,9 @@ FRAME_S = 1.0 / 30.0
 class Roller:
     """A kinematic rolling robot: travels across its yaw, turns per level (its own rates), rests after a stop."""
 
-    def __init__(self, bias_deg=6.0, scale=0.7, rest_m=(0.06, 0.07, 0.04, 0.05), travel_sign=1.0):
+    def __init__(self, bias_deg=6.0, scale=0.7, rest_m=(0.06, 0.07, 0.04, 0.05), travel_sign=1.0, axis_step_m=0.0):
         self.x = self.y = self.yaw = self.phase = 0.0
+        self.axis_step_m = axis_step_m  # per cycle of the serpentine, along the yaw (0: an isotropic floor)
         self.travel_sign = travel_sign  # -1: rolls the other way round (inward to the right of its yaw)
         self.bias_deg, self.scale, self.rest_m = bias_deg, scale, rest_m
         self.rest: tuple[float, np.ndarray] | None = None
@@ -56,7 +57,8 @@ class Roller:
         if not command.moving:
             if self.rest is None and hasattr(self, "_heading"):
                 rest_m = np.interp(self.phase, [*STOP_PHASES, 1.0], [*self.rest_m, self.rest_m[0]])  # by phase
-                offset = rest_m * np.array([math.cos(self._heading), math.sin(self._heading)])
+                offset = getattr(self, "rest_scale", 1.0) * rest_m * np.array([math.cos(self._heading),
+                                                                                math.sin(self._heading)])
                 self.rest = (now_s + 0.8, np.array([self.x, self.y]) + offset)
             if self.rest is not None and now_s >= self.rest[0]:
                 self.x, self.y = self.rest[1]
@@ -66,6 +68,14 @@ class Roller:
         self._roll(command)
 
     def _roll(self, command) -> None:
+        if command.along_axis:  # the serpentine: along the body's axis, no turn, no rest offset
+            step = self.axis_step_m * command.frequency_hz * FRAME_S * (-1.0 if command.reverse else 1.0)
+            self.x, self.y = self.x + step * math.cos(self.yaw), self.y + step * math.sin(self.yaw)
+            self.phase = (self.phase + (-1.0 if command.reverse else 1.0) * command.frequency_hz * FRAME_S) % 1.0
+            self._heading = self.yaw + (math.pi if command.reverse else 0.0)
+            self.rest_scale = 0.0
+            return
+        self.rest_scale = 1.0
         sign = 1.0 if command.direction == "inward_rolling" else -1.0
         rate_deg = self.scale * (-40.0 * command.turn_phase_rad) + self.bias_deg
         self.yaw += math.radians(rate_deg) * command.frequency_hz * FRAME_S

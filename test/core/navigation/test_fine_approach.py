@@ -310,12 +310,13 @@ class KickedRoller(AmplitudeRoller):
 
 
 def test_a_turn_on_the_spot_seen_to_turn_the_wrong_way_is_not_used_that_way_again():
-    """At rest 0.3 m from a goal 15 deg off its creeping line. The turn on the spot the map chooses starts with the
+    """At rest 0.3 m from a goal 15 deg off its creeping line (no moves along the axis: the turn on the spot is
+    tested). The turn on the spot the map chooses starts with the
     stroke whose kick turns the body away from the line, more than its cycles turn it toward it: the controller
     measures each turn on the spot from rest to rest, and once the first is seen to turn the wrong way it tries the
     strokes in the other order, which turn the right way, and reaches the goal. By the map alone (before) it played
     the same strokes again, turned the wrong way again and failed the goal after a minute without progress."""
-    settings = load_navigation_settings({}, turning_map=MAP)
+    settings = load_navigation_settings({"axis_move_max_cycles": 0}, turning_map=MAP)
     controller, roller = NavigationController(settings, AREA), KickedRoller()
     goal = (0.3 * math.sin(math.radians(-15.0)), 0.3 * math.cos(math.radians(15.0)))  # 15 deg off the +y line
     controller.set_goal(*goal, now_s=0.0)
@@ -335,3 +336,64 @@ def test_a_turn_on_the_spot_seen_to_turn_the_wrong_way_is_not_used_that_way_agai
     assert len(wrong) == 1, turned  # ... once
     assert controller.state is NavigationState.REACHED, (controller.progress(now).message, turned)
     assert math.dist(goal, (roller.x, roller.y)) <= settings.goal_tolerance_m
+
+
+class AxisRoller(AmplitudeRoller):
+    """AmplitudeRoller on a floor where the straight serpentine moves the body along its axis (``axis_step_m`` per
+    cycle, forward along its yaw: the anisotropic floor, about 4 cm; 0: an isotropic floor)."""
+
+    def __init__(self, axis_step_m):
+        super().__init__()
+        self.axis_step_m = axis_step_m
+
+
+def drive_to(controller, roller, goal, start_s=0.0, until_s=120.0):
+    """Drive to ``goal``; the commands played (moving ones)."""
+    controller.set_goal(*goal, now_s=start_s)
+    played, now = [], start_s
+    while now < start_s + until_s:
+        controller.update_gait_phase(roller.phase)
+        controller.update_pose(roller.pose(now))
+        command = controller.tick(now)
+        roller.step(command, now)
+        if command.moving:
+            played.append(command)
+        now += FRAME_S
+        if not controller.state.active and not roller.moving_or_settling(now):
+            break
+    return played, now
+
+
+#: At rest at the start (yaw 0: inward rolling travels +y), 25 cm along the creeping line and 12 cm off it,
+#: along the body's axis: too far off the line to creep to.
+OFF_THE_LINE = (0.12, 0.25)
+
+
+def test_a_goal_off_the_line_is_reached_by_moving_along_the_axis_where_the_floor_lets_the_body():
+    settings = load_navigation_settings({}, turning_map=MAP)
+    controller, roller = NavigationController(settings, AREA), AxisRoller(axis_step_m=0.04)
+    played, _ = drive_to(controller, roller, OFF_THE_LINE)
+    assert controller.state is NavigationState.REACHED, controller.progress(0.0).message
+    assert math.dist(OFF_THE_LINE, (roller.x, roller.y)) <= settings.goal_tolerance_m
+    assert {c.direction for c in played if c.along_axis} == {"serpentine_forward"}  # toward the head: +x
+    assert all(c.along_axis for c in played if c.amplitude_bar > settings.fine_amplitude_bar)  # no rolling stroke
+    assert controller.fine.pivots >= 1 and controller.shuffle.step_m == pytest.approx(0.04, abs=0.005)
+
+
+def test_without_moves_along_the_axis_the_same_goal_takes_turns_on_the_spot():
+    settings = load_navigation_settings({"axis_move_max_cycles": 0}, turning_map=MAP)
+    controller, roller = NavigationController(settings, AREA), AxisRoller(axis_step_m=0.04)
+    played, _ = drive_to(controller, roller, OFF_THE_LINE)
+    assert not any(c.along_axis for c in played)
+    assert controller.fine.pivots >= 1  # turns on the spot: 4 bar rolling strokes from rest
+
+
+def test_on_a_floor_where_the_serpentine_does_not_move_the_body_it_is_tried_once_then_left():
+    settings = load_navigation_settings({}, turning_map=MAP)
+    controller, roller = NavigationController(settings, AREA), AxisRoller(axis_step_m=0.0)
+    played, end = drive_to(controller, roller, OFF_THE_LINE)
+    assert controller.state is NavigationState.REACHED, controller.progress(end).message
+    assert any(c.along_axis for c in played) and not controller.shuffle.useful  # tried, seen not to move it
+    start = np.array([roller.x, roller.y])
+    played, end = drive_to(controller, roller, tuple(start + [0.12, 0.25]), start_s=end + 1.0)
+    assert not any(c.along_axis for c in played)  # the next goal off the line: straight to a turn on the spot
