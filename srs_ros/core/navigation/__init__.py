@@ -6,8 +6,9 @@ for the nodes, the answer to a goal, the progress), ``motion`` (poses, and the t
 travel directions learned online from them), ``controller`` (:class:`NavigationController`: goals, waypoints,
 cancel, lost pose, progress; it chooses the rolling direction, the turn level and the frequency), ``stopping``
 (where the robot rests after a stop), ``fine`` and ``approach`` (the fine approach near the goal: creeping just
-above the deadzone along the line square to the body, turning on the spot toward it), ``edge`` (the edge guard
-that keeps the robot in the camera's view).
+above the deadzone along the line square to the body, turning on the spot toward it), ``shuffle`` (moves along
+the body's axis onto that line, the straight serpentine, learned per floor), ``edge`` (the edge guard that keeps
+the robot in the camera's view).
 A ROS node wires it to topics (docs/navigation.md); ``srs_ros.sim.navigation`` runs it on the simulated robot.
 """
 
