@@ -236,7 +236,9 @@ class FineDriving:
             self.state = NavigationState.STOPPING
             self._stop = StopPlan(pose, self._command.direction or DIRECTIONS[0], None, -1, False,
                                   (pose.x_m, pose.y_m), stopped=pose)
-            self._command = self._stop_command("turned on the spot; waiting for the robot to rest")
+            self._command = self._stop_command("moved along the body's axis; waiting for the robot to rest"
+                                               if self._command.along_axis else
+                                               "turned on the spot; waiting for the robot to rest")
             self._level = None
             return
         direction, level = stroke  # level None: a move along the body's axis (no turn level, nothing learned)
