@@ -1,5 +1,6 @@
 """The sim backend: commands over a DDS topic to a stand-in world in this process, read-back, silence = fault."""
 
+import threading
 import time
 
 import numpy as np
@@ -91,10 +92,12 @@ class _HeldUpExecutor:
 
     def __init__(self, executor, hold_s: float):
         self._executor, self._hold_s, self._others_until_s = executor, hold_s, None
+        self.held = threading.Event()  # set as the hold-up begins: the bus thread listened last just before
 
     def spin_once(self, timeout_sec=None):
         if self._hold_s:
             hold_s, self._hold_s = self._hold_s, 0.0
+            self.held.set()
             time.sleep(hold_s)
             self._others_until_s = time.monotonic() + 0.1
         if self._others_until_s is not None and time.monotonic() < self._others_until_s:
@@ -130,7 +133,15 @@ def test_a_bus_thread_deaf_longer_than_the_deaf_limit_is_a_lost_world(ros, monke
     readback = JointState(name=NAMES, effort=[0.0] * 9, position=[0.0] * 9)
     with create_backend("sim", options={"readback_timeout_s": 0.2, "world_lost_timeout_s": 0.6}) as backend:
         _first_read_back(backend, monitor, readback)
-        backend._executor = _HeldUpExecutor(backend._executor, 3.0)
+        backend._executor = held_up = _HeldUpExecutor(backend._executor, 3.0)
+        # The world talks until the bus thread is held up, so the silence it last heard ends as it goes deaf. (With
+        # the read-back stopped before the swap, one full suite run saw the silence pass the limit while the thread
+        # had been deaf 0.9 s: its last return came well after the last read-back, as a loaded machine allows.)
+        end = time.monotonic() + 10.0
+        while not held_up.held.is_set():
+            assert time.monotonic() < end, "the bus thread never called spin_once"
+            monitor.publish(readback)
+            time.sleep(0.005)
         with pytest.raises(HardwareError, match=r"its bus thread has not listened for 1\.\d s"):
             _poll_until_lost(backend, 2.0)  # well before the 3 s hold ends
 
