@@ -44,6 +44,7 @@ Options (``backend_options`` of a rig file, each validated with the key named on
 from __future__ import annotations
 
 import logging
+import math
 import threading
 import time
 from collections.abc import Mapping
@@ -56,14 +57,13 @@ from srs_ros.core.errors import HardwareError
 from srs_ros.core.robot import RobotDescription
 from srs_ros.core.schema import Field, Table, refusal
 from srs_ros.ros.interfaces import SIM_BOARD_TIMEOUT_S, SIM_COMMAND_TOPIC, SIM_MONITOR_TOPIC, bus_qos, readback_qos
+from srs_ros.sim.realtime import ReceiverWatch
 
 #: The node name of the backend's bus (under the process's namespace).
 BUS_NODE_NAME = "sim_backend_bus"
 #: The bus thread silent this long (s; dead, or starved of CPU) counts as a lost world whatever it last heard; so does
 #: a silence this long however often the bus was held up (at least ``world_lost_timeout_s``).
 BUS_DEAF_TIMEOUT_S = 10.0
-#: Two returns of the bus thread's timed ``spin_once`` (0.05 s) this far apart (s): the thread was held up.
-BUS_HELD_UP_S = 0.25
 #: How long closing the bus waits for the world to acknowledge the last command (the vent), s.
 VENT_ACK_TIMEOUT_S = 0.5
 
@@ -110,8 +110,9 @@ class SimBackend(ActuatorBackend):
         self._lock = threading.Lock()
         self._monitor: tuple[float, np.ndarray, np.ndarray] | None = None  # (monotonic s, bar, m)
         self._opened_s = 0.0
-        self._listened_s = 0.0  # monotonic s when the bus thread's spin_once last returned
-        self._resumed_s = 0.0  # ... and when it last returned after being held up (the silence before is not heard)
+        # The bus thread's returns from its timed spin_once (0.05 s): two more than RECEIVER_BEHIND_S apart, it was
+        # held up, and the silence before is not heard.
+        self._listener = ReceiverWatch(stuck_s=math.inf)
         self.monitor_count = 0
 
     # -- the contract -----------------------------------------------------------------------
@@ -135,7 +136,9 @@ class SimBackend(ActuatorBackend):
         self._executor.add_node(self._node)
         self._stop.clear()
         self._monitor = None
-        self._opened_s = self._listened_s = self._resumed_s = time.monotonic()
+        self._opened_s = time.monotonic()
+        self._listener = ReceiverWatch(stuck_s=math.inf)
+        self._listener.start(self._opened_s)
         self._thread = threading.Thread(target=self._spin, name="sim_backend_bus", daemon=True)
         self._thread.start()
         self._message = JointState(name=list(self.robot.joint_names))
@@ -198,11 +201,8 @@ class SimBackend(ActuatorBackend):
                 self._executor.spin_once(timeout_sec=0.05)
             except Exception:  # the context went down under us (process exit): the bus is gone
                 return
-            now_s = time.monotonic()
-            with self._lock:
-                if now_s - self._listened_s > BUS_HELD_UP_S:  # a spin after a hold-up may take another handler first
-                    self._resumed_s = now_s
-                self._listened_s = now_s
+            with self._lock:  # a spin after a hold-up may take another handler first: it resumes the listening
+                self._listener.ran(time.monotonic())
 
     def _on_monitor(self, msg) -> None:
         count = self.robot.joint_count
@@ -222,7 +222,7 @@ class SimBackend(ActuatorBackend):
     def _check_alive(self, now_s: float) -> None:
         """Raise HardwareError if the world never answered, fell silent for good, or left the graph."""
         with self._lock:
-            monitor, listened_s, resumed_s = self._monitor, self._listened_s, self._resumed_s
+            monitor, listener = self._monitor, self._listener
         if monitor is None:
             if now_s - self._opened_s > self.startup_timeout_s:
                 raise HardwareError(f"sim backend: no read-back from sim_world on {self._resolved_monitor_topic()!r} "
@@ -230,8 +230,8 @@ class SimBackend(ActuatorBackend):
                                     "part of srs_bringup and the launch file) on the same ROS_DOMAIN_ID and namespace.")
             return
         silent_s = now_s - monitor[0]
-        heard_s = listened_s - max(monitor[0], resumed_s)  # the silence the bus listened to since it last resumed
-        deaf_limit_s, deaf_s = max(BUS_DEAF_TIMEOUT_S, self.world_lost_timeout_s), now_s - listened_s
+        heard_s = listener.heard_silence_s(monitor[0])  # the silence the bus listened to since it last resumed
+        deaf_limit_s, deaf_s = max(BUS_DEAF_TIMEOUT_S, self.world_lost_timeout_s), listener.deaf_s(now_s)
         lost = heard_s > self.world_lost_timeout_s or max(silent_s, deaf_s) > deaf_limit_s
         if lost and deaf_s > self.world_lost_timeout_s:
             raise HardwareError(f"sim backend: its bus thread has not listened for {deaf_s:.1f} s (stopped, or "

@@ -25,7 +25,6 @@ read-back (so the hardware node faults and vents, as on a dead board), an ERROR 
 
 from __future__ import annotations
 
-import math
 import threading
 import time
 
@@ -65,7 +64,7 @@ from srs_ros.ros.parameters import REALTIME_PRIORITY, ParameterSpec, declare_par
 from srs_ros.ros.process import request_realtime_priority, run_node, steady_timer
 from srs_ros.sim.camera import OverheadCamera
 from srs_ros.sim.config import load_sim_config
-from srs_ros.sim.realtime import RECEIVER_BEHIND_S, RECEIVER_STUCK_S, RealTimePacer, SimulatedBoard
+from srs_ros.sim.realtime import RECEIVER_BEHIND_S, RealTimePacer, ReceiverWatch, SimulatedBoard
 from srs_ros.sim.world import SimWorld
 
 NODE_NAME = "sim_world"
@@ -122,9 +121,7 @@ class SimWorldNode(Node):
         self._window = (time.monotonic(), 0.0, 0.0)  # (wall s, world s, stepping s) at the last diagnostics
         self._state = None  # the world's state at its current time, computed once for every output
         self._last_step = (time.monotonic(), 0.0)  # (wall s, world s) at the last wake-up: dates the commands
-        self._executor_ran_s = math.inf  # when the executor last ran (steady s; not yet): may a command wait unread?
-        self.receiver_stalls = 0  # times the executor fell behind: the board's silence was not counted meanwhile
-        self._receiver_was_behind = False
+        self.receiver = ReceiverWatch()  # the executor: while it is behind, a command may wait unread
         # A command waits for the next control tick, dated when it arrived: exact while the supply line's delay
         # is longer than a control period (the muscles feel it only after the delay); else it wakes the loop.
         self._wake_on_command = self.config.muscles.transport_delay_s < self.config.physics.control_period_s
@@ -219,14 +216,11 @@ class SimWorldNode(Node):
 
     def _check_receiver(self, now_s: float) -> None:
         """While the executor is behind (starved, not stuck), commands may wait unread: the board counts no silence."""
-        behind = RECEIVER_BEHIND_S < now_s - self._executor_ran_s < RECEIVER_STUCK_S
-        if behind:
+        if self.receiver.behind(now_s):
             self.board.receiver_behind(self.world.time_s)
-            self.receiver_stalls += not self._receiver_was_behind
-        self._receiver_was_behind = behind
 
     def _executor_runs(self) -> None:
-        self._executor_ran_s = time.monotonic()
+        self.receiver.ran(time.monotonic())
 
     def _stop_world(self, reason: str) -> None:
         self.failure = reason
@@ -333,7 +327,7 @@ class SimWorldNode(Node):
         values = {"world_time_s": f"{world_s:.3f}", "slipped_s": f"{self.pacer.slipped_s:.3f}",
                   "slips": str(self.pacer.slips), "stepping_share": f"{(stepping_s - then_stepping_s) / span_s:.3f}",
                   "world_rate": f"{(world_s - then_world_s) / span_s:.3f}", "commands": str(self.commands),
-                  "silence_vents": str(self.board.silence_vents), "receiver_stalls": str(self.receiver_stalls),
+                  "silence_vents": str(self.board.silence_vents), "receiver_stalls": str(self.receiver.stalls),
                   "failure": self.failure or "none"}
         level, message = self._summary()
         status = diagnostic_status(f"{NODE_NAME}: simulated robot", "mujoco", level, message, values)

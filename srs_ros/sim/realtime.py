@@ -14,6 +14,10 @@ No ROS: the ``sim_world`` node wires these to its stepping thread.
   own pause as silence). A real board reads its input at once; the simulated one hears of a command only when
   the caller's receiving thread runs, so while that thread is behind (:meth:`SimulatedBoard.receiver_behind`)
   silence is not counted: a stall of the simulator's own process is not the sender's silence.
+- :class:`ReceiverWatch` is that rule's clock, for both ends of the simulated rig: when the thread that receives
+  the peer's messages last ran, whether it is behind or stuck, and how much of the peer's silence it was there
+  to hear. sim_world watches its executor (the board hears commands through it), the ``sim`` backend its bus
+  thread (it hears sim_world's read-back).
 """
 
 from __future__ import annotations
@@ -59,6 +63,45 @@ class RealTimePacer:
     def restart(self) -> None:
         """Forget the last wake-up (after a reset: the next call steps nothing)."""
         self._last_wall_s = None
+
+
+@dataclass
+class ReceiverWatch:
+    """When a receiving thread last ran (steady clock, s): behind, stuck, and the silence it was there to hear.
+
+    Call :meth:`ran` at every run of the thread (under the caller's lock if other threads read it). It is *behind*
+    while it last ran more than RECEIVER_BEHIND_S ago but less than ``stuck_s`` (starved of CPU, held up: a message
+    may wait unread), and a run after such a gap *resumes* it: a silence of the peer before that moment was not
+    heard, so :meth:`heard_silence_s` counts only from it.
+    """
+
+    stuck_s: float = RECEIVER_STUCK_S
+    ran_s: float = math.inf  # the last run (inf: not yet)
+    resumed_s: float = -math.inf  # the last run after being behind
+    stalls: int = 0  # times it ran again after being behind
+
+    def start(self, now_s: float) -> None:
+        """The thread starts listening at ``now_s``: nothing before it was heard."""
+        self.ran_s = self.resumed_s = now_s
+
+    def ran(self, now_s: float) -> None:
+        """The thread ran at ``now_s``."""
+        if now_s - self.ran_s > RECEIVER_BEHIND_S:
+            self.resumed_s = now_s
+            self.stalls += 1
+        self.ran_s = now_s
+
+    def behind(self, now_s: float) -> bool:
+        """True while the thread last ran more than RECEIVER_BEHIND_S and less than ``stuck_s`` ago."""
+        return RECEIVER_BEHIND_S < now_s - self.ran_s < self.stuck_s
+
+    def deaf_s(self, now_s: float) -> float:
+        """How long the thread has not run (s)."""
+        return now_s - self.ran_s
+
+    def heard_silence_s(self, last_heard_s: float) -> float:
+        """Of the silence since ``last_heard_s`` (s), the part the thread listened to (from its last resumption)."""
+        return self.ran_s - max(last_heard_s, self.resumed_s)
 
 
 @dataclass

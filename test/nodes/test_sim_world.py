@@ -154,7 +154,7 @@ def _stall_and_silence(executor, world, sender) -> None:
         run(0.6, send=True, spin=True)
         assert world.commands > received_before_stall
         assert world.board.silence_vents == 0, "vented a sender that never stopped, during sim_world's own stall"
-        assert world.receiver_stalls >= 1 and not world.board.vented_by_silence
+        assert world.receiver.stalls >= 1 and not world.board.vented_by_silence
         run(1.0, send=False, spin=True)  # now the sender is silent: vented within the timeout
         assert world.board.silence_vents == 1 and world.board.vented_by_silence
     finally:

@@ -3,7 +3,13 @@
 import numpy as np
 import pytest
 
-from srs_ros.sim.realtime import MAX_CATCH_UP_S, RealTimePacer, SimulatedBoard
+from srs_ros.sim.realtime import (
+    MAX_CATCH_UP_S,
+    RECEIVER_BEHIND_S,
+    RealTimePacer,
+    ReceiverWatch,
+    SimulatedBoard,
+)
 
 
 def test_the_pacer_follows_the_wall_clock_and_slips_after_a_stall_instead_of_racing():
@@ -70,6 +76,26 @@ def test_silence_counts_only_from_the_last_moment_the_receiver_was_behind():
     board.receive(np.full(9, 1.0), 0.0)
     board.take(0.01)
     assert board.take(0.52)[0][1].sum() == 0.0
+
+
+def test_a_receiver_watch_tells_behind_from_stuck_and_counts_only_the_silence_its_thread_was_there_to_hear():
+    """The clock of both ends of the simulated rig: sim_world's executor and the sim backend's bus thread."""
+    watch = ReceiverWatch(stuck_s=5.0)
+    assert not watch.behind(0.0)  # not started: nothing to be behind on
+    watch.start(10.0)
+    for now_s in np.arange(10.05, 11.0, 0.05):  # a healthy thread runs every 50 ms
+        watch.ran(now_s)
+        assert not watch.behind(now_s + 0.04)
+    assert watch.stalls == 0 and watch.heard_silence_s(10.2) == pytest.approx(0.75)  # heard from 10.2 to 10.95
+    assert watch.behind(10.95 + RECEIVER_BEHIND_S + 0.01) and watch.behind(15.9)
+    assert not watch.behind(15.96) and watch.deaf_s(15.96) == pytest.approx(5.01)  # stuck: no longer "behind"
+    watch.ran(11.8)  # it ran again 0.85 s late: resumed; the silence before was not heard
+    assert watch.stalls == 1 and watch.resumed_s == 11.8
+    watch.ran(11.85)
+    assert watch.heard_silence_s(10.2) == pytest.approx(0.05) and watch.heard_silence_s(11.82) == pytest.approx(0.03)
+    watch.ran(12.0)
+    watch.ran(12.0 + RECEIVER_BEHIND_S)  # exactly the limit apart: not behind
+    assert watch.stalls == 1
 
 
 def test_a_command_dated_before_a_vent_the_board_applied_comes_after_it():
