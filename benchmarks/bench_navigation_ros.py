@@ -60,15 +60,6 @@ def smoothed_path_length_m(times_s: np.ndarray, xy_m: np.ndarray, window_s: floa
     return float(np.sum(np.linalg.norm(np.diff(points, axis=0), axis=1)))
 
 
-def gait_speed_m_s(config) -> float:
-    """Straight rolling speed (turn_phase_rad 0, 4 bar, 1 Hz), mean of both directions, on ``config``."""
-    from srs_ros.experiments.turning import measure_turn_phase
-
-    runs = [m for d in ("inward_rolling", "outward_rolling")
-            for m in measure_turn_phase(d, 4.0, 1.0, 0.0, config, start_yaws_rad=(0.0,))]
-    return statistics.mean(m.speed_m_s for m in runs)
-
-
 def drive(system, goal) -> Outcome:
     """One goal from the start pose, to the navigator's end (or cancelled after GOAL_TIMEOUT_S)."""
     from srs_testing.navigation import FINAL_STATES
@@ -111,6 +102,7 @@ def summary(outcomes: list[Outcome], speed_m_s: float, tolerance_m: float) -> st
 
 
 def main(argv=None) -> None:
+    from bench_navigation import gait_speed_m_s  # the same straight speed as the offline benchmark's
     from srs_testing.navigation import NavigationSystem
     from srs_testing.ros import RosSession
 
