@@ -47,7 +47,7 @@ from srs_ros.core.navigation.motion import (
 )
 from srs_ros.core.navigation.settings import DIRECTIONS, STOP_PHASES, NavigationSettings, other_direction
 from srs_ros.core.navigation.shuffle import AxisShuffle
-from srs_ros.core.navigation.stopping import StopModel, StopPlan, crossed_phase
+from srs_ros.core.navigation.stopping import STOP_WITHIN, StopModel, StopPlan, crossed_phase, landing_ahead
 
 #: The same after a start from rest (the soft start and the body's first roll are not the steady gait).
 START_SETTLE_CYCLES = 1.5
@@ -65,6 +65,9 @@ STRAIGHT_WITHIN = 0.7
 #: fine_distance_m (the fine approach on): the cruise stops near it and the fine approach finishes from rest.
 WEAK_TURN_DEG_PER_CYCLE = 8.0
 BACK_UNLESS_MISS_WITHIN = 0.5
+#: A stop phase passed within this many cycles of the present one, in the same direction, is the one before it
+#: (the stop phases are a quarter cycle apart): its predicted resting point and this one's give the next one's.
+LAST_STOP_PHASE_CYCLES = 0.6
 
 
 class NavigationController(FineDriving, EdgeGuard):
@@ -98,6 +101,7 @@ class NavigationController(FineDriving, EdgeGuard):
         self._fresh_goal = False
         self._best = (math.inf, 0.0)
         self._edge_until_s = -math.inf
+        self._last_rest: tuple[np.ndarray, float, str] | None = None  # the last stop phase's prediction (xy, s, dir)
 
     # ------------------------------------------------------------------ goals
     @property
@@ -412,10 +416,20 @@ class NavigationController(FineDriving, EdgeGuard):
 
         The robot would rest within the stop window of the goal or, with the fine approach, on the goal's line
         (across its travel) near the goal, or anywhere near it (the fine approach goes on from rest: a cruise
-        gait that waited for the line could circle the goal on its turning circle for a minute).
+        gait that waited for the line could circle the goal on its turning circle for a minute). Near it but not
+        on it, the stop waits for a later stop phase predicted to rest on it (:func:`landing_ahead`).
         """
         rest, heading = self._predicted_rest(pose, phase_index)
-        return rests_near_enough(rest, heading, self.goal, self.settings, self.fine.pivots < FINE_MAX_PIVOTS)
+        direction, period_s = self._command.direction, 1.0 / max(self._command.frequency_hz, 1e-3)
+        previous, self._last_rest = self._last_rest, (rest, pose.time_s, direction)
+        if not rests_near_enough(rest, heading, self.goal, self.settings, self.fine.pivots < FINE_MAX_PIVOTS):
+            return False
+        # Near the goal: a later stop phase predicted to rest on it is waited for (a stop at the first phase near
+        # enough rested 15-20 cm short and crept the rest).
+        last_phase = previous is not None and previous[2] == direction and \
+            pose.time_s - previous[1] < LAST_STOP_PHASE_CYCLES * period_s
+        return not (last_phase and landing_ahead(previous[0], rest, self.goal,
+                                                 STOP_WITHIN * self.settings.goal_tolerance_m))
 
     def _begin_stop(self, pose: Pose2D, phase_index: int) -> None:
         direction, ahead = self._command.direction, self.settings.stop_cycle_ahead

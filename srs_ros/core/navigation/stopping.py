@@ -23,6 +23,10 @@ STOP_WITHIN = 0.8
 #: Spread of one turn level's correction to its unmeasured neighbours (rad of turn_phase).
 NEIGHBOUR_SPREAD_RAD = 0.2
 
+#: A stop near the goal (not on it) waits for a later stop phase predicted to rest on it: the line through the last
+#: two predicted resting points passes the goal more than this many of their steps ahead.
+NEARER_AHEAD_STEPS = 0.5
+
 
 @dataclasses.dataclass
 class StopPlan:
@@ -56,6 +60,23 @@ def crossed_phase(before: float, after: float, reverse: bool) -> int | None:
         if 0.0 < to_phase <= step or (to_phase == 0.0 and step > 0.0):
             return index
     return None
+
+
+def landing_ahead(previous_xy_m, rest_xy_m, goal_xy_m, within_m: float) -> bool:
+    """True when a later stop phase is predicted to rest on the goal (within ``within_m``) and this one is not.
+
+    ``previous_xy_m`` and ``rest_xy_m``: the resting points predicted at the last stop phase and at this one (m);
+    the later ones are taken on along their line: it passes the goal within ``within_m`` more than
+    NEARER_AHEAD_STEPS of their steps beyond ``rest_xy_m``.
+    """
+    rest = np.asarray(rest_xy_m, dtype=np.float64)
+    step = rest - np.asarray(previous_xy_m, dtype=np.float64)
+    to_goal = np.asarray(goal_xy_m, dtype=np.float64) - rest
+    length2 = float(step @ step)
+    if length2 < 1e-6 or float(to_goal @ to_goal) <= within_m ** 2:  # no direction to go on along, or here already
+        return False
+    miss_m = abs(float(step[0] * to_goal[1] - step[1] * to_goal[0])) / math.sqrt(length2)
+    return float(to_goal @ step) / length2 > NEARER_AHEAD_STEPS and miss_m <= within_m
 
 
 def rotate(along_across: np.ndarray, heading_rad: float) -> np.ndarray:

@@ -16,6 +16,7 @@ from srs_ros.core.navigation.approach import rests_near_enough
 from srs_ros.core.navigation.fine import FineApproach, next_stop_phase, stop_lead_s, stop_quarters_ahead
 from srs_ros.core.navigation.motion import PoseHistory
 from srs_ros.core.navigation.settings import DIRECTIONS, STOP_PHASES
+from srs_ros.core.navigation.stopping import landing_ahead
 
 from .test_controller import AREA, FRAME_S, MAP, Roller
 
@@ -134,7 +135,7 @@ def test_a_robot_pushed_off_the_line_after_a_creep_stop_is_not_crept_on():
     so the controller drives round with the cruise gait, not on creeping along a line that misses the goal."""
     settings = load_navigation_settings({}, turning_map=MAP)
     controller, roller = NavigationController(settings, AREA), AmplitudeRoller()
-    controller.set_goal(0.3, 0.5, now_s=0.0)  # a goal the stand-in ends with a creep
+    controller.set_goal(0.1, 0.6, now_s=0.0)  # a goal the stand-in ends with a creep (no stop lands on it)
     now, pushed, after = 0.0, False, []
     while now < 120.0 and len(after) < 50:
         controller.update_gait_phase(roller.phase)
@@ -166,6 +167,40 @@ def test_the_cruise_gait_stops_where_it_would_rest_near_the_goal_even_off_its_li
     without = load_navigation_settings({"fine_distance_m": 0.0}, turning_map=MAP)
     assert not rests_near_enough(near_off_line, heading, goal, without)
     assert rests_near_enough((0.02, 0.02), heading, goal, without)
+
+
+def test_a_later_stop_phase_predicted_to_rest_on_the_goal_is_waited_for():
+    """The resting points predicted at two stop phases in a row, 2.5 cm apart along +y: a later one lands on a goal
+    ahead that their line passes within the window, not on one it misses, one behind, or one already reached."""
+    within = 0.04
+    assert landing_ahead((0.02, 0.10), (0.02, 0.125), (0.0, 0.30), within)       # 2 cm off the line, 7 steps on
+    assert not landing_ahead((0.08, 0.10), (0.08, 0.125), (0.0, 0.30), within)   # 8 cm off: no landing
+    assert not landing_ahead((0.02, 0.10), (0.02, 0.125), (0.0, 0.05), within)   # behind
+    assert not landing_ahead((0.02, 0.10), (0.02, 0.125), (0.0, 0.13), within)   # here already (2.1 cm)
+    assert not landing_ahead((0.02, 0.10), (0.02, 0.1302), (0.05, 0.1302 + 0.0005), 0.01)  # under a step
+    assert not landing_ahead((0.02, 0.10), (0.02, 0.10), (0.0, 0.30), within)    # no step: no direction
+
+
+@pytest.mark.parametrize("goal", [(0.3, 0.5), (0.4, 0.5)])
+def test_a_cruise_whose_stop_can_land_on_the_goal_stops_there_instead_of_short_of_it_to_creep(goal):
+    """The stand-in's resting points are those its map predicts (within 1-2 cm): the cruise stops once, where the
+    robot then rests on the goal, and never creeps (the first stop phase near enough stopped it 15-20 cm short,
+    and it crept the rest: 87 and 272 frames of creep for these goals)."""
+    settings = load_navigation_settings({}, turning_map=MAP)
+    controller, roller = NavigationController(settings, AREA), AmplitudeRoller()
+    controller.set_goal(*goal, now_s=0.0)
+    now, creep, stops = 0.0, 0, 0
+    while now < 60.0 and (controller.state.active or roller.moving_or_settling(now)):
+        state = controller.state
+        controller.update_gait_phase(roller.phase)
+        controller.update_pose(roller.pose(now))
+        command = controller.tick(now)
+        creep += command.moving and command.amplitude_bar == settings.fine_amplitude_bar
+        stops += state is NavigationState.DRIVING and controller.state is NavigationState.STOPPING
+        roller.step(command, now)
+        now += FRAME_S
+    assert controller.state is NavigationState.REACHED and math.dist(goal, (roller.x, roller.y)) <= 0.05
+    assert creep == 0 and stops == 1, (creep, stops)
 
 
 def pivot_strokes(stops_learned=()):
@@ -221,14 +256,14 @@ def test_the_creeping_lines_skew_is_learned_and_used_from_rest():
     from rest with it (the body's square alone put a goal 0.3 m away 5 cm off the line)."""
     settings = load_navigation_settings({}, turning_map=MAP)
     controller, roller = NavigationController(settings, AREA), SkewedRoller()
-    controller.set_goal(0.3, 0.5, now_s=0.0)
+    controller.set_goal(0.1, 0.6, now_s=0.0)  # a goal the stand-in ends with a creep (no stop lands on it)
     now = 0.0
     while now < 120.0 and (controller.state.active or roller.moving_or_settling(now)):
         controller.update_gait_phase(roller.phase)
         controller.update_pose(roller.pose(now))
         roller.step(controller.tick(now), now)
         now += FRAME_S
-    assert controller.state is NavigationState.REACHED and math.dist((0.3, 0.5), (roller.x, roller.y)) <= 0.05
+    assert controller.state is NavigationState.REACHED and math.dist((0.1, 0.6), (roller.x, roller.y)) <= 0.05
     learned = [controller.fine.skew_rad[d] for d in DIRECTIONS if controller.fine._skew_measured[d]]
     assert learned and all(abs(math.degrees(s) - 10.0) < 2.0 for s in learned), learned
     # at rest, a goal 0.3 m along the skewed line is on the line; square to the body it would be 5 cm off
