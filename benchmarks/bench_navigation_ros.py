@@ -14,7 +14,11 @@ success rate (reached and resting within goal_tolerance_m), and the median time 
 straight speed (measured on the same physics) would need (the issue asks for at most 2).
 
 Run: python benchmarks/bench_navigation_ros.py [--goals 3] [--seed 20] [--friction anisotropic]
-     [--sim-config FILE] [--pose-timeout-s 3] [--turning-map FILE]
+     [--sim-config FILE] [--pose-timeout-s 3] [--turning-map FILE] [--record DIR]
+
+``--record DIR`` keeps, per goal, what the client saw (``goal_NN.csv``: the tracked pose, the simulator's
+truth and the commanded pressures, time-stamped; ``goal_NN_progress.jsonl``: the navigator's progress) and
+at the end every process's log, to trace a goal that went wrong.
 """
 
 from __future__ import annotations
@@ -60,7 +64,32 @@ def smoothed_path_length_m(times_s: np.ndarray, xy_m: np.ndarray, window_s: floa
     return float(np.sum(np.linalg.norm(np.diff(points, axis=0), axis=1)))
 
 
-def drive(system, goal) -> Outcome:
+def pose_rows(source: str, poses) -> list[str]:
+    """CSV rows ``source,t_s,x_m,y_m,yaw_rad`` of PoseStamped messages."""
+    from srs_ros.ros.interfaces import stamp_to_seconds
+
+    rows = []
+    for p in poses:
+        q = p.pose.orientation
+        yaw = np.arctan2(2 * (q.w * q.z + q.x * q.y), 1 - 2 * (q.y * q.y + q.z * q.z))
+        rows.append(f"{source},{stamp_to_seconds(p.header.stamp):.3f},{p.pose.position.x:.4f},"
+                    f"{p.pose.position.y:.4f},{yaw:.4f}")
+    return rows
+
+
+def record(folder: Path, index: int, system, marks: dict[str, int]) -> None:
+    """Write goal ``index``'s tracked poses, truth, commands (since ``marks``) and progress into ``folder``."""
+    rows = ["source,t_s,x_m,y_m,yaw_rad"]
+    rows += pose_rows("tracked", system.tracked[marks["tracked"]:])
+    rows += pose_rows("truth", system.truth[marks["truth"]:])
+    rows += [f"command,{i},{max(m.data):.3f},{min(m.data):.3f},0" for i, m in
+             enumerate(system.pressures[marks["pressures"]:])]
+    (folder / f"goal_{index:02d}.csv").write_text("\n".join(rows) + "\n")
+    (folder / f"goal_{index:02d}_progress.jsonl").write_text(
+        "".join(m.data + "\n" for m in system.progress[marks["progress"]:]))
+
+
+def drive(system, goal, record_dir: Path | None = None, index: int = 0) -> Outcome:
     """One goal from the start pose, to the navigator's end (or cancelled after GOAL_TIMEOUT_S)."""
     from srs_testing.navigation import FINAL_STATES
 
@@ -68,6 +97,7 @@ def drive(system, goal) -> Outcome:
 
     start = system.at_rest_at_start()
     first_truth = len(system.truth)
+    marks = {name: len(getattr(system, name)) for name in ("tracked", "truth", "pressures", "progress")}
     system.goal(*goal)
     system.wait(lambda: system.state()["goal_xy_m"] == [float(v) for v in goal], 10.0, "the goal taken")
     started_s = time.monotonic()
@@ -79,6 +109,8 @@ def drive(system, goal) -> Outcome:
     system.wait(system.vented, 10.0, "the vent")
     system.client.spin_for(1.0)  # at rest
     poses = system.truth[first_truth:]
+    if record_dir is not None:
+        record(record_dir, index, system, marks)
     times = np.array([stamp_to_seconds(p.header.stamp) for p in poses])
     xy = np.array([[p.pose.position.x, p.pose.position.y] for p in poses])
     return Outcome(tuple(goal), system.state()["state"], float(np.linalg.norm(xy[-1] - goal)), took_s,
@@ -118,6 +150,8 @@ def main(argv=None) -> None:
     parser.add_argument("--turning-map", default="",
                         help="the navigator's turning_map_file (e.g. config/turning_map_calibrated_paper.yaml with the "
                              "calibrated physics; default: the navigator's own)")
+    parser.add_argument("--record", default="", help="folder for each goal's poses, commands and progress, and "
+                                                     "the processes' logs (default: not kept)")
     args = parser.parse_args(argv)
     os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
     settings = load_navigation_settings()
@@ -139,11 +173,17 @@ def main(argv=None) -> None:
         if args.turning_map:
             params["turning_map_file"] = str(Path(args.turning_map).resolve())
         system = NavigationSystem(session, params, sim_config_file=str(sim_file))
-        for goal in goals:
-            outcomes.append(drive(system, goal))
+        record_dir = Path(args.record) if args.record else None
+        if record_dir is not None:
+            record_dir.mkdir(parents=True, exist_ok=True)
+        for index, goal in enumerate(goals):
+            outcomes.append(drive(system, goal, record_dir, index))
             print("  " + line(outcomes[-1]), flush=True)
     finally:
         session.close()
+        if args.record:
+            for process in session.started:
+                (Path(args.record) / f"{process.script}.log").write_text(process.output())
     print(summary(outcomes, speed, settings.goal_tolerance_m) if outcomes else "no goal driven")
     print(f"wall time {time.monotonic() - started:.0f} s, load {os.getloadavg()[0]:.1f}")
 
