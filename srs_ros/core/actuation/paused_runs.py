@@ -4,10 +4,14 @@ A rig's hardware vents by itself when its commands stop for its own timeout (sim
 board 0.1 s, an NI watchdog). A busy machine pauses a Python process for 0.2-0.4 s now and then, and after a pause
 :func:`~srs_ros.core.actuation.identification.run_plan` sends the overdue commands at once: a step paused in
 its hold may have been vented in the middle, and one whose start was overdue is held for less than planned.
-Its settled length and its response are then not the step's, and a fit on them is wrong without a word.
+Its settled length and its response are then not the step's, and a fit on them is wrong without a word. The
+rig's side can pause too: a read-back that gives no new value while a step settles (sim_world's executor
+starved on a busy machine; a board or node silent for a moment) leaves that step out of the static fit, and with
+two such steps the fit has too few levels.
 
 :func:`run_plan_through_pauses` runs the plan, and every *segment* of it (a block of non-zero commands and the
-vent after it) in which a command went out later than that gap is set aside: its samples leave the
+vent after it) in which a command went out later than that gap, or a step's settled window got no new read-back,
+is set aside: its samples leave the
 recording, its steps leave the plan, and the segments set aside are run again after the plan (after the
 plan's opening vent), up to ``retries`` times. It returns the recording and the plan as they now belong
 together; the caller fits on those.
@@ -63,6 +67,35 @@ def disturbed_segments(recording: Recording, plan: CommandPlan, max_late_s: floa
         if index + 1 < len(segments) and vent < end and late_s[vent] > max_late_s:
             touched.add(index + 1)
     return sorted(touched), float(late_s[rows].max())
+
+
+def unmeasured_segments(recording: Recording, plan: CommandPlan) -> list[int]:
+    """Indexes of the segments with a step whose settled window holds no new read-back (none when nothing is read).
+
+    The recording keeps one sample per read-back (:func:`~srs_ros.core.actuation.identification.run_plan` drops a
+    read-back seen again), so a read-back silent over a whole settled window leaves no sample in it.
+    """
+    values = recording.length_m if recording.length_m is not None else recording.pressure_bar
+    if values is None:
+        return []
+    fresh_s = recording.sample_s[np.any(np.isfinite(values), axis=1)]
+    return [index for index, (first, end) in enumerate(plan_segments(plan))
+            if any(not np.any((fresh_s >= step.settled_s) & (fresh_s < step.end_s))
+                   for step in _steps_within(plan, first, end))]
+
+
+def _to_run_again(recording: Recording, plan: CommandPlan, max_late_s: float) -> tuple[list[int], str]:
+    """The segments to run again (late commands or a silent read-back) and why, in words."""
+    late, worst_s = disturbed_segments(recording, plan, max_late_s)
+    silent = [index for index in unmeasured_segments(recording, plan) if index not in late]
+    reasons = []
+    if late:
+        reasons.append(f"this process paused and sent a command {worst_s:.2f} s late (allowed: {max_late_s:g} s, "
+                       "within the rig's own vent timeout)")
+    if silent:
+        reasons.append(f"the rig's read-back gave no new value while {len(silent)} part(s) settled (its node or "
+                       "board fell silent for a moment)")
+    return sorted(late + silent), "; ".join(reasons)
 
 
 def _steps_within(plan: CommandPlan, first: int, end: int) -> list[Step]:
@@ -132,12 +165,12 @@ def joined(first: tuple[Recording, CommandPlan], then: tuple[Recording, CommandP
 def run_plan_through_pauses(io: RigIO, plan: CommandPlan, max_late_s: float, retries: int = DEFAULT_RETRIES,
                             on_step: Callable[[int, Step], None] | None = None,
                             on_retry: Callable[[str], None] | None = None) -> tuple[Recording, CommandPlan]:
-    """Run ``plan``, and again every part of it a pause of the host disturbed; the recording and plan to fit.
+    """Run ``plan``, and again every part a pause (of the host or the read-back) disturbed; the recording and plan.
 
     Raises :class:`HardwareError` when parts are still disturbed after ``retries`` runs again.
     """
     recording = run_plan(io, plan, on_step)
-    todo, worst_s = disturbed_segments(recording, plan, max_late_s)
+    todo, why = _to_run_again(recording, plan, max_late_s)
     result = set_aside(recording, plan, todo)
     for attempt in range(1, retries + 2):
         if not todo:
@@ -145,15 +178,12 @@ def run_plan_through_pauses(io: RigIO, plan: CommandPlan, max_late_s: float, ret
         if attempt > retries:
             break
         if on_retry is not None:
-            on_retry(f"{len(todo)} part(s) of the plan disturbed: this process paused and sent a command "
-                     f"{worst_s:.2f} s late (allowed: {max_late_s:g} s, within the rig's own vent timeout); "
-                     f"running them again ({attempt} of {retries})")
+            on_retry(f"{len(todo)} part(s) of the plan disturbed: {why}; running them again ({attempt} of {retries})")
         again = plan_of_segments(plan, todo)
         recording = run_plan(io, again, on_step)
         plan = again
-        todo, worst_s = disturbed_segments(recording, plan, max_late_s)
+        todo, why = _to_run_again(recording, plan, max_late_s)
         result = joined(result, set_aside(recording, plan, todo))
-    raise HardwareError(f"the run was still disturbed after {retries} repeats: this process paused and sent a "
-                        f"command {worst_s:.2f} s late, more than the {max_late_s:g} s allowed within the rig's own "
-                        "vent timeout. The machine is too busy to measure the muscles: stop other programs and run it "
-                        "again.")
+    raise HardwareError(f"the run was still disturbed after {retries} repeats: {why}. The machine is too busy to "
+                        "measure the muscles, or the rig's read-back too slow for the steps' settled windows: stop "
+                        "other programs and run it again, or hold the steps longer (--hold-s).")
