@@ -5,7 +5,8 @@
 for the nodes, the answer to a goal, the progress), ``motion`` (poses, and the turn rates and
 travel directions learned online from them), ``controller`` (:class:`NavigationController`: goals, waypoints,
 cancel, lost pose, progress; it chooses the rolling direction, the turn level and the frequency), ``stopping``
-(where the robot rests after a stop), ``fine`` and ``approach`` (the fine approach near the goal: creeping just
+(where the robot rests after a stop), ``cruise_stop`` (when the controller stops the rolling gait near the goal
+and what it learns as the robot rests), ``fine`` and ``approach`` (the fine approach near the goal: creeping just
 above the deadzone along the line square to the body, turning on the spot toward it), ``shuffle`` (moves along
 the body's axis onto that line, the straight serpentine, learned per floor), ``edge`` (the edge guard that keeps
 the robot in the camera's view).
