@@ -203,6 +203,16 @@ def test_a_cruise_whose_stop_can_land_on_the_goal_stops_there_instead_of_short_o
     assert creep == 0 and stops == 1, (creep, stops)
 
 
+def test_a_goal_near_the_resting_robot_and_near_its_axis_is_turned_to_on_the_spot_not_driven_round():
+    """At rest 7 cm from the goal, 61 deg off the creeping line, where the serpentine does not move the stand-in: the
+    goal is nearer than 2 x the tolerance, so it turns on the spot toward the line, whatever the turn. Beyond 60 deg
+    it was left to the cruise gait, which switched direction every half cycle for a minute 4-7 cm from the goal,
+    spinning the body round, and never stopped (the stall timer ended it)."""
+    controller, roller, _ = run(None, (0.2, 0.5))
+    assert controller.state is NavigationState.REACHED, controller.progress(0.0).message
+    assert math.dist((0.2, 0.5), (roller.x, roller.y)) <= 0.05
+
+
 def pivot_strokes(stops_learned=()):
     """The directions of the turn on the spot a resting robot plays toward a goal behind it and off its line."""
     settings = load_navigation_settings({}, turning_map=MAP)
