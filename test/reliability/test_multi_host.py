@@ -49,7 +49,10 @@ def test_three_hosts_stream_the_gait_and_a_pulled_cable_vents_the_valves(ros_env
     for line in summary_lines("3 hosts (UDP)", result):
         print(line)
     final = result["final"]
-    assert final["setpoints_received"] > 0.5 * result["published"]  # the stream crossed the link
+    assert result["setpoints_total"] > 0.5 * result["published"]  # the stream crossed the link (what DDS delivered)
+    # ... and the hardware node took it: its queue has depth 1, so on a busy machine it takes the newest of a few (40 %
+    # of the 500 Hz stream in a full suite run on a slow day, 2026-11-28; docs/testing.md)
+    assert final["setpoints_received"] > 0.2 * result["published"]
     assert result["poses"] > 0  # the camera host's poses reached the robot's host
     assert result["record"]["finite"] and result["record"]["max_bar"] <= 4.0
 
