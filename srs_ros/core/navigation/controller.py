@@ -260,14 +260,16 @@ class NavigationController(CruiseStopping, FineDriving, EdgeGuard):
             error, distance_m = errors[toward], distances[toward]
             self._heading_error_rad = error
             held = now_s - self._changed_s >= self._hold_s(settings.min_hold_cycles)
-            if not held or self._out_of_reach(toward, error, distance_m, 1.2):
+            if (not held or self._out_of_reach(toward, error, distance_m, 1.2)) and \
+                    not self._heads_out_of_view(other_direction(toward)):
                 return other_direction(toward), math.copysign(limit, error)
             self._backing_from = None
             self._message = self._driving_message()  # the status no longer says it is backing away
         direction = self._choose_direction(now_s, errors, settings.min_hold_cycles)
         error, distance_m = errors[direction], distances[direction]
         self._heading_error_rad = error
-        if self._out_of_reach(direction, error, distance_m, 1.0):
+        if self._out_of_reach(direction, error, distance_m, 1.0) and not self._heads_out_of_view(
+                other_direction(direction)):  # near the edge, never backed out of view: driven on instead
             self._backing_from = direction
             self._message = "the goal is too close to the side to turn to: backing away while turning"
             return other_direction(direction), math.copysign(limit, error)

@@ -60,6 +60,22 @@ class EdgeGuard:
         self._edge_until_s = pose.time_s + EDGE_HOLD_CYCLES * period_s
         return True
 
+    def _heads_out_of_view(self, direction: str) -> bool:
+        """True when the robot lies within ``edge_guard_m`` of the view's edge and ``direction`` travels out of it.
+
+        Judged on the learned travel heading, before the direction plays: the track-based guard above judges a
+        direction only after its change-over and a cycle, and a three-point turn started at rest a few cm from the
+        edge backed out of view before that (over DDS the camera then lost the robot: docs/navigation.md).
+        """
+        last = self.history.window(0.0)
+        if self.area is None or self.settings.edge_guard_m <= 0.0 or not len(last):
+            return False
+        x_m, y_m = float(last[-1, 1]), float(last[-1, 2])
+        if self.area.inside_distance_m(x_m, y_m) > self.settings.edge_guard_m:
+            return False
+        heading = self._travel_heading_rad(direction)
+        return float(np.array([math.cos(heading), math.sin(heading)]) @ self.area.inward_normal(x_m, y_m)) < 0.0
+
     def _away_from_edge(self, period_s: float) -> tuple[str, int, str]:
         """Direction, turn level and what it does, for a robot seen moving out of the view over the last cycle.
 
