@@ -7,13 +7,14 @@ import time
 
 import numpy as np
 import pytest
+from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import PoseStamped
 from sensor_msgs.msg import Image, JointState
 from srs_testing import ros_args
 from visualization_msgs.msg import MarkerArray
 
 from srs_ros.core.robot import config_dir, default_robot
-from srs_ros.ros.interfaces import SIM_COMMAND_TOPIC, bus_qos, stamp_to_seconds
+from srs_ros.ros.interfaces import SIM_COMMAND_TOPIC, bus_qos, diagnostic_values, stamp_to_seconds
 
 SIM_RIG = str(config_dir() / "rigs" / "sim.yaml")
 
@@ -37,6 +38,7 @@ def test_the_gait_moves_the_simulated_robot_and_the_camera_tracks_it_by_pixels(l
     bus = ros_client.subscribe(JointState, SIM_COMMAND_TOPIC, bus_qos())
     markers = ros_client.subscribe(MarkerArray, "sim/body_markers")
     images = ros_client.subscribe(Image, "image_raw", 1)
+    diagnostics = ros_client.subscribe(DiagnosticArray, "/diagnostics")
     try:
         ros_client.spin_until(lambda: lengths and max(lengths[-1].position, default=0.0) > 0.02, 60.0,
                               "the simulated muscles extending (read back through the sim backend)")
@@ -44,13 +46,24 @@ def test_the_gait_moves_the_simulated_robot_and_the_camera_tracks_it_by_pixels(l
         raise AssertionError(f"{exc}\nhardware_node:\n{hardware.output()}\nsim_world:\n{world.output()}") from None
     ros_client.spin_until(lambda: len(truth) > 100 and images and markers, 30.0, "pose, camera and markers")
 
-    start, first_tracked = truth[-1].pose.position, len(tracked)
-    ros_client.spin_for(4.0)  # four gait cycles
-    end = truth[-1].pose.position
-    assert np.hypot(end.x - start.x, end.y - start.y) > 0.05  # inward rolling at 4 bar, 1 Hz moves
+    # Waited for, not timed: beside the suite's other workers the world may run slower than the wall clock, and a
+    # starved hardware node may be vented by the board's own watchdog for a while (CI once saw 1 cm in 4 s of wall).
+    start, first_tracked, started_s = truth[-1].pose.position, len(tracked), time.monotonic()
+
+    def travelled_m():
+        return float(np.hypot(truth[-1].pose.position.x - start.x, truth[-1].pose.position.y - start.y))
+
+    try:  # inward rolling at 4 bar, 1 Hz: about 9 cm/s in the world
+        ros_client.spin_until(lambda: travelled_m() > 0.05 and len(tracked) - first_tracked >= 40, 40.0,
+                              "5 cm of rolling and 40 tracked poses")
+    except AssertionError as exc:
+        status = [diagnostic_values(s) for a in diagnostics for s in a.status if s.name.startswith("sim_world")]
+        raise AssertionError(f"{exc}: {travelled_m() * 100:.1f} cm, {len(tracked) - first_tracked} poses; "
+                             f"sim_world's last diagnostics {status[-1:]}\nhardware_node:\n{hardware.output()}"
+                             ) from None
+    print(f"5 cm rolled and 40 poses tracked in {time.monotonic() - started_s:.1f} s of wall time")
     # The loop closed by pixels: camera_tracker on sim_world's images against the ground truth, while rolling.
     seen = tracked[first_tracked:]
-    assert len(seen) >= 40, f"{len(seen)} tracked poses in 4 s of 15 fps (two thirds of the frames at least)"
     truth_t, truth_xy = stamps_s(truth), np.array([[m.pose.position.x, m.pose.position.y] for m in truth])
     errors_mm = [1000 * np.hypot(*(np.array([m.pose.position.x, m.pose.position.y])
                                    - [np.interp(t, truth_t, truth_xy[:, 0]), np.interp(t, truth_t, truth_xy[:, 1])]))
