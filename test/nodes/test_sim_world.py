@@ -168,8 +168,13 @@ def _stall_and_silence(executor, world, sender) -> None:
         assert world.commands > received_before_stall
         assert world.board.silence_vents == 0, "vented a sender that never stopped, during sim_world's own stall"
         assert world.receiver.stalls >= 1 and not world.board.vented_by_silence
-        run(1.0, send=False, spin=True)  # now the sender is silent: vented within the timeout
+        # Now the sender is silent: vented within the timeout of world time. Waited for (up to 5 s of wall): beside
+        # the suite's other workers the world may step slower than the wall clock.
+        silent_from_s, deadline_s = world.world.time_s, time.monotonic() + 5.0
+        while not world.board.vented_by_silence and time.monotonic() < deadline_s:
+            run(0.05, send=False, spin=True)
         assert world.board.silence_vents == 1 and world.board.vented_by_silence
+        assert world.world.time_s - silent_from_s < world.board.command_timeout_s + 1.0  # + a stall of this test
     finally:
         executor.shutdown(timeout_sec=1.0)
         for node in (world, sender):

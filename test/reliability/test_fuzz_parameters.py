@@ -219,7 +219,7 @@ def test_gait_player_parameters(launch_node, ros_client):
         ("amplitude_scale", value_of(ParameterType.PARAMETER_DOUBLE, math.nan)),
     ])
     start = len(setpoints)
-    client.spin_until(lambda: len(setpoints) > start + 20, 10.0, "the stream after the fuzzing")
+    client.spin_until(lambda: len(setpoints) > start + 20, 30.0, "the stream after the fuzzing")
 
 
 def test_camera_tracker_parameters(launch_node, ros_client, tmp_path):
