@@ -2,13 +2,14 @@
 
 At 4 bar the rolling body lies as a C (about 200 deg of bend) and the tracked point (the midpoint of the end
 markers) sits in the C's mouth; when the gait stops the body straightens and that point moves 10-35 cm. At an
-amplitude a little above the deadzone (``fine_amplitude_bar``, 2 bar) the body bends little: it still rolls
+amplitude a little above the deadzone (``fine_amplitude_bar``, 1.5 bar) the body bends little: it still rolls
 about a skin circumference per cycle (12-18 cm) but, slowly (``fine_frequency_hz``, 0.25 Hz), it comes to rest
--2 to +7 cm along its travel and under 1 cm across it, repeatably at one gait phase (measured on the default,
-anisotropic and calibrated physics: docs/navigation.md). It hardly turns (under 1 deg per cycle) and it rolls
-both ways, so near the goal the robot moves on a line, square to its body: at rest near the goal it creeps along
-that line toward the goal, inward or outward rolling (back and forth with a run-up if it went past), and stops
-at a stop phase about a second ahead (:data:`FINE_STOP_LEAD_S`) when it is predicted to rest on the goal. A goal
+about 4 cm along its travel either way and under 0.2 cm across it, repeatably at one gait phase (at 2 bar: -2 to
++7 cm along, under 1 cm across; measured on the default, anisotropic and calibrated physics: docs/navigation.md).
+It hardly turns (under 1 deg per cycle) and it rolls both ways, so near the goal the robot moves on a line,
+square to its body: at rest near the goal it creeps along that line toward the goal, inward or outward rolling
+(back and forth with a run-up if it went past), and stops at a stop phase about a second ahead
+(:data:`FINE_STOP_LEAD_S`) when it is predicted to rest on the goal. A goal
 that lies off the line (farther across it than :data:`FINE_LINE_WITHIN` x the tolerance) is turned to on the spot
 first, or driven round to with the cruise gait (:mod:`srs_ros.core.navigation.approach` decides).
 :class:`FineApproach` holds that state and the resting points it learns.
@@ -43,7 +44,8 @@ FINE_MIN_MOVE_M = 0.01
 #: later creep the wrong way (docs/navigation.md, "A skew learned backwards").
 FINE_MAX_SKEW_RAD = math.radians(30.0)
 #: First guess of where the robot rests after a stop at each stop phase: (along, across) its travel (m);
-#: measured 2 bar 0.25 Hz: -4 .. +10 cm along (direction and phase), under 1 cm across; learned at every stop.
+#: measured at 1.5 bar 0.25 Hz: +3.6 cm along on average (a 6 cm range over the stop phases), under 0.2 cm across
+#: (2 bar: -4 .. +10 cm along, under 1 cm across); learned at every stop.
 FINE_REST_GUESS_M = (0.02, 0.0)
 #: A reversal needs the goal at least this far behind (times goal_tolerance_m), and the run-up a stop needs.
 FINE_REVERSE_BEYOND = 0.3

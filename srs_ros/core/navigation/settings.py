@@ -63,9 +63,10 @@ NAVIGATION_TABLE = Table("navigation", (
           "along the line square to its body when the goal lies on it (else moves along its axis onto the line, or "
           "turns on the spot toward it) and stops at the next stop phase; the cruise gait also stops where it will "
           "rest on the goal's line; 0: off"),
-    Field("fine_amplitude_bar", float, 2.0, 0.5, 4.0, "bar",
+    Field("fine_amplitude_bar", float, 1.5, 0.5, 4.0, "bar",
           "amplitude of the fine approach: just above the muscles' deadzone the body bends little, so it rests "
-          "within a few cm of where it stopped (at 4 bar: 10-35 cm)"),
+          "within a few cm of where it stopped (at 4 bar: 10-35 cm); set it above your robot's deadzone (the "
+          "calibrated simulation's is 1.35 bar)"),
     Field("fine_frequency_hz", float, 0.25, 0.1, 2.0, "Hz",
           "cycle frequency of the fine approach (slow: the 1 s ramp-out is a quarter cycle of roll-on)"),
     Field("axis_move_max_cycles", int, 3, 0, 10, "cycles",
