@@ -51,8 +51,10 @@ STRAIGHT_WITHIN = 0.7
 #: has every goal inside its tightest turn, and backing away does not turn it toward one: on the calibrated physics
 #: (at most 7 deg per cycle; the default and anisotropic ones 14-21) it backed away from goals 4-10 deg off its line
 #: for the whole minute (docs/navigation.md, "Backing away without a turn"). Such a robot drives on to a goal that
-#: its line, or its tightest arc toward it, passes within BACK_UNLESS_MISS_WITHIN x FINE_STOP_NEAR x
-#: fine_distance_m (the fine approach on): the cruise stops near it and the fine approach finishes from rest.
+#: its tightest arc toward it passes within BACK_UNLESS_MISS_WITHIN x FINE_STOP_NEAR x fine_distance_m (the fine
+#: approach on): the cruise stops near it and the fine approach finishes from rest. Any robot drives on to a goal
+#: its straight line passes that close (since stop 45: over DDS a direction that could not turn toward a goal 5-15
+#: deg off backed away from it and drove at it by turns for a minute; docs/navigation.md, "A goal nearly ahead").
 WEAK_TURN_DEG_PER_CYCLE = 8.0
 BACK_UNLESS_MISS_WITHIN = 0.5
 
@@ -294,9 +296,9 @@ class NavigationController(CruiseStopping, FineDriving, EdgeGuard):
         if abs(error) >= 0.5 * math.pi or miss_m <= STRAIGHT_WITHIN * settings.goal_tolerance_m:
             return False
         sign, reach_m = (1 if error >= 0.0 else -1), BACK_UNLESS_MISS_WITHIN * FINE_STOP_NEAR * settings.fine_distance_m
-        weak = max(self.turns.fastest_deg(d, sign)[1] * sign for d in DIRECTIONS) < WEAK_TURN_DEG_PER_CYCLE
-        if weak and miss_m <= reach_m:
+        if miss_m <= reach_m:  # driven on: the cruise stops near it and the fine approach finishes from rest
             return False
+        weak = max(self.turns.fastest_deg(d, sign)[1] * sign for d in DIRECTIONS) < WEAK_TURN_DEG_PER_CYCLE
         index, rate_deg = self.turns.fastest_deg(direction, sign)
         if rate_deg * sign <= 1.0:
             return True

@@ -36,8 +36,10 @@ FRAME_S = 1.0 / 30.0
 class Roller:
     """A kinematic rolling robot: travels across its yaw, turns per level (its own rates), rests after a stop."""
 
-    def __init__(self, bias_deg=6.0, scale=0.7, rest_m=(0.06, 0.07, 0.04, 0.05), travel_sign=1.0, axis_step_m=0.0):
+    def __init__(self, bias_deg=6.0, scale=0.7, rest_m=(0.06, 0.07, 0.04, 0.05), travel_sign=1.0, axis_step_m=0.0,
+                 turn_deg=None):
         self.x = self.y = self.yaw = self.phase = 0.0
+        self.turn_deg = turn_deg  # (direction, turn_phase_rad) -> deg per cycle, instead of bias_deg and scale
         self.axis_step_m = axis_step_m  # per cycle of the serpentine, along the yaw (0: an isotropic floor)
         self.travel_sign = travel_sign  # -1: rolls the other way round (inward to the right of its yaw)
         self.bias_deg, self.scale, self.rest_m = bias_deg, scale, rest_m
@@ -76,7 +78,8 @@ class Roller:
             return
         self.rest_scale = 1.0
         sign = 1.0 if command.direction == "inward_rolling" else -1.0
-        rate_deg = self.scale * (-40.0 * command.turn_phase_rad) + self.bias_deg
+        rate_deg = self.scale * (-40.0 * command.turn_phase_rad) + self.bias_deg if self.turn_deg is None else \
+            self.turn_deg(command.direction, command.turn_phase_rad)
         self.yaw += math.radians(rate_deg) * command.frequency_hz * FRAME_S
         self._heading = self.yaw + sign * self.travel_sign * math.pi / 2
         travel = 0.09 * command.frequency_hz * FRAME_S
@@ -155,6 +158,32 @@ def test_a_robot_that_hardly_turns_drives_on_to_a_goal_its_line_or_arc_nearly_pa
                 each_frame=lambda now: backing.append("backing away" in controller.progress(now).message))
     assert controller.state is NavigationState.REACHED, controller.progress(end).message
     assert any(backing) is backs
+
+
+def one_way_inward(direction: str, turn_phase_rad):
+    """Inward rolling turns counter-clockwise only (up to 10 deg per cycle), outward both ways (up to 20)."""
+    if direction == "inward_rolling":
+        return np.maximum(-20.0 * np.asarray(turn_phase_rad), 0.0)
+    return -40.0 * np.asarray(turn_phase_rad)
+
+
+def test_a_goal_nearly_ahead_is_driven_on_to_though_this_direction_cannot_turn_toward_it():
+    """A goal 0.7 m ahead and 4 deg clockwise, which inward rolling cannot turn toward but passes 5 cm off, is
+    driven on to and finished from rest. Before, it was backed away from (a three-point turn); over DDS on the
+    anisotropic floor such turns dithered between the directions for a minute with the goal 0.4-1.2 m away and
+    5-15 deg off (docs/navigation.md, "A goal nearly ahead"). This stand-in's outward rolling turns fast, so here
+    the three-point turn was the quicker (9.7 s against 23 s); on the three simulated bodies driving on was, over
+    120 goals each."""
+    turner = TurningMap(4.0, 1.0, "one-way turner", {
+        d: DirectionMap(LEVELS, one_way_inward(d, LEVELS), np.full(len(LEVELS), 0.09),
+                        np.tile([0.05, 0.0], (len(STOP_PHASES), 1))) for d in DIRECTIONS})
+    controller = NavigationController(load_navigation_settings({}, turning_map=turner), AREA)
+    roller, backing = Roller(turn_deg=one_way_inward), []
+    controller.set_goal(0.05, 0.7, now_s=0.0)
+    end = drive(controller, roller, 120.0,
+                each_frame=lambda now: backing.append("backing away" in controller.progress(now).message))
+    assert controller.state is NavigationState.REACHED, controller.progress(end).message
+    assert not any(backing)
 
 
 def test_the_arc_miss_is_the_nearest_that_any_arc_no_tighter_comes_to_the_goal():

