@@ -381,10 +381,11 @@ class Navigator(Node):
         """At shutdown: tell gait_player to stop (it ramps out, every muscle vents) and wait for its answer."""
         if not (self._driver.playing or self._nav.state.active) or not self.context.ok():
             return
-        future = self._driver.stop(self._nav.cancel(time.monotonic(), "navigator shutting down"))
-        if future is not None:
-            rclpy.spin_until_future_complete(self, future, timeout_sec=timeout_s)
-        answered = "answered" if future is not None and future.done() else "no answer"
+        self._driver.stop(self._nav.cancel(time.monotonic(), "navigator shutting down"))
+        deadline_s = time.monotonic() + timeout_s
+        while self._driver.busy and time.monotonic() < deadline_s:  # a start in flight answers, then the stop
+            rclpy.spin_once(self, timeout_sec=0.05)
+        answered = "no answer" if self._driver.busy or self._driver.error else "answered"
         print(f"navigator: shutting down, gait_player told to stop ({answered})", flush=True)
 
 

@@ -73,6 +73,7 @@ class GaitDriver:
         self._sent_key: tuple | None = None  # parameters set, regenerate not yet answered
         self._player_key: tuple | None = None  # gait_player's (frequency_hz, reverse, cycles, stop_at_phase) as set
         self._playing = False
+        self._stop_owed = False  # stop() called: a ~/stop is sent once no ~/start is in flight
         self._pending: dict[str, tuple[Any, float]] = {}  # what -> (future, sent at)
         self._retry_at = 0.0
         self.error = ""  # the last failure ('' once a call succeeds again)
@@ -86,15 +87,18 @@ class GaitDriver:
         self.wanted = command
         self.pump()
 
-    def stop(self, command):
+    def stop(self, command) -> None:
         """Take the stop ``command`` and call ``gait_player/stop`` whether or not this driver started it.
 
-        Returns the call's future (None when the service is not available).
+        A ``~/start`` still unanswered (the dead man's handle sends one every quarter of ``keepalive_s``) is let
+        answer first: the two services have no order between them, and a start the player took after the stop
+        ramped the gait in again after a cancel (seen in a full test run). The stop goes out with the start's
+        answer, or once the start is given up (:data:`CALL_TIMEOUT_S`). :attr:`busy` is False once it is answered.
         """
         self.wanted = command
         self._playing = False
-        self._call("stop", Trigger.Request(), self._on_stop)
-        return self._pending.get("stop", (None,))[0]
+        self._stop_owed = True
+        self.pump()
 
     @property
     def playing(self) -> bool:
@@ -128,9 +132,10 @@ class GaitDriver:
         if not command.moving:
             if command.stop_phase is not None and self._playing:
                 self._stop_at_phase(float(command.stop_phase), now)
-            elif self._playing and "stop" not in self._pending:
-                self._call("stop", Trigger.Request(), self._on_stop)
+            elif (self._playing or self._stop_owed) and not {"stop", "start"} & self._pending.keys():
+                self._call("stop", Trigger.Request(), self._on_stop)  # owed until answered: a failed one again
             return
+        self._stop_owed = False
         keepalive = self.keepalive_s > 0 and now - self._started_s >= self.keepalive_s / 4
         if self._playing and keepalive and "start" not in self._pending:
             self._start(now)  # the dead man's handle, whatever else is pending
@@ -235,13 +240,14 @@ class GaitDriver:
             self._playing = False
             self._failed("start", f"gait_player did not start: {response.message}")
             return
-        self._playing, self.error = True, ""  # also when a stop was sent meanwhile: pump stops it again
+        self._playing, self.error = True, ""  # a stop owed meanwhile goes out now (pump)
 
     def _on_stop(self, response) -> None:
         if not response.success:
             self._failed("stop", f"gait_player did not stop: {response.message}")
             return
-        self._playing = "start" in self._pending  # a start still in flight may arrive after this stop
+        self._stop_owed = False
+        self._playing = "start" in self._pending  # a start sent after this stop (a new goal) is in flight
 
     def _failed(self, what: str, reason: str) -> None:
         self.error = f"{what}: {reason}"

@@ -3,11 +3,15 @@
 What `ros2 param get` would read back after the driver's calls: the gait, its parameters, the playing direction.
 """
 
+import signal
+
 import pytest
+from sensor_msgs.msg import JointState
 from srs_testing import ros_args
 
 from srs_ros.core.navigation import GaitCommand
 from srs_ros.ros.gait_driver import GaitDriver
+from srs_ros.ros.interfaces import SETPOINT_TOPIC, setpoint_qos
 
 
 def drive_until_playing(ros_client, driver, command, timeout_s=30.0):
@@ -37,3 +41,33 @@ def test_a_move_along_the_axis_plays_the_straight_serpentine_backward_and_rollin
     assert ros_client.get_parameters("/gait_player", ["reverse"]) == {"reverse": False}
     driver.stop(GaitCommand(None, 0.0, 4.0, 1.0))
     ros_client.spin_until(lambda: not driver.busy, 10.0, "the stop answered")
+
+
+@pytest.mark.slow(seconds=8)
+def test_a_stop_waits_for_a_start_in_flight_so_the_player_ends_stopped(launch_node, ros_client):
+    """The dead man's handle sends ~/start every quarter of keepalive_s; ~/start and ~/stop are two services with no
+    order between them, and a start the player took after a cancel's stop ramped the gait in again (a full test
+    run saw pressure again after the cancel's vent). Here the player is paused (SIGSTOP) with a start in flight when
+    the stop is asked: no stop is sent until the start is answered, then one is, and the stream ends."""
+    launch_node("trajectory_server", ros_args({"samples": 32}))
+    player = launch_node("gait_player", ros_args({"ramp_time_s": 0.2}))
+    driver = GaitDriver(ros_client.node, "/trajectory_server", "/gait_player", keepalive_s=0.4)
+    setpoints = ros_client.subscribe(JointState, SETPOINT_TOPIC, setpoint_qos())
+    ros_client.spin_until(lambda: not driver.missing_services(), 30.0, "the gait services")
+    drive_until_playing(ros_client, driver, GaitCommand("inward_rolling", 0.0, 4.0, 1.0))
+    player.process.send_signal(signal.SIGSTOP)
+    try:
+        starts = driver.calls["start"]
+        ros_client.spin_until(lambda: driver.pump() or driver.calls["start"] > starts, 5.0, "a keepalive start")
+        driver.stop(GaitCommand(None, 0.0, 4.0, 1.0))
+        ros_client.spin_for(0.5)
+        assert driver.calls["stop"] == 0 and driver.busy, driver.calls  # the start has no answer: no stop yet
+    finally:
+        player.process.send_signal(signal.SIGCONT)
+    ros_client.spin_until(lambda: driver.pump() or (driver.calls["stop"] == 1 and not driver.busy), 10.0,
+                          f"the stop after the start's answer ({driver.error or 'no error'})")
+    assert not driver.playing and not driver.error
+    ros_client.spin_for(1.0)  # the ramp-out (0.2 s) ends the stream
+    count = len(setpoints)
+    ros_client.spin_for(1.0)
+    assert len(setpoints) == count, "gait_player still streams after the stop: the late start ramped it in again"

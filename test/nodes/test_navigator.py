@@ -62,6 +62,21 @@ def test_a_new_goal_replaces_the_current_one_mid_way(robot):
     robot.wait(robot.vented, 5.0, "the vent after the cancel")
 
 
+class ZeroRun:
+    """How long every command received has been 0 bar on every muscle (s), from the first of the current run."""
+
+    def __init__(self, pressures: list):
+        self.pressures, self.seen, self.since_s = pressures, 0, None
+
+    def lasted_s(self) -> float:
+        new, self.seen = self.pressures[self.seen:], len(self.pressures)
+        if any(max(m.data) > 0.0 for m in new):
+            self.since_s = None
+        elif new and self.since_s is None:
+            self.since_s = time.monotonic()
+        return 0.0 if self.since_s is None else time.monotonic() - self.since_s
+
+
 def test_cancel_stops_the_gait_and_vents(robot):
     start = robot.at_rest_at_start()
     robot.goal(*(start + [0.0, 0.6]))
@@ -71,9 +86,13 @@ def test_cancel_stops_the_gait_and_vents(robot):
     cancelled_s = time.monotonic()
     assert response.success and "cancelled" in response.message
     assert robot.wait_state({"cancelled"}, 2.0, "state cancelled")["message"] == "cancelled by ~/cancel"
-    robot.wait(robot.vented, 5.0, "every muscle vented after the cancel")
-    vent_s = time.monotonic() - cancelled_s
-    print(f"cancel to every muscle vented: {vent_s:.2f} s (gait_player ramps out over ramp_time_s, 1 s)")
+    # Vented for good: 0 bar on every muscle for longer than the ramp-out (1 s). One 0 bar command is not enough:
+    # on a busy machine a 0 bar command came mid-ramp (0.72 s after the cancel) and the ramp went on after it (most
+    # likely the hardware node venting setpoints that a stall made stale; not traced).
+    zeros = ZeroRun(robot.pressures)
+    robot.wait(lambda: zeros.lasted_s() >= 1.2, 6.0, "every muscle vented for 1.2 s after the cancel")
+    vent_s = zeros.since_s - cancelled_s
+    print(f"cancel to every muscle vented for good: {vent_s:.2f} s (gait_player ramps out over ramp_time_s, 1 s)")
     assert vent_s < 3.5
     count = len(robot.pressures)
     robot.client.spin_for(1.5)
