@@ -92,8 +92,9 @@ class GaitDriver:
 
         A ``~/start`` still unanswered (the dead man's handle sends one every quarter of ``keepalive_s``) is let
         answer first: the two services have no order between them, and a start the player took after the stop
-        ramped the gait in again after a cancel (seen in a full test run). The stop goes out with the start's
-        answer, or once the start is given up (:data:`CALL_TIMEOUT_S`). :attr:`busy` is False once it is answered.
+        would ramp the gait in again (found while tracing a cancel test; not seen to happen). The stop goes out
+        with the start's answer, or once the start is given up (:data:`CALL_TIMEOUT_S`). :attr:`busy` is False
+        once it is answered.
         """
         self.wanted = command
         self._playing = False

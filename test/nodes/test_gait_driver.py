@@ -46,9 +46,9 @@ def test_a_move_along_the_axis_plays_the_straight_serpentine_backward_and_rollin
 @pytest.mark.slow(seconds=8)
 def test_a_stop_waits_for_a_start_in_flight_so_the_player_ends_stopped(launch_node, ros_client):
     """The dead man's handle sends ~/start every quarter of keepalive_s; ~/start and ~/stop are two services with no
-    order between them, and a start the player took after a cancel's stop ramped the gait in again (a full test
-    run saw pressure again after the cancel's vent). Here the player is paused (SIGSTOP) with a start in flight when
-    the stop is asked: no stop is sent until the start is answered, then one is, and the stream ends."""
+    order between them, and a start the player took after a cancel's stop would ramp the gait in again. Here the
+    player is paused (SIGSTOP) with a start in flight when the stop is asked: no stop is sent until the start is
+    answered, then one is, and the stream ends."""
     launch_node("trajectory_server", ros_args({"samples": 32}))
     player = launch_node("gait_player", ros_args({"ramp_time_s": 0.2}))
     driver = GaitDriver(ros_client.node, "/trajectory_server", "/gait_player", keepalive_s=0.4)
