@@ -15,7 +15,7 @@ import math
 import numpy as np
 
 from srs_ros.core.robot import default_robot
-from srs_ros.experiments.turning import play_cycle, rolling_cycle
+from srs_ros.experiments.turning import rest_after_stop, rolling_cycle
 from srs_ros.sim.config import load_sim_config
 
 PHASES = np.arange(8) / 8.0
@@ -39,21 +39,10 @@ def grid(args, robot):
 
 def measure(config, robot, amplitude_bar, frequency_hz, reverse):
     cycle, period = rolling_cycle(amplitude_bar, frequency_hz, 0.0, robot), 1.0 / frequency_hz
-    offsets, travel, turns = [], [], []
-    for phase in PHASES:
-        stop_s = (3 + phase) * period
-        rows = play_cycle(cycle, stop_s + 3.0, config, robot, (lambda t: True) if reverse else None,
-                          sample_every_s=0.01, stop_at_s=stop_s)
-        at = int(np.argmin(np.abs(rows[:, 0] - stop_s)))
-        before = int(np.argmin(np.abs(rows[:, 0] - (stop_s - period))))
-        moved_cycle = rows[at, 1:3] - rows[before, 1:3]
-        travel.append(float(np.linalg.norm(moved_cycle)))
-        turns.append(math.degrees(rows[at, 3] - rows[before, 3]))
-        heading = math.atan2(moved_cycle[1], moved_cycle[0])
-        rest = rows[-1, 1:3] - rows[at, 1:3]
-        offsets.append((rest[0] * math.cos(heading) + rest[1] * math.sin(heading),
-                        -rest[0] * math.sin(heading) + rest[1] * math.cos(heading)))
-    return np.array(offsets), float(np.mean(travel)), float(np.mean(turns))
+    rests = [rest_after_stop(cycle, (3 + phase) * period, reverse, 3.0, config, robot) for phase in PHASES]
+    offsets = np.array([(r.along_m, r.across_m) for r in rests])
+    return offsets, float(np.mean([r.travel_m for r in rests])), float(np.mean([math.degrees(r.turn_rad)
+                                                                                 for r in rests]))
 
 
 def main() -> None:

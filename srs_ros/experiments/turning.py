@@ -170,30 +170,47 @@ def measure_pivot(turn_phase_inward_rad: float, turn_phase_outward_rad: float, a
     return float(np.mean(turns)), float(np.std(turns)), float(np.mean(travel))
 
 
-def measure_stop_offsets(direction: str, amplitude_bar: float, frequency_hz: float, turn_phase_rad: float = 0.0,
-                         run_cycles: int = 4, settle_s: float = 2.5, config: SimConfig | None = None,
-                         robot: RobotDescription | None = None) -> np.ndarray:
-    """Where the robot rests after a stop at each of STOP_PHASES: rows (along, across) its travel (m).
+@dataclass(frozen=True)
+class StopRest:
+    """A gait stopped at a time and left to rest: where the robot rested from where the stop was commanded."""
+
+    along_m: float  # along its travel: the direction of the last whole cycle before the stop
+    across_m: float  # across it, left positive
+    travel_m: float  # that cycle's travel
+    turn_rad: float  # that cycle's turn (counter-clockwise positive)
+
+
+def rest_after_stop(cycle: GaitCycle, stop_s: float, reverse: bool, settle_s: float, config: SimConfig,
+                    robot: RobotDescription) -> StopRest:
+    """Play ``cycle`` from rest (backward when ``reverse``), stop at ``stop_s``, rest ``settle_s``: the rest point.
 
     The travel direction is that of the last whole cycle before the stop, as the navigator learns it.
     """
+    period = 1.0 / cycle.frequency_hz
+    rows = play_cycle(cycle, stop_s + settle_s, config, robot, (lambda t: True) if reverse else None,
+                      sample_every_s=0.01, stop_at_s=stop_s)
+    at = int(np.argmin(np.abs(rows[:, 0] - stop_s)))
+    before = int(np.argmin(np.abs(rows[:, 0] - (stop_s - period))))
+    travel = rows[at, 1:3] - rows[before, 1:3]
+    heading = math.atan2(travel[1], travel[0])
+    moved = rows[-1, 1:3] - rows[at, 1:3]
+    return StopRest(float(moved[0] * math.cos(heading) + moved[1] * math.sin(heading)),
+                    float(-moved[0] * math.sin(heading) + moved[1] * math.cos(heading)),
+                    float(np.linalg.norm(travel)), float(rows[at, 3] - rows[before, 3]))
+
+
+def measure_stop_offsets(direction: str, amplitude_bar: float, frequency_hz: float, turn_phase_rad: float = 0.0,
+                         run_cycles: int = 4, settle_s: float = 2.5, config: SimConfig | None = None,
+                         robot: RobotDescription | None = None) -> np.ndarray:
+    """Where the robot rests after a stop at each of STOP_PHASES: rows (along, across) its travel (m)."""
     robot = robot or default_robot()
     config = config or load_sim_config(robot=robot)
     cycle = rolling_cycle(amplitude_bar, frequency_hz, turn_phase_rad, robot)
     period = 1.0 / frequency_hz
-    offsets = []
-    for phase in STOP_PHASES:
-        stop_s = (run_cycles + (phase if direction == "inward_rolling" else (1.0 - phase) % 1.0)) * period
-        rows = play_cycle(cycle, stop_s + settle_s, config, robot, (lambda t: True) if direction != "inward_rolling"
-                          else None, sample_every_s=0.01, stop_at_s=stop_s)
-        at = int(np.argmin(np.abs(rows[:, 0] - stop_s)))
-        before = int(np.argmin(np.abs(rows[:, 0] - (stop_s - period))))
-        travel = rows[at, 1:3] - rows[before, 1:3]
-        heading = math.atan2(travel[1], travel[0])
-        moved = rows[-1, 1:3] - rows[at, 1:3]
-        offsets.append((moved[0] * math.cos(heading) + moved[1] * math.sin(heading),
-                        -moved[0] * math.sin(heading) + moved[1] * math.cos(heading)))
-    return np.array(offsets)
+    inward = direction == "inward_rolling"
+    rests = [rest_after_stop(cycle, (run_cycles + (phase if inward else (1.0 - phase) % 1.0)) * period, not inward,
+                             settle_s, config, robot) for phase in STOP_PHASES]
+    return np.array([(r.along_m, r.across_m) for r in rests])
 
 
 def measure_serpentine(c_rad_per_unit: float, amplitude_bar: float, frequency_hz: float,

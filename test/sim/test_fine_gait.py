@@ -7,14 +7,11 @@ inward rolling at the same stop phase, and a creep that passed the goal and reve
 (docs/navigation.md, "A creep just above the deadzone").
 """
 
-import math
-
-import numpy as np
 import pytest
 
 from srs_ros.core.navigation import load_navigation_settings
 from srs_ros.core.robot import default_robot
-from srs_ros.experiments.turning import play_cycle, rolling_cycle
+from srs_ros.experiments.turning import rest_after_stop, rolling_cycle
 from srs_ros.sim.config import load_sim_config
 
 
@@ -22,17 +19,9 @@ def rest_after_stop_cm(amplitude_bar: float, frequency_hz: float, outward: bool)
     """Rolled 2 cycles from rest, stopped at phase 0, 3 s to rest: (along, across) its travel from the stop (cm)."""
     robot = default_robot()
     config = load_sim_config(robot=robot).replace("contact", friction="isotropic")
-    period_s = 1.0 / frequency_hz
-    stop_s = 2 * period_s
-    rows = play_cycle(rolling_cycle(amplitude_bar, frequency_hz, 0.0, robot), stop_s + 3.0, config, robot,
-                      (lambda t: True) if outward else None, sample_every_s=0.01, stop_at_s=stop_s)
-    at = int(np.argmin(np.abs(rows[:, 0] - stop_s)))
-    before = int(np.argmin(np.abs(rows[:, 0] - (stop_s - period_s))))
-    travel = rows[at, 1:3] - rows[before, 1:3]
-    heading = math.atan2(travel[1], travel[0])
-    rest = rows[-1, 1:3] - rows[at, 1:3]
-    return (100 * (rest[0] * math.cos(heading) + rest[1] * math.sin(heading)),
-            100 * (-rest[0] * math.sin(heading) + rest[1] * math.cos(heading)))
+    rest = rest_after_stop(rolling_cycle(amplitude_bar, frequency_hz, 0.0, robot), 2.0 / frequency_hz, outward, 3.0,
+                           config, robot)
+    return 100 * rest.along_m, 100 * rest.across_m
 
 
 @pytest.mark.slow(seconds=8)
