@@ -199,13 +199,17 @@ def test_the_simulated_rig_is_identified_end_to_end_over_dds(launch_node, ros_en
     muscles = load_sim_config(robot=ROBOT).muscles
     gain = muscles.max_extension_m / (muscles.full_extension_pressure_bar - muscles.deadzone_bar)
     rates = np.array(world_rates)[:, None]
-    median = {"deadzone_bar": np.median([c.deadzone_bar for c in trials], axis=0),
-              "extension_per_bar_m": np.median([c.extension_per_bar_m for c in trials], axis=0),
-              "transport_delay_s": np.median([c.transport_delay_s for c in trials] * rates, axis=0),
-              "pressure_time_constant_s": np.median([c.pressure_time_constant_s for c in trials] * rates, axis=0)}
-    calibration = dataclasses.replace(trials[0], **median)
-    print(f"identified over DDS (world rate {np.round(world_rates, 3)}): delay "
-          f"{np.round(calibration.transport_delay_s, 3)} s, lag {np.round(calibration.pressure_time_constant_s, 3)} s")
+    delays_s = np.array([c.transport_delay_s for c in trials]) * rates
+    lags_s = np.array([c.pressure_time_constant_s for c in trials]) * rates
+    # The statics: the median of the three. The dynamics: the least of the three, because the host only ever adds
+    # to them (a late message adds delay, a stall smears a step, which the fit takes as lag): in a full run beside
+    # another busy process the median of the three had 0.06 s of messaging delay and a lag 2.5x the model's.
+    found = {"deadzone_bar": np.median([c.deadzone_bar for c in trials], axis=0),
+             "extension_per_bar_m": np.median([c.extension_per_bar_m for c in trials], axis=0),
+             "transport_delay_s": delays_s.min(axis=0), "pressure_time_constant_s": lags_s.min(axis=0)}
+    calibration = dataclasses.replace(trials[0], **found)
+    print(f"identified over DDS (world rate {np.round(world_rates, 3)}): delay per trial (muscle 1) "
+          f"{np.round(delays_s[:, 0], 3)} s, lag per trial {np.round(lags_s[:, 0], 3)} s")
     # The identified delay is what the host sees, as on a real rig: the muscles' delay plus this host's messaging
     # and scheduling between the hardware and the world: 2-5 ms on an idle machine, 28 ms seen while the suite ran
     # in three workers on two cores; the bound allows HOST_LATENCY_S. The same host's jitter smears each step
