@@ -57,6 +57,14 @@ STRAIGHT_WITHIN = 0.7
 #: deg off backed away from it and drove at it by turns for a minute; docs/navigation.md, "A goal nearly ahead").
 WEAK_TURN_DEG_PER_CYCLE = 8.0
 BACK_UNLESS_MISS_WITHIN = 0.5
+#: Three-point turns in a row that each begin with the goal no nearer the bearing (deg) than the one before did,
+#: after which the goal is driven at with the tightest turn toward it. A weak turner gains 2-3 deg per turn and
+#: reaches side goals by a dozen; over DDS on the anisotropic floor a robot whose map got its turns wrong lost
+#: 7-11 deg per turn, backed away and drove at the goal by turns for a minute and ended 1 m farther away. A level
+#: changed every second or two is never measured, so its map was never corrected (docs/navigation.md, "Three-point
+#: turns that turn nothing").
+FUTILE_BACK_AWAYS = 2
+BACK_AWAY_GAIN_DEG = 1.0
 
 
 class NavigationController(CruiseStopping, FineDriving, EdgeGuard):
@@ -81,6 +89,8 @@ class NavigationController(CruiseStopping, FineDriving, EdgeGuard):
         self._changed_s = self._measured_s = self._started_s = self._last_pose_s = 0.0
         self._heading_error_rad = 0.0
         self._backing_from: str | None = None
+        self._futile = (math.inf, 0)  # (the goal off the line as the last three-point turn began (rad), how many
+        #                                in a row began no nearer than the one before)
         self._settle_cycles = START_SETTLE_CYCLES
         self._stop: StopPlan | None = None
         self._phase: float | None = None
@@ -131,6 +141,7 @@ class NavigationController(CruiseStopping, FineDriving, EdgeGuard):
             if reason:
                 return self._refuse(reason if len(points) == 1 else f"waypoint {i + 1} of {len(points)}: {reason}")
         self._goals, self._index, self._backing_from, self._fresh_goal = points, 0, None, True
+        self._futile = (math.inf, 0)
         self._edge_until_s = -math.inf
         self.fine.reset()
         self.shuffle.forget_move()
@@ -191,7 +202,7 @@ class NavigationController(CruiseStopping, FineDriving, EdgeGuard):
             return
         while distance <= self.settings.waypoint_tolerance_m and self._index < len(self._goals) - 1:
             self._index += 1
-            self._best = (math.inf, pose.time_s)
+            self._best, self._futile = (math.inf, pose.time_s), (math.inf, 0)
             self._message = f"waypoint reached; driving to goal {self._index + 1} of {len(self._goals)}"
             distance = self._distance(pose)
         self._learn(pose.time_s)
@@ -271,7 +282,7 @@ class NavigationController(CruiseStopping, FineDriving, EdgeGuard):
         error, distance_m = errors[direction], distances[direction]
         self._heading_error_rad = error
         if self._out_of_reach(direction, error, distance_m, 1.0) and not self._heads_out_of_view(
-                other_direction(direction)):  # near the edge, never backed out of view: driven on instead
+                other_direction(direction)) and self._back_away_helps(error):  # near the edge: driven on instead
             self._backing_from = direction
             self._message = "the goal is too close to the side to turn to: backing away while turning"
             return other_direction(direction), math.copysign(limit, error)
@@ -279,6 +290,19 @@ class NavigationController(CruiseStopping, FineDriving, EdgeGuard):
         travel = self.travel.travel_m[direction][len(self.travel.levels_rad) // 2 if level is None else level]
         arc_deg = math.degrees(2.0 * math.sin(error) * float(travel) / max(distance_m, 1e-3))
         return direction, max(-limit, min(limit, settings.pursuit_gain * arc_deg))
+
+    def _back_away_helps(self, error: float) -> bool:
+        """False once :data:`FUTILE_BACK_AWAYS` three-point turns in a row turned the goal no nearer the bearing."""
+        last_rad, futile = self._futile
+        if futile >= FUTILE_BACK_AWAYS:
+            return False
+        futile = futile + 1 if abs(error) > last_rad - math.radians(BACK_AWAY_GAIN_DEG) else 0
+        self._futile = (abs(error), futile)
+        if futile < FUTILE_BACK_AWAYS:
+            return True
+        self._message = (f"{futile} three-point turns in a row left the goal {math.degrees(abs(error)):.0f} deg off "
+                         "the line, no nearer: driving at it with the tightest turn")
+        return False
 
     def _choose_direction(self, now_s: float, errors: dict[str, float], hold_cycles: float) -> str:
         """The direction nearer the goal's bearing; the current one kept unless the other is clearly nearer."""

@@ -20,6 +20,7 @@ from srs_ros.core.navigation import (
     Pose2D,
     load_navigation_settings,
 )
+from srs_ros.core.navigation import controller as controller_module
 from srs_ros.core.navigation.commands import GaitCommand
 from srs_ros.core.navigation.motion import arc_miss_m
 from srs_ros.core.navigation.settings import DIRECTIONS, STOP_PHASES, DirectionMap, TurningMap
@@ -184,6 +185,30 @@ def test_a_goal_nearly_ahead_is_driven_on_to_though_this_direction_cannot_turn_t
                 each_frame=lambda now: backing.append("backing away" in controller.progress(now).message))
     assert controller.state is NavigationState.REACHED, controller.progress(end).message
     assert not any(backing)
+
+
+def test_three_point_turns_that_turn_the_robot_no_nearer_the_goal_are_given_up():
+    """A robot whose turns the map gets the wrong way round (it turns clockwise when asked counter-clockwise, and
+    drifts 8 deg per cycle) is not turned toward a goal to its side by three-point turns: each began with the goal
+    farther off the line. Before, it backed away and drove at the goal by turns 25 times in a minute and ended
+    0.67 m away; now it gives up after the second that gained nothing and says so. (Over DDS on the anisotropic floor
+    such turns went on for a minute and took the robot from 0.6 to 1.6 m away: docs/navigation.md.)"""
+    controller, roller = NavigationController(settings(), AREA), Roller(bias_deg=8.0, scale=-0.5)
+    controller.set_goal(0.45, 0.0, now_s=0.0)
+    begun, said = [], []
+
+    def each_frame(now):
+        backing = controller._backing_from is not None
+        if backing and not (begun and begun[-1][1]):
+            begun.append((now, True))
+        elif not backing and begun and begun[-1][1]:
+            begun.append((now, False))
+        said.append(controller.progress(now).message)
+
+    drive(controller, roller, 60.0, each_frame=each_frame)
+    turns = sum(1 for _, backing in begun if backing)
+    assert 1 < turns <= 1 + controller_module.FUTILE_BACK_AWAYS, begun
+    assert any("three-point turns in a row left the goal" in message for message in said)
 
 
 def test_the_arc_miss_is_the_nearest_that_any_arc_no_tighter_comes_to_the_goal():
