@@ -141,7 +141,7 @@ class NavigationController(CruiseStopping, FineDriving, EdgeGuard):
             if reason:
                 return self._refuse(reason if len(points) == 1 else f"waypoint {i + 1} of {len(points)}: {reason}")
         self._goals, self._index, self._backing_from, self._fresh_goal = points, 0, None, True
-        self._futile = (math.inf, 0)
+        self._new_three_point_row()
         self._edge_until_s = -math.inf
         self.fine.reset()
         self.shuffle.forget_move()
@@ -202,7 +202,8 @@ class NavigationController(CruiseStopping, FineDriving, EdgeGuard):
             return
         while distance <= self.settings.waypoint_tolerance_m and self._index < len(self._goals) - 1:
             self._index += 1
-            self._best, self._futile = (math.inf, pose.time_s), (math.inf, 0)
+            self._best = (math.inf, pose.time_s)
+            self._new_three_point_row()
             self._message = f"waypoint reached; driving to goal {self._index + 1} of {len(self._goals)}"
             distance = self._distance(pose)
         self._learn(pose.time_s)
@@ -290,6 +291,10 @@ class NavigationController(CruiseStopping, FineDriving, EdgeGuard):
         travel = self.travel.travel_m[direction][len(self.travel.levels_rad) // 2 if level is None else level]
         arc_deg = math.degrees(2.0 * math.sin(error) * float(travel) / max(distance_m, 1e-3))
         return direction, max(-limit, min(limit, settings.pursuit_gain * arc_deg))
+
+    def _new_three_point_row(self) -> None:
+        """Three-point turns judged afresh: a new goal or waypoint, or the robot at rest (a stop breaks the row)."""
+        self._futile = (math.inf, 0)
 
     def _back_away_helps(self, error: float) -> bool:
         """False once :data:`FUTILE_BACK_AWAYS` three-point turns in a row turned the goal no nearer the bearing."""

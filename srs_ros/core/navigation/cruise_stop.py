@@ -161,7 +161,7 @@ class CruiseStopping:
             return
         self.state = NavigationState.DRIVING
         self._message = f"came to rest {distance:.3f} m from the goal; driving on"
-        self._futile = (math.inf, 0)  # from rest, three-point turns are judged afresh (a stop broke the row)
+        self._new_three_point_row()
         self.fine.leave()  # creeping again only if the goal is still on the line, from where it rests now
         if self._index == len(self._goals) - 1:
             self._fine_from_rest(pose, distance)
