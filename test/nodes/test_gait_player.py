@@ -64,12 +64,18 @@ def peak_ramp_out_speed_m_per_s(samples, frequency_hz: float, ramp_time_s: float
 
 
 def phase_rate_hz(msgs, samples, scale: float) -> float:
-    """How fast (cycles/s, signed) the setpoints move along the cycle ``samples`` scaled by ``scale``."""
+    """How fast (cycles/s, signed) the setpoints move along the cycle ``samples`` scaled by ``scale``.
+
+    The median over consecutive setpoints: a stalled player resumes where it was (by design, no setpoint jumps),
+    and a line fitted over a window with a stall in it came out 12-16 % slow in one full suite run (1.77 and -1.67
+    for 2 Hz).
+    """
     cycle, grid = PeriodicTrajectory(samples), np.linspace(0.0, 1.0, 2000, endpoint=False)
     shapes = scale * cycle.values(grid)
     phases = np.unwrap(2 * np.pi * np.array([grid[np.argmin(np.sum((shapes - p) ** 2, axis=1))]
                                              for p in positions(msgs)])) / (2 * np.pi)
-    return float(np.polyfit(stamps_s(msgs), phases, 1)[0])
+    steps_s, advances = np.diff(stamps_s(msgs)), np.diff(phases)
+    return float(np.median(advances[steps_s > 0.0] / steps_s[steps_s > 0.0]))
 
 
 @pytest.fixture
