@@ -89,8 +89,8 @@ class NavigationController(CruiseStopping, FineDriving, EdgeGuard):
         self._changed_s = self._measured_s = self._started_s = self._last_pose_s = 0.0
         self._heading_error_rad = 0.0
         self._backing_from: str | None = None
-        self._futile = (math.inf, 0)  # (the goal off the line as the last three-point turn began (rad), how many
-        #                                in a row began no nearer than the one before)
+        # The goal off the line as the last three-point turn began (rad), and how many in a row began no nearer.
+        self._futile = (math.inf, 0)
         self._settle_cycles = START_SETTLE_CYCLES
         self._stop: StopPlan | None = None
         self._phase: float | None = None
@@ -282,8 +282,9 @@ class NavigationController(CruiseStopping, FineDriving, EdgeGuard):
         direction = self._choose_direction(now_s, errors, settings.min_hold_cycles)
         error, distance_m = errors[direction], distances[direction]
         self._heading_error_rad = error
+        # near the edge (never backed out of view) or after futile turns: driven on instead
         if self._out_of_reach(direction, error, distance_m, 1.0) and not self._heads_out_of_view(
-                other_direction(direction)) and self._back_away_helps(error):  # near the edge: driven on instead
+                other_direction(direction)) and self._may_begin_three_point_turn(error):
             self._backing_from = direction
             self._message = "the goal is too close to the side to turn to: backing away while turning"
             return other_direction(direction), math.copysign(limit, error)
@@ -296,8 +297,12 @@ class NavigationController(CruiseStopping, FineDriving, EdgeGuard):
         """Three-point turns judged afresh: a new goal or waypoint, or the robot at rest (a stop breaks the row)."""
         self._futile = (math.inf, 0)
 
-    def _back_away_helps(self, error: float) -> bool:
-        """False once :data:`FUTILE_BACK_AWAYS` three-point turns in a row turned the goal no nearer the bearing."""
+    def _may_begin_three_point_turn(self, error: float) -> bool:
+        """Count a three-point turn about to begin; refuse it, saying why, after futile ones.
+
+        Called only as a turn would begin. Refused once :data:`FUTILE_BACK_AWAYS` turns in a row each began with the
+        goal no nearer the bearing than the one before.
+        """
         last_rad, futile = self._futile
         if futile >= FUTILE_BACK_AWAYS:
             return False
