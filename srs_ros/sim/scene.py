@@ -241,13 +241,20 @@ class SyntheticScene:
         tex_to_local = np.array([[m, 0.0, -m * half], [0.0, -m, m * half], [0.0, 0.0, 1.0]])
         local_to_floor = np.array([[c, -s, centre_m[0]], [s, c, centre_m[1]], [0.0, 0.0, 1.0]])
         h = self._h_floor_to_big @ local_to_floor @ tex_to_local
+        # Warp into the marker's bounding box only (the texture's corners, a pixel to spare), not the whole image.
+        corners = apply_homography(h, np.array([[0.0, 0.0], [side_px, 0.0], [side_px, side_px], [0.0, side_px]]))
         size = self._big_size()
-        warped = cv2.warpPerspective(cv2.cvtColor(tex, cv2.COLOR_GRAY2BGR), h, size, flags=cv2.INTER_LINEAR)
-        mask = cv2.warpPerspective(np.full(tex.shape, 255, np.uint8), h, size, flags=cv2.INTER_LINEAR)
-        x, y, w, hh = cv2.boundingRect(mask)
-        roi = (slice(y, y + hh), slice(x, x + w))
-        alpha = mask[roi][..., None].astype(np.float32) / 255.0
-        image[roi] = (alpha * warped[roi] + (1.0 - alpha) * image[roi]).astype(np.uint8)
+        x0, y0 = (max(0, int(math.floor(v)) - 2) for v in corners.min(axis=0))
+        x1, y1 = (min(limit, int(math.ceil(v)) + 2) for v, limit in zip(corners.max(axis=0), size))
+        if x1 <= x0 or y1 <= y0:
+            return  # the marker lies outside the image
+        h = np.array([[1.0, 0.0, -x0], [0.0, 1.0, -y0], [0.0, 0.0, 1.0]]) @ h
+        box = (x1 - x0, y1 - y0)
+        warped = cv2.warpPerspective(cv2.cvtColor(tex, cv2.COLOR_GRAY2BGR), h, box, flags=cv2.INTER_LINEAR)
+        mask = cv2.warpPerspective(np.full(tex.shape, 255, np.uint8), h, box, flags=cv2.INTER_LINEAR)
+        roi = (slice(y0, y1), slice(x0, x1))
+        alpha = mask[..., None].astype(np.float32) / 255.0
+        image[roi] = (alpha * warped + (1.0 - alpha) * image[roi]).astype(np.uint8)
 
     # -- public API ------------------------------------------------------------------------------
     def true_markers_px(self, pose: Sequence[float]) -> dict[str, np.ndarray]:
