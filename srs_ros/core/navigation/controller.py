@@ -288,6 +288,8 @@ class NavigationController(CruiseStopping, FineDriving, EdgeGuard):
             self._backing_from = direction
             self._message = "the goal is too close to the side to turn to: backing away while turning"
             return other_direction(direction), math.copysign(limit, error)
+        if abs(error) >= 0.5 * math.pi:  # the aim behind (a direction held): pursuit's sin(error) would turn slower
+            return direction, math.copysign(limit, error)
         level = self._level if direction == self._command.direction and self._level is not None else None
         travel = self.travel.travel_m[direction][len(self.travel.levels_rad) // 2 if level is None else level]
         arc_deg = math.degrees(2.0 * math.sin(error) * float(travel) / max(distance_m, 1e-3))

@@ -227,6 +227,30 @@ def test_the_arc_miss_is_the_nearest_that_any_arc_no_tighter_comes_to_the_goal()
     assert arc_miss_m(0.5, 0.8, 0.2) == 0.0  # outside the tightest circle: a wider arc reaches it
 
 
+def test_an_aim_behind_the_direction_held_is_turned_to_at_the_tightest_turn():
+    """Pure pursuit asks for a turn rate in proportion to sin(error), which falls again past 90 deg: a direction
+    kept (held, or within the hysteresis) with its aim point behind it was turned toward ever more slowly and the
+    robot could circle (over DDS, near goals to the side). Here the robot is moved so that inward rolling, just
+    chosen, has the aim 100 deg off (outward 80 deg): it must play the tightest clockwise level, not pursuit's
+    (0.35 rad, 14 deg per cycle, on this map)."""
+    controller, now = NavigationController(settings(), AREA), 0.0
+    controller.set_goal(1.0, -0.12, now_s=0.0)
+
+    def at(x, y, frames):
+        nonlocal now
+        for _ in range(frames):
+            controller.update_gait_phase(now % 1.0)
+            controller.update_pose(Pose2D(x, y, 0.0, now))
+            command = controller.tick(now)
+            now += FRAME_S
+        return command
+
+    assert at(1.0, -0.7, 9).direction == "inward_rolling"  # the goal square to its left: inward rolling
+    command = at(0.0, 0.0, 30)  # past the half cycle the level is held
+    assert math.degrees(controller.progress(now).heading_error_rad) == pytest.approx(-99.6, abs=0.5)
+    assert command.direction == "inward_rolling" and command.turn_phase_rad == LEVELS.max()
+
+
 def test_learns_the_turn_rates_it_measures():
     controller, roller = NavigationController(settings(), AREA), Roller(bias_deg=8.0, scale=0.7)
     controller.set_goal(0.6, 0.6, 0.0)
