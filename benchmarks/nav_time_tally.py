@@ -1,0 +1,84 @@
+"""Where the navigator's time goes: its recorded progress, summed by what the robot was doing.
+
+Reads the ``goal_NN_progress.jsonl`` files that ``bench_navigation_ros.py --record DIR`` keeps (one
+``navigation_progress`` message per line) and sums the time between consecutive messages by activity: cruise,
+cruise stop (the stop a cycle ahead, the ramp-out and the wait to rest), rest and look, three-point turn, edge
+guard, creep (the fine approach), turn on the spot and move along the body's axis. The activity is read from the
+message text, which names it (srs_ros/core/navigation/*.py, ``self._message``); a message none of the patterns
+matches is shown as "other: ..." so a renamed message is seen, not miscounted. Also shown: the part of each
+activity spent within ``--near-m`` of the goal (the end game) and the straight-line time at ``--speed-cm-s``, to
+set the sum against issue 20's target (a median of at most twice the straight-line time).
+
+Run: python benchmarks/nav_time_tally.py DIR [DIR ...] [--near-m 0.35] [--speed-cm-s 9.3]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+from collections import Counter
+from pathlib import Path
+
+#: (activity, substrings of the message that name it), tried in order.
+ACTIVITIES = (
+    ("three-point turn", ("backing away",)),
+    ("turn on the spot", ("turning on the spot",)),
+    ("move along the axis", ("along the body's axis",)),
+    ("creep", ("creep",)),
+    ("edge guard", ("edge of the camera's view",)),
+    ("cruise stop", ("stopping",)),
+    ("rest and look", ("came to rest", "whether it is at rest")),
+    ("cruise", ("driving to goal", "driving at it", "waypoint reached")),
+)
+FINISHED = {"reached", "failed", "idle", "cancelled", "pose_lost"}
+
+
+def activity(message: str) -> str:
+    """The activity a progress message names."""
+    for name, patterns in ACTIVITIES:
+        if any(pattern in message for pattern in patterns):
+            return name
+    return f"other: {message[:50]}"
+
+
+def tally(folder: Path, near_m: float) -> tuple[Counter, Counter, list[float]]:
+    """Seconds by activity (all, and within ``near_m`` of the goal) and each goal's start distance (m)."""
+    total, near, distances = Counter(), Counter(), []
+    for path in sorted(folder.glob("goal_*_progress.jsonl")):
+        rows = [json.loads(line) for line in path.read_text().splitlines() if line.strip()]
+        if rows:
+            distances.append(float(rows[0]["distance_to_go_m"]))
+        for row, following in zip(rows, rows[1:]):
+            if row["state"] in FINISHED:
+                continue
+            seconds, name = following["elapsed_s"] - row["elapsed_s"], activity(row["message"])
+            total[name] += seconds
+            if row["distance_to_go_m"] < near_m:
+                near[name] += seconds
+    return total, near, distances
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("folders", nargs="+", type=Path, help="folders written by bench_navigation_ros.py --record")
+    parser.add_argument("--near-m", type=float, default=0.35, help="the end game: within this of the goal (m)")
+    parser.add_argument("--speed-cm-s", type=float, default=9.3, help="the cruise gait's speed for the straight time")
+    args = parser.parse_args(argv)
+    for folder in args.folders:
+        total, near, distances = tally(folder, args.near_m)
+        if not distances:
+            print(f"{folder}: no goal_*_progress.jsonl here (record with bench_navigation_ros.py --record DIR)")
+            continue
+        seconds, straight_s = sum(total.values()), sum(distances) / (args.speed_cm_s / 100.0)
+        print(f"{folder}: {len(distances)} goals, {seconds:.0f} s in all ({seconds / straight_s:.2f} x the "
+              f"straight-line {straight_s:.0f} s at {args.speed_cm_s:g} cm/s); within {args.near_m:g} m of the "
+              f"goal {sum(near.values()):.0f} s")
+        for name, value in total.most_common():
+            print(f"  {name:22s} {value:6.1f} s  {100.0 * value / max(seconds, math.ulp(1.0)):5.1f} %   "
+                  f"within {args.near_m:g} m: {near[name]:6.1f} s")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
