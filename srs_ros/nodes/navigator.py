@@ -258,7 +258,7 @@ class Navigator(Node):
             self.get_logger().warning(f"{what} refused: {refusal}")
         else:
             if loop:  # checked once above; the rounds are the same points
-                self._nav.set_path(points * LOOP_ROUNDS, now)
+                self._nav.set_path(points, now, rounds=LOOP_ROUNDS)
             self._refusal, self._path, self._loop = "", points, loop
             self.get_logger().info(f"{what} accepted{' (patrolled in a loop)' if loop else ''}: {decision.reason}")
         self._after_event(now)
@@ -321,7 +321,7 @@ class Navigator(Node):
             return
         self._last_pose_s = arrival
         if self._loop and self._nav.state is NavigationState.REACHED:  # after LOOP_ROUNDS rounds: go on
-            self._nav.set_path(self._path * LOOP_ROUNDS, pose.time_s)
+            self._nav.set_path(self._path, pose.time_s, rounds=LOOP_ROUNDS)
             self._nav.update_pose(dataclasses.replace(pose, time_s=pose.time_s + 1e-6))
         self._driver.drive(self._nav.command)
 

@@ -82,6 +82,7 @@ class NavigationController(CruiseStopping, FineDriving, EdgeGuard):
         self.shuffle = AxisShuffle(settings.learning_rate)
         self.state = NavigationState.IDLE
         self._goals: list[tuple[float, float]] = []
+        self._waypoint_count = 0  # the distinct waypoints of the path (fewer than the goals when followed in rounds)
         self._index = 0
         self._message = "no goal yet"
         self._command = self._stop_command("no goal yet")
@@ -127,8 +128,11 @@ class NavigationController(CruiseStopping, FineDriving, EdgeGuard):
         """Replace the current goal (and path) with one goal; refused (the current one kept) outside the area."""
         return self.set_path([(x_m, y_m)], now_s)
 
-    def set_path(self, waypoints: Iterable[Sequence[float]], now_s: float) -> GoalDecision:
-        """Replace the current goal with waypoints followed in order; refused whole if one is outside the area."""
+    def set_path(self, waypoints: Iterable[Sequence[float]], now_s: float, rounds: int = 1) -> GoalDecision:
+        """Replace the current goal with waypoints followed in order; refused whole if one is outside the area.
+
+        ``rounds`` > 1 follows them that many times over (a patrol); the progress names the waypoint and the round.
+        """
         try:
             points = [(float(x), float(y)) for x, y in waypoints]
         except (TypeError, ValueError):
@@ -140,7 +144,8 @@ class NavigationController(CruiseStopping, FineDriving, EdgeGuard):
                 "" if math.isfinite(x) and math.isfinite(y) else f"goal ({x}, {y}) is not a finite floor position (m)")
             if reason:
                 return self._refuse(reason if len(points) == 1 else f"waypoint {i + 1} of {len(points)}: {reason}")
-        self._goals, self._index, self._backing_from, self._fresh_goal = points, 0, None, True
+        self._goals, self._index, self._backing_from, self._fresh_goal = points * max(1, int(rounds)), 0, None, True
+        self._waypoint_count = len(points)
         self._new_three_point_row()
         self._edge_until_s = -math.inf
         self.fine.reset()
@@ -151,8 +156,15 @@ class NavigationController(CruiseStopping, FineDriving, EdgeGuard):
         self._message = self._driving_message()
         return GoalDecision(True, self._message)
 
+    def _which_goal(self) -> str:
+        """'goal 2 of 3', or on a path followed in rounds 'waypoint 2 of 3 (round 4)'."""
+        count = self._waypoint_count
+        if len(self._goals) <= count:
+            return f"goal {self._index + 1} of {len(self._goals)}"
+        return f"waypoint {self._index % count + 1} of {count} (round {self._index // count + 1})"
+
     def _driving_message(self) -> str:
-        return "driving to goal {} of {} at ({:.3f}, {:.3f}) m".format(self._index + 1, len(self._goals), *self.goal)
+        return "driving to {} at ({:.3f}, {:.3f}) m".format(self._which_goal(), *self.goal)
 
     def _refuse(self, reason: str) -> GoalDecision:
         self._message = f"goal refused: {reason}" + (f"; still {self._message}" if self.state.active else "")
@@ -204,7 +216,7 @@ class NavigationController(CruiseStopping, FineDriving, EdgeGuard):
             self._index += 1
             self._best = (math.inf, pose.time_s)
             self._new_three_point_row()
-            self._message = f"waypoint reached; driving to goal {self._index + 1} of {len(self._goals)}"
+            self._message = f"waypoint reached; driving to {self._which_goal()}"
             distance = self._distance(pose)
         self._learn(pose.time_s)
         passed = self._passed_stop_phase(self._command.reverse)

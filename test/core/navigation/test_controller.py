@@ -312,6 +312,25 @@ def test_waypoints_are_followed_in_order():
     assert math.dist((0.4, 0.5), (roller.x, roller.y)) <= 0.05
 
 
+def test_a_path_followed_in_rounds_names_the_waypoint_and_the_round():
+    """A patrol (the navigator's loop_path) is its waypoints over and over: the progress says "waypoint 2 of 2
+    (round 1)", not "goal 2 of 200"; a plain path still counts goals. (Each next waypoint lies square to the body,
+    straight along a rolling direction, so the steering adds nothing to the message.)"""
+    controller, path = NavigationController(settings(), AREA), [(0.0, -0.3), (0.0, 0.4)]
+    assert controller.set_path(path, 0.0, rounds=100).accepted
+    assert controller.progress(0.0).message == "driving to waypoint 1 of 2 (round 1) at (0.000, -0.300) m"
+    said = []
+    for time_s, (x_m, y_m) in enumerate(path + path[:1], start=1):  # on each waypoint in turn: the next one
+        controller.update_pose(Pose2D(x_m, y_m, 0.0, float(time_s)))
+        said.append(controller.progress(float(time_s)).message)
+    assert said == ["waypoint reached; driving to waypoint 2 of 2 (round 1)",
+                    "waypoint reached; driving to waypoint 1 of 2 (round 2)",
+                    "waypoint reached; driving to waypoint 2 of 2 (round 2)"]
+    assert controller.progress(3.0).goal_index == 3 and controller.progress(3.0).goal_count == 200
+    controller.set_path(path, 4.0)
+    assert controller.progress(4.0).message == "driving to goal 1 of 2 at (0.000, -0.300) m"
+
+
 @pytest.mark.parametrize("tolerance_m", [0.15, 0.05])
 def test_a_waypoint_before_the_last_is_passed_within_its_own_tolerance_without_stopping(tolerance_m):
     controller, roller = NavigationController(settings(waypoint_tolerance_m=tolerance_m), AREA), Roller()
