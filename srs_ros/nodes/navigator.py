@@ -251,14 +251,12 @@ class Navigator(Node):
         now = time.monotonic()
         loop = len(points) > 1 and bool(self._param("loop_path"))
         if not refusal:
-            decision = self._nav.set_path(points, now)
+            decision = self._nav.set_path(points, now, rounds=LOOP_ROUNDS if loop else 1)
             refusal = "" if decision.accepted else decision.reason
         if refusal:
             self._refusal = refusal
             self.get_logger().warning(f"{what} refused: {refusal}")
         else:
-            if loop:  # checked once above; the rounds are the same points
-                self._nav.set_path(points, now, rounds=LOOP_ROUNDS)
             self._refusal, self._path, self._loop = "", points, loop
             self.get_logger().info(f"{what} accepted{' (patrolled in a loop)' if loop else ''}: {decision.reason}")
         self._after_event(now)

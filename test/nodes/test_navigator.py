@@ -78,9 +78,15 @@ class ZeroRun:
 
 
 def test_cancel_stops_the_gait_and_vents(robot):
+    """Here a patrol (loop_path): it names the waypoint and the round, and a cancel ends it for good."""
     start = robot.at_rest_at_start()
-    robot.goal(*(start + [0.0, 0.6]))
-    robot.wait_state({"driving"}, 10.0, "driving")
+    robot.set_navigator(loop_path=True)
+    try:
+        robot.path([start + [0.0, 0.6], start + [0.3, 0.6]])
+        robot.wait_state({"driving"}, 10.0, "driving")
+    finally:
+        robot.set_navigator(loop_path=False)  # read when a path arrives: this patrol goes on
+    assert "driving to waypoint 1 of 2 (round 1)" in robot.navigator.output()
     robot.wait(lambda: robot.commanding(2.0), 10.0, "the gait commanded")
     response = robot.client.trigger("/navigator/cancel")
     cancelled_s = time.monotonic()
