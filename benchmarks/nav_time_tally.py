@@ -28,8 +28,9 @@ ACTIVITIES = (
     ("creep", ("creep",)),
     ("edge guard", ("edge of the camera's view",)),
     ("cruise stop", ("stopping",)),
-    ("rest and look", ("came to rest", "whether it is at rest")),
-    ("cruise", ("driving to goal", "driving at it", "waypoint reached")),
+    ("rest and look", ("whether it is at rest",)),
+    # "came to rest N m from the goal; driving on" stays the message while the cruise drives on
+    ("cruise", ("driving to ", "driving at it", "waypoint reached", "came to rest")),
 )
 FINISHED = {"reached", "failed", "idle", "cancelled", "pose_lost"}
 
@@ -47,14 +48,14 @@ def tally(folder: Path, near_m: float) -> tuple[Counter, Counter, list[float]]:
     total, near, distances = Counter(), Counter(), []
     for path in sorted(folder.glob("goal_*_progress.jsonl")):
         rows = [json.loads(line) for line in path.read_text().splitlines() if line.strip()]
-        if rows:
+        if rows and rows[0]["distance_to_go_m"] is not None:  # None (NaN in JSON): no pose yet
             distances.append(float(rows[0]["distance_to_go_m"]))
         for row, following in zip(rows, rows[1:]):
             if row["state"] in FINISHED:
                 continue
             seconds, name = following["elapsed_s"] - row["elapsed_s"], activity(row["message"])
             total[name] += seconds
-            if row["distance_to_go_m"] < near_m:
+            if row["distance_to_go_m"] is not None and row["distance_to_go_m"] < near_m:
                 near[name] += seconds
     return total, near, distances
 

@@ -241,8 +241,10 @@ class SyntheticScene:
         tex_to_local = np.array([[m, 0.0, -m * half], [0.0, -m, m * half], [0.0, 0.0, 1.0]])
         local_to_floor = np.array([[c, -s, centre_m[0]], [s, c, centre_m[1]], [0.0, 0.0, 1.0]])
         h = self._h_floor_to_big @ local_to_floor @ tex_to_local
-        # Warp into the marker's bounding box only (the texture's corners, a pixel to spare), not the whole image.
-        corners = apply_homography(h, np.array([[0.0, 0.0], [side_px, 0.0], [side_px, side_px], [0.0, side_px]]))
+        # Warp into the marker's bounding box only, not the whole image: bilinear sampling reaches from texture
+        # coordinate -1 to side_px, and two pixels to spare.
+        low, high = -1.0, float(side_px)
+        corners = apply_homography(h, np.array([[low, low], [high, low], [high, high], [low, high]]))
         size = self._big_size()
         x0, y0 = (max(0, int(math.floor(v)) - 2) for v in corners.min(axis=0))
         x1, y1 = (min(limit, int(math.ceil(v)) + 2) for v, limit in zip(corners.max(axis=0), size))
