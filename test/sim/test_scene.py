@@ -12,7 +12,7 @@ from srs_ros.sim.scene import aruco_dictionary as dictionary
 
 class WholeImageWarp(SyntheticScene):
     """The reference: each marker and its mask warped over the whole supersampled image, blended where the mask is
-    (the renderer until 2026-11-28; the video of the tilted-camera tracking test took 2.5 times as long)."""
+    (the renderer until 2026-11-28: the OpenCV 4.6 run of the tracking tests took 2.5 times the CPU)."""
 
     def _draw_aruco(self, image, marker_id, centre_m, yaw_rad, size_m=None):
         texture = self._marker_texture(marker_id)
