@@ -334,27 +334,26 @@ class Navigator(Node):
             progress = self._nav.progress(now)
             where = ""
             if self._loop:
-                extra = self._extra(progress, now)
+                extra = self._extra(now)
                 where = f" (patrol: waypoint {extra['waypoint_index'] + 1} of {extra['waypoint_count']}, round " \
                         f"{extra['round']})"
             self.get_logger().info(f"state {self._nav.state.value}{where}: {progress.message}")
             self._publish_diagnostics()
 
     # ------------------------------------------------------------- outputs
-    def _extra(self, progress, now: float) -> dict[str, Any]:
+    def _extra(self, now: float) -> dict[str, Any]:
         """The node's own fields: refusal, gait errors, pose age, and the waypoint and round of a patrol."""
-        count = max(len(self._path), 1)
+        index, count, round_ = self._nav.waypoint()
         phase = self.gait_phase_at(self.get_clock().now().nanoseconds * 1e-9)
         return {"refused": self._refusal, "gait_error": self._driver.error, "loop": self._loop,
                 "pose_age_s": now - self._last_pose_s if math.isfinite(self._last_pose_s) else None,
                 "gait_playing": self._driver.playing, "gait_phase": phase,
-                "waypoint_index": progress.goal_index % count,
-                "waypoint_count": len(self._path), "round": progress.goal_index // count + 1}
+                "waypoint_index": index, "waypoint_count": count, "round": round_}
 
     def _publish_progress(self, now: float | None = None) -> None:
         now = time.monotonic() if now is None else now
         progress = self._nav.progress(now)
-        self._progress_pub.publish(progress_message(progress_fields(progress, **self._extra(progress, now))))
+        self._progress_pub.publish(progress_message(progress_fields(progress, **self._extra(now))))
 
     def _publish_diagnostics(self) -> None:
         now = time.monotonic()
@@ -362,7 +361,7 @@ class Navigator(Node):
         level, message = progress.level, progress.message
         if self._driver.error:
             level, message = "ERROR", f"{message}; gait command not applied: {self._driver.error}"
-        extra = self._extra(progress, now)
+        extra = self._extra(now)
         values = {**progress.values(), "refused": self._refusal or "none", "gait_error": self._driver.error or "none"}
         if self._loop:
             values["goal"] = f"{extra['waypoint_index'] + 1} of {extra['waypoint_count']}, round {extra['round']}"

@@ -156,12 +156,17 @@ class NavigationController(CruiseStopping, FineDriving, EdgeGuard):
         self._message = self._driving_message()
         return GoalDecision(True, self._message)
 
+    def waypoint(self) -> tuple[int, int, int]:
+        """Where on the path the robot is: (waypoint index from 0, distinct waypoints, round from 1)."""
+        count = max(self._waypoint_count, 1)
+        return self._index % count, self._waypoint_count, self._index // count + 1
+
     def _which_goal(self) -> str:
         """'goal 2 of 3', or on a path followed in rounds 'waypoint 2 of 3 (round 4)'."""
-        count = self._waypoint_count
-        if len(self._goals) <= count:
+        if len(self._goals) <= self._waypoint_count:
             return f"goal {self._index + 1} of {len(self._goals)}"
-        return f"waypoint {self._index % count + 1} of {count} (round {self._index // count + 1})"
+        index, count, round_ = self.waypoint()
+        return f"waypoint {index + 1} of {count} (round {round_})"
 
     def _driving_message(self) -> str:
         return "driving to {} at ({:.3f}, {:.3f}) m".format(self._which_goal(), *self.goal)

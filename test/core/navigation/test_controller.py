@@ -327,6 +327,7 @@ def test_a_path_followed_in_rounds_names_the_waypoint_and_the_round():
                     "waypoint reached; driving to waypoint 1 of 2 (round 2)",
                     "waypoint reached; driving to waypoint 2 of 2 (round 2)"]
     assert controller.progress(3.0).goal_index == 3 and controller.progress(3.0).goal_count == 200
+    assert controller.waypoint() == (1, 2, 2)  # what the navigator node publishes: waypoint 2 of 2, round 2
     controller.set_path(path, 4.0)
     assert controller.progress(4.0).message == "driving to goal 1 of 2 at (0.000, -0.300) m"
 
