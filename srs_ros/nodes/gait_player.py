@@ -9,16 +9,13 @@ Interface (relative names)::
                                                                     the cycle's phase (position, cycles) and
                                                                     signed frequency (velocity, cycles/s)
     services    ~/start, ~/stop   std_srvs/Trigger
-    parameters  rate_hz, cycles, resume_phase, amplitude_scale, frequency_hz, reverse, stop_at_phase, ramp_time_s,
-                blend_time_s, autostart, zero_hold_s, phase_rate_hz, robot_description_file and
-                realtime_priority (read-only)
+    parameters  rate_hz, cycles, amplitude_scale, frequency_hz, reverse, stop_at_phase, ramp_time_s, blend_time_s,
+                autostart, zero_hold_s, phase_rate_hz, robot_description_file and realtime_priority (read-only)
 
 Behaviour, as a robotics user expects it:
 
 - Nothing is published before ``~/start`` (or ``autostart``, which starts when the first trajectory
-  arrives). ``~/start`` ramps every length in from 0 over ``ramp_time_s`` (raised cosine), from phase 0, or
-  with ``resume_phase`` from the phase where the last ramp-out ended (the navigator sets it: a rolling body at
-  rest lies rolled to that phase, and from phase 0 it can tip back a few centimetres first).
+  arrives). ``~/start`` ramps every length in from 0 over ``ramp_time_s`` (raised cosine), from phase 0.
 - ``~/stop`` (or the end of ``cycles`` > 0 cycles) ramps out to 0 over ``ramp_time_s`` while the
   cycle keeps moving; then zero lengths are published for ``zero_hold_s`` so the hardware sees a
   clean 0, and then the stream ends (the hardware node vents when setpoints go stale anyway).
@@ -89,9 +86,6 @@ PARAMETERS = (
                   10.0, 1000.0),
     ParameterSpec("cycles", 0, "cycles to play after ~/start, then ramp out; 0 = forever (read at ~/start)",
                   0, 1_000_000),
-    ParameterSpec("resume_phase", False, "a ~/start from rest begins the cycle where the last ramp-out ended "
-                  "(a rolling body at rest lies rolled to that phase; from phase 0 it can tip back first); "
-                  "false: from phase 0 (read at ~/start)"),
     ParameterSpec("amplitude_scale", 1.0, "scale of every length, 0..1 (live, reached over ramp_time_s)", 0.0, 1.0),
     ParameterSpec("frequency_hz", 0.0, "playback frequency in Hz, 0 = the trajectory's own (live)",
                   0.0, CYCLE_FREQUENCY_RANGE_HZ[1]),
@@ -221,7 +215,7 @@ class GaitPlayer(Node):
     def _start(self) -> str:
         cycles = int(self._param("cycles"))
         state = self._playback.state
-        self._playback.start(cycles, resume=bool(self._param("resume_phase")))
+        self._playback.start(cycles)
         if state is PlaybackState.RUNNING:
             return "already running" + (f"; ramps out after {cycles} more cycles" if cycles else "")
         text = (f"starting: ramp in over {self._playback.ramp_time_s:g} s, "

@@ -6,9 +6,7 @@ would make (relative names, resolved in the navigator's namespace)::
     trajectory_server/set_parameters_atomically   gait, amplitude_bar, <gait>.turn_phase_rad or .c_rad_per_unit
     trajectory_server/regenerate                  the new cycle is fitted and latched; gait_player cross-fades
     gait_player/set_parameters                    frequency_hz and reverse (live; the signed frequency ramps,
-                                                  through 0 for a reversal: outward rolling = inward backward);
-                                                  resume_phase true (a start from rest goes on from the phase
-                                                  where the body stopped, instead of tipping it back first)
+                                                  through 0 for a reversal: outward rolling = inward backward)
     gait_player/start                             ramp in when the robot was stopped; then again every quarter
                                                   of ``keepalive_s`` (a dead man's handle, below)
     gait_player/stop                              ramp out to 0 (all lengths 0 = every muscle vented)
@@ -44,7 +42,7 @@ RETRY_S = 1.0
 #: A call without an answer for this long is given up (and retried), s.
 CALL_TIMEOUT_S = 5.0
 #: gait_player's parameters the driver sets, in the order of its player key.
-PLAYER_VALUES = ("frequency_hz", "reverse", "cycles", "stop_at_phase", "resume_phase")
+PLAYER_VALUES = ("frequency_hz", "reverse", "cycles", "stop_at_phase")
 #: gait_player's ``stop_at_phase`` for none pending.
 NO_STOP_PHASE = -1.0
 
@@ -73,7 +71,7 @@ class GaitDriver:
         self.wanted = None  # the newest GaitCommand
         self._cycle_key: tuple | None = None  # latched by trajectory_server (its regenerate answered success)
         self._sent_key: tuple | None = None  # parameters set, regenerate not yet answered
-        self._player_key: tuple | None = None  # gait_player's PLAYER_VALUES as set
+        self._player_key: tuple | None = None  # gait_player's (frequency_hz, reverse, cycles, stop_at_phase) as set
         self._playing = False
         self._stop_owed = False  # stop() called: a ~/stop is sent once no ~/start is in flight
         self._pending: dict[str, tuple[Any, float]] = {}  # what -> (future, sent at)
@@ -152,13 +150,13 @@ class GaitDriver:
             self._playing = True
             self._start(now)
 
-    def _player_values(self, command) -> tuple[float, bool, int, float, bool]:
-        """gait_player's :data:`PLAYER_VALUES` for a moving ``command``.
+    def _player_values(self, command) -> tuple[float, bool, int, float]:
+        """gait_player's (frequency_hz, reverse, cycles, stop_at_phase) for a moving ``command``.
 
-        cycles: keepalive_s of them (0 = none); no stop at a phase pending; a start from rest resumes the phase.
+        cycles: keepalive_s of them (0 = none); no stop at a phase pending.
         """
         cycles = max(1, math.ceil(self.keepalive_s * command.frequency_hz)) if self.keepalive_s > 0 else 0
-        return (float(command.frequency_hz), bool(command.reverse), cycles, NO_STOP_PHASE, True)
+        return (float(command.frequency_hz), bool(command.reverse), cycles, NO_STOP_PHASE)
 
     def _stop_at_phase(self, phase: float, now: float) -> None:
         """A stop at a gait phase: gait_player's ``stop_at_phase`` set (it ramps out as the phase passes it).
@@ -167,8 +165,7 @@ class GaitDriver:
         last start (``keepalive_s`` of them) outlast the one cycle to the phase at 1 Hz, and a navigator that
         dies now leaves a gait that ramps out by itself at the phase.
         """
-        known = self._player_key or (math.nan, False, 0, NO_STOP_PHASE, True)
-        key = (*known[:3], phase, *known[4:])
+        key = (*(self._player_key or (math.nan, False, 0, NO_STOP_PHASE))[:3], phase)
         if self._player_key == key or "set_player" in self._pending or now < self._retry_at:
             return
         self._set_player(key, names=("stop_at_phase",))
@@ -186,7 +183,7 @@ class GaitDriver:
         self._started_s = now
         self._call("start", Trigger.Request(), self._on_start)
 
-    def _set_player(self, key: tuple, names: tuple[str, ...] = PLAYER_VALUES) -> None:
+    def _set_player(self, key: tuple[float, bool, int, float], names: tuple[str, ...] = PLAYER_VALUES) -> None:
         """Set gait_player's ``names`` (of :data:`PLAYER_VALUES`) to their values in ``key``; ``key`` once done."""
         values = {name: value for name, value in zip(PLAYER_VALUES, key) if name in names}
         request = SetParameters.Request(

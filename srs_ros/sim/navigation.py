@@ -149,7 +149,7 @@ class GaitDriver:
             self._frequency_hz = command.frequency_hz
         self.playback.set_reverse(command.reverse)
         if self.playback.state in (PlaybackState.IDLE, PlaybackState.STOPPING):
-            self.playback.start(resume=True)  # as the ROS driver sets gait_player's resume_phase
+            self.playback.start()
 
     def pressures_bar(self, dt_s: float) -> np.ndarray:
         """Advance the playback by ``dt_s`` and return the commanded pressures (bar, through the clamp)."""

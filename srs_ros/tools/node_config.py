@@ -33,8 +33,8 @@ HEADERS = {
     ),
     "gait_player": (
         "Pass with  ros2 run srs_ros gait_player --ros-args --params-file config/gait_player.yaml",
-        "Live: rate_hz, amplitude_scale, frequency_hz, reverse, ramp_time_s, blend_time_s. `cycles` and",
-        "`resume_phase` are read at ~/start.",
+        "Live: rate_hz, amplitude_scale, frequency_hz, reverse, ramp_time_s, blend_time_s. `cycles` is read at",
+        "~/start.",
     ),
     "trajectory_server": (
         "Pass with  ros2 run srs_ros trajectory_server --ros-args --params-file config/trajectory_server.yaml",

@@ -47,12 +47,11 @@ def test_progress_is_one_json_object_with_plain_values_and_nan_as_null():
 def test_the_dead_mans_handle_sets_cycles_for_keepalive_s_at_the_commanded_frequency():
     driver = GaitDriver.__new__(GaitDriver)  # only its arithmetic here; the calls are tested over DDS
     driver.keepalive_s = 2.0
-    # (frequency_hz, reverse, cycles, stop_at_phase, resume_phase): every start from rest resumes the phase
-    assert driver._player_values(GaitCommand("inward_rolling", 0.2, 4.0, 1.0)) == (1.0, False, 2, -1.0, True)
-    assert driver._player_values(GaitCommand("outward_rolling", 0.2, 4.0, 0.3)) == (0.3, True, 1, -1.0, True)
-    assert driver._player_values(GaitCommand("outward_rolling", 0.2, 4.0, 1.6)) == (1.6, True, 4, -1.0, True)
+    assert driver._player_values(GaitCommand("inward_rolling", 0.2, 4.0, 1.0)) == (1.0, False, 2, -1.0)
+    assert driver._player_values(GaitCommand("outward_rolling", 0.2, 4.0, 0.3)) == (0.3, True, 1, -1.0)
+    assert driver._player_values(GaitCommand("outward_rolling", 0.2, 4.0, 1.6)) == (1.6, True, 4, -1.0)
     driver.keepalive_s = 0.0
-    assert driver._player_values(GaitCommand("inward_rolling", 0.2, 4.0, 1.0)) == (1.0, False, 0, -1.0, True)  # off
+    assert driver._player_values(GaitCommand("inward_rolling", 0.2, 4.0, 1.0)) == (1.0, False, 0, -1.0)  # off
 
 
 def test_the_gait_phase_at_a_camera_frames_stamp_is_extrapolated_from_the_sample_before_it():

@@ -180,19 +180,14 @@ class GaitPlayback:
         self._trajectory_frequency_hz = frequency_hz
         self._retarget_frequency(self.blend_time_s if playing else 0.0)
 
-    def start(self, cycles: int = 0, resume: bool = False) -> None:
-        """Ramp in; ``cycles`` > 0 ramps out after that many cycles.
-
-        From idle the cycle begins at phase 0, or with ``resume`` at the phase where the last ramp-out ended: a
-        rolling body at rest lies rolled to that phase, and a start from phase 0 can tip it back the other way
-        first (docs/navigation.md, "A creep that rolls away from the goal").
-        """
+    def start(self, cycles: int = 0) -> None:
+        """Ramp in (from the cycle's phase 0 if idle); ``cycles`` > 0 ramps out after that many cycles."""
         if self._cycle is None:
             raise InvalidInputError("start: no cycle loaded yet; load a trajectory first.")
         if cycles < 0:
             raise InvalidInputError(f"cycles: expected an integer >= 0 (0 = forever), got {cycles}.")
         if self.state is PlaybackState.IDLE:
-            self._phase, self._cycles_done = (self._phase if resume else 0.0), 0.0
+            self._phase, self._cycles_done = 0.0, 0.0
             self._stop_at_phase = None
             self._retarget_frequency(0.0)
         self._stop_after_cycles = self._cycles_done + cycles if cycles > 0 else None
