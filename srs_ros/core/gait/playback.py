@@ -180,14 +180,21 @@ class GaitPlayback:
         self._trajectory_frequency_hz = frequency_hz
         self._retarget_frequency(self.blend_time_s if playing else 0.0)
 
-    def start(self, cycles: int = 0) -> None:
-        """Ramp in (from the cycle's phase 0 if idle); ``cycles`` > 0 ramps out after that many cycles."""
+    def start(self, cycles: int = 0, phase: float = 0.0) -> None:
+        """Ramp in (from ``phase`` of the cycle, 0 by default, if idle); ``cycles`` > 0 ramps out after that many.
+
+        ``phase`` in [0, 1): where an idle playback begins (``benchmarks/bench_creep_restart.py`` starts a resting
+        rolling body where its last ramp-out ended, :attr:`phase`, to study the first stroke from rest).
+        """
         if self._cycle is None:
             raise InvalidInputError("start: no cycle loaded yet; load a trajectory first.")
         if cycles < 0:
             raise InvalidInputError(f"cycles: expected an integer >= 0 (0 = forever), got {cycles}.")
+        phase = float(phase)
+        if not 0.0 <= phase < 1.0:
+            raise InvalidInputError(f"phase: expected a phase in [0, 1), got {phase!r}.")
         if self.state is PlaybackState.IDLE:
-            self._phase, self._cycles_done = 0.0, 0.0
+            self._phase, self._cycles_done = phase, 0.0
             self._stop_at_phase = None
             self._retarget_frequency(0.0)
         self._stop_after_cycles = self._cycles_done + cycles if cycles > 0 else None

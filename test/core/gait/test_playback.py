@@ -144,6 +144,29 @@ def test_a_stop_overrides_a_pending_stop_at_a_phase_and_a_restart_forgets_it():
         player.stop_at_phase(1.0)
 
 
+@pytest.mark.parametrize("reverse", [False, True])
+def test_a_start_from_idle_begins_at_the_phase_asked_and_at_0_by_default(reverse):
+    player = started(frequency_hz=1.0, ramp_time_s=0.4)
+    player.set_reverse(reverse)
+    run(player, 1.5)
+    player.stop()
+    ended = run(player, 1.0)[-1]
+    assert ended.state is PlaybackState.IDLE and 0.05 < ended.phase < 0.95
+    player.start(phase=player.phase)  # where the ramp-out ended
+    first = player.step(DT_S)
+    step = DT_S * first.frequency_hz  # signed: negative played backward
+    assert (step < 0.0) == reverse and first.phase == pytest.approx((ended.phase + step) % 1.0, abs=1e-9)
+    assert first.cycles_done == pytest.approx(abs(step)) and np.max(first.positions_m) < 1e-4  # ramps in from 0
+    player.stop()
+    run(player, 1.0)
+    player.start()
+    assert player.step(DT_S).phase == pytest.approx(step % 1.0, abs=1e-9)
+    player.stop()
+    run(player, 1.0)
+    with pytest.raises(InvalidInputError, match="phase"):
+        player.start(phase=1.0)
+
+
 @pytest.mark.parametrize("new_hz", [0.25, 2.5])
 def test_live_frequency_change_is_phase_continuous(new_hz):
     player = started(frequency_hz=1.0)
