@@ -1,7 +1,8 @@
 """The main job's patrol offline: does the robot stay in the camera's view for round after round? (issue 20)
 
 Drives the simulated robot, pose from the simulated camera, round the main job's patrol (``srs_bringup``'s
-waypoints, ``SIM_PATROL_XY_M``) for ``--rounds`` rounds as one path, with the delays of a ROS system on a busy
+waypoints, ``SIM_PATROL_XY_M``) for ``--rounds`` rounds as the navigator patrols them (its progress says
+"waypoint 2 of 4 (round 3)"), with the delays of a ROS system on a busy
 machine (:class:`~srs_ros.sim.navigation.Latency`: poses 0.06 s and commands 0.03 s late, a 0.3 s stall of the
 navigator every 10 s on average, seeded), and prints per seed how the path ended (``reached``: every waypoint;
 ``pose_lost``: out of the camera's view; ``failed``: no progress for a minute; ``cancelled``: out of time, 20 s
@@ -28,10 +29,11 @@ def patrol(seed: int, rounds: int, friction: str) -> tuple[str, float, int]:
     passed = [0]
 
     def count(now_s, controller):
-        passed[0] = max(passed[0], controller.progress(now_s).goal_index)
+        index, count, round_ = controller.waypoint()
+        passed[0] = max(passed[0], (round_ - 1) * count + index)
 
     config = with_friction(load_sim_config(), friction)
-    result = run_navigation(list(SIM_PATROL_XY_M) * rounds, config=config, camera=True, as_path=True,
+    result = run_navigation(SIM_PATROL_XY_M, config=config, camera=True, as_path=True, rounds=rounds,
                             goal_timeout_s=WAYPOINT_TIMEOUT_S, events=count,
                             latency=Latency(*LATENCY_S, STALL_EVERY_S, STALL_S, seed))
     outcome = result.outcomes[0]

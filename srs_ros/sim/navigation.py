@@ -202,7 +202,7 @@ def run_navigation(goals: Sequence[Sequence[float]], config: SimConfig | None = 
                    render: bool = False, progress: Callable[[str], None] | None = None,
                    events: Callable[[float, NavigationController], None] | None = None,
                    from_start: bool = False, controller: NavigationController | None = None,
-                   latency: Latency | None = None) -> NavigationResult:
+                   latency: Latency | None = None, rounds: int = 1) -> NavigationResult:
     """Drive the simulated robot to ``goals`` [(x_m, y_m), ...] with the navigation controller; see the module doc.
 
     ``on_frame(state, image, controller)`` at every camera frame (``image`` when ``camera`` or ``render``);
@@ -210,7 +210,8 @@ def run_navigation(goals: Sequence[Sequence[float]], config: SimConfig | None = 
     there); ``progress(line)`` once per goal. A goal the controller refuses is recorded as refused and skipped.
     ``from_start``: every goal from the start on a fresh world (the controller, and what it learned, is kept,
     as a running navigator keeps it); ``controller``: one to use (and keep learning) instead of a new one;
-    ``latency``: the delays of a ROS system (:class:`Latency`; None: none).
+    ``latency``: the delays of a ROS system (:class:`Latency`; None: none); ``rounds`` (with ``as_path``): the path
+    followed that many times over, as the navigator patrols (``loop_path``), one outcome for all.
     Raises :class:`InvalidInputError` for bad arguments, :class:`~srs_ros.core.errors.SimulationError` if the
     physics diverges.
     """
@@ -233,7 +234,8 @@ def run_navigation(goals: Sequence[Sequence[float]], config: SimConfig | None = 
             rows += loop.rows
             clock_s = loop.clock_offset_s + loop.world.time_s + FRESH_WORLD_GAP_S
             loop = _Loop(SimWorld(config, robot), GaitDriver(robot), eyes, controller, rate_hz, clock_s, latency)
-        outcome = loop.drive(batch, goal_timeout_s * len(batch), on_frame, events)
+        outcome = loop.drive(batch, goal_timeout_s * len(batch) * (rounds if as_path else 1), on_frame, events,
+                             rounds if as_path else 1)
         outcomes.append(outcome)
         if progress is not None:
             progress(outcome.summary())
@@ -258,11 +260,11 @@ class _Loop:
         self._next_command_s = 0.0
         self._next_frame_s = 0.0
 
-    def drive(self, goals, timeout_s, on_frame, events) -> GoalOutcome:
-        """Drive to ``goals`` (a path), until the controller stops and the gait has ramped out, or time is up."""
+    def drive(self, goals, timeout_s, on_frame, events, rounds: int = 1) -> GoalOutcome:
+        """Drive along ``goals``, ``rounds`` times over, until the controller stops and the gait ramped out."""
         start = self.world.state(with_contacts=False)
         start_xy, t0 = (float(start.reference_xy_m[0]), float(start.reference_xy_m[1])), self._clock(start)
-        decision = self.controller.set_path(goals, t0)
+        decision = self.controller.set_path(goals, t0, rounds)
         if not decision.accepted:
             return GoalOutcome(goals[-1], start_xy, NavigationState.IDLE, f"refused: {decision.reason}", 0.0,
                                math.nan, 0.0)

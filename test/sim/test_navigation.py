@@ -39,6 +39,15 @@ def test_a_replaced_goal_is_driven_to_and_a_cancel_stops_and_vents():
     assert outcome.time_s < seen["cancelled"] + 3.0       # the ramp-out ends within the ramp time and a bit
 
 
+def test_a_path_in_rounds_is_given_to_the_controller_as_the_navigator_patrols_it():
+    seen = []
+    result = run_navigation([(0.3, 0.0), (0.3, 0.3)], as_path=True, rounds=3, goal_timeout_s=0.1,
+                            events=lambda now_s, nav: seen.append((nav.goals, nav.waypoint(), nav.progress(now_s))))
+    goals, where, progress = seen[1]
+    assert len(goals) == 6 and where == (0, 2, 1) and "waypoint 1 of 2 (round 1)" in progress.message
+    assert len(result.outcomes) == 1 and "gave up after 0.6 s" in result.outcomes[0].message  # 0.1 s a point
+
+
 def test_a_robot_the_camera_does_not_see_is_stopped_with_the_reason():
     config = load_sim_config().replace("start", x_m=2.2)   # beyond the simulated camera's view (x up to 1.43 m)
     result = run_navigation([(0.5, 0.0)], config=config, camera=True, goal_timeout_s=10.0)
