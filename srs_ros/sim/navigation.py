@@ -261,7 +261,10 @@ class _Loop:
         self._next_frame_s = 0.0
 
     def drive(self, goals, timeout_s, on_frame, events, rounds: int = 1) -> GoalOutcome:
-        """Drive along ``goals``, ``rounds`` times over, until the controller stops and the gait ramped out."""
+        """Drive along ``goals``, ``rounds`` times over, until the controller stops and the gait ramped out.
+
+        A controller still driving when ``timeout_s`` is up is cancelled.
+        """
         start = self.world.state(with_contacts=False)
         start_xy, t0 = (float(start.reference_xy_m[0]), float(start.reference_xy_m[1])), self._clock(start)
         decision = self.controller.set_path(goals, t0, rounds)
