@@ -29,8 +29,8 @@ def patrol(seed: int, rounds: int, friction: str) -> tuple[str, float, int]:
     passed = [0]
 
     def count(now_s, controller):
-        index, count, round_ = controller.waypoint()
-        passed[0] = max(passed[0], (round_ - 1) * count + index)
+        index, points, round_ = controller.waypoint()
+        passed[0] = max(passed[0], (round_ - 1) * points + index)
 
     config = with_friction(load_sim_config(), friction)
     result = run_navigation(SIM_PATROL_XY_M, config=config, camera=True, as_path=True, rounds=rounds,

@@ -218,6 +218,9 @@ def run_navigation(goals: Sequence[Sequence[float]], config: SimConfig | None = 
     goals = [tuple(float(v) for v in g) for g in goals]
     if not goals or any(len(g) != 2 for g in goals):
         raise InvalidInputError(f"goals: expected one or more (x_m, y_m) pairs, got {goals!r}.")
+    if int(rounds) != rounds or rounds < 1:
+        raise InvalidInputError(f"rounds: expected a whole number of rounds >= 1, got {rounds!r}.")
+    rounds = int(rounds) if as_path else 1
     robot = robot or default_robot()
     config = config or load_sim_config(robot=robot)
     settings = settings or load_navigation_settings()
@@ -234,8 +237,7 @@ def run_navigation(goals: Sequence[Sequence[float]], config: SimConfig | None = 
             rows += loop.rows
             clock_s = loop.clock_offset_s + loop.world.time_s + FRESH_WORLD_GAP_S
             loop = _Loop(SimWorld(config, robot), GaitDriver(robot), eyes, controller, rate_hz, clock_s, latency)
-        outcome = loop.drive(batch, goal_timeout_s * len(batch) * (rounds if as_path else 1), on_frame, events,
-                             rounds if as_path else 1)
+        outcome = loop.drive(batch, goal_timeout_s * len(batch) * rounds, on_frame, events, rounds)
         outcomes.append(outcome)
         if progress is not None:
             progress(outcome.summary())

@@ -7,6 +7,7 @@ Whether it reaches random goals is the slow test at the end and benchmarks/bench
 import numpy as np
 import pytest
 
+from srs_ros.core.errors import InvalidInputError
 from srs_ros.core.navigation import NavigationState
 from srs_ros.sim.config import load_sim_config
 from srs_ros.sim.navigation import GaitDriver, run_navigation
@@ -46,6 +47,8 @@ def test_a_path_in_rounds_is_given_to_the_controller_as_the_navigator_patrols_it
     goals, where, progress = seen[1]
     assert len(goals) == 6 and where == (0, 2, 1) and "waypoint 1 of 2 (round 1)" in progress.message
     assert len(result.outcomes) == 1 and "gave up after 0.6 s" in result.outcomes[0].message  # 0.1 s a point
+    with pytest.raises(InvalidInputError, match="rounds"):
+        run_navigation([(0.3, 0.0)], as_path=True, rounds=0)
 
 
 def test_a_robot_the_camera_does_not_see_is_stopped_with_the_reason():
