@@ -229,6 +229,16 @@ def measure_serpentine(c_rad_per_unit: float, amplitude_bar: float, frequency_hz
             for yaw in start_yaws_rad]
 
 
+def measure_sidewinding(lateral_rad: float, amplitude_bar: float, frequency_hz: float,
+                        config: SimConfig | None = None, robot: RobotDescription | None = None,
+                        start_yaws_rad: Sequence[float] = DEFAULT_START_YAWS_RAD, **kwargs) -> list[TurnMeasurement]:
+    """Sidewinding with its horizontal wave's amplitude ``lateral_rad`` (negative: mirrored), one run per heading."""
+    cycle = generate_cycle("sidewinding", amplitude_bar, frequency_hz, robot=robot,
+                           params={"lateral_rad": float(lateral_rad)})
+    return [measure("sidewinding", cycle, lateral_rad, config, robot, start_yaw_rad=yaw, **kwargs)
+            for yaw in start_yaws_rad]
+
+
 def turning_map_yaml(rows: dict[str, list[TurnMeasurement]], stops: dict[str, np.ndarray], amplitude_bar: float,
                      frequency_hz: float, conditions: str) -> str:
     """The navigator's turn map (config/turning_map.yaml) from measured runs: means over the start headings."""

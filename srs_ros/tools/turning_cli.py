@@ -7,6 +7,7 @@ Examples::
     python -m srs_ros.tools.turning_cli --grid             # turn_phase_rad at 2-4 bar, 0.25-1 Hz
     python -m srs_ros.tools.turning_cli --candidates       # steering candidates compared at 4 bar 1 Hz
     python -m srs_ros.tools.turning_cli --serpentine       # serpentine c on anisotropic friction (or --friction)
+    python -m srs_ros.tools.turning_cli --sidewinding --sim-config config/sim_calibrated_paper.yaml
 
 Every run starts at rest and plays the gait through the gait player's logic, as the navigator does
 (:mod:`srs_ros.experiments.turning`); each value is run from two start headings (the spread says how
@@ -27,6 +28,10 @@ from srs_ros.core.navigation.settings import DIRECTIONS, NAVIGATION_TABLE, STOP_
 from srs_ros.experiments import turning
 from srs_ros.sim.config import load_sim_config, with_friction
 
+#: The sidewinding settings measured by ``--sidewinding``: the default amplitude of its horizontal wave and half of
+#: it, each way (a negative value is the gait's mirror image).
+SIDEWINDING_LATERAL_RAD = (-0.6, -0.3, 0.3, 0.6)
+
 
 def _parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="srs_turning", description=__doc__.splitlines()[0])
@@ -37,6 +42,8 @@ def _parser() -> argparse.ArgumentParser:
                              "alternating strokes) at 4 bar 1 Hz")
     parser.add_argument("--serpentine", action="store_true",
                         help="serpentine c_rad_per_unit on anisotropic friction (or on --friction's floor)")
+    parser.add_argument("--sidewinding", action="store_true",
+                        help="sidewinding's lateral_rad -0.6, -0.3, +0.3, +0.6 (negative: the mirror image)")
     parser.add_argument("--write-map", type=Path, metavar="FILE", help="write the navigator's turn map (YAML)")
     parser.add_argument("--amplitude-bar", type=float, default=NAVIGATION_TABLE["amplitude_bar"].default)
     parser.add_argument("--frequency-hz", type=float, default=NAVIGATION_TABLE["cruise_frequency_hz"].default)
@@ -129,7 +136,15 @@ def main(argv: list[str] | None = None) -> int:
                                                    cycles=args.cycles)
             print(f"serpentine on {floor.contact.describe()}:")
             print(turning.table_markdown(runs, "c_rad_per_unit"))
-        if not (args.grid or args.candidates or args.serpentine) or args.write_map:
+        if args.sidewinding:
+            runs = []
+            for lateral in SIDEWINDING_LATERAL_RAD:
+                _say(f"  sidewinding lateral_rad {lateral:+g} ...")
+                runs += turning.measure_sidewinding(lateral, args.amplitude_bar, args.frequency_hz, config,
+                                                    cycles=args.cycles)
+            print(f"sidewinding on {config.contact.describe()}:")
+            print(turning.table_markdown(runs, "lateral_rad"))
+        if not (args.grid or args.candidates or args.serpentine or args.sidewinding) or args.write_map:
             _print_map(config, args)
     except (SrsError, ValueError) as exc:
         print(f"srs_turning: error: {exc}", file=sys.stderr)

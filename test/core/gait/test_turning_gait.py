@@ -64,3 +64,28 @@ def test_outward_with_turn_phase_is_inward_reversed_in_time():
     inward = generate_cycle("inward_rolling", 3.0, 1.0, 16, params=params)
     outward = generate_cycle("outward_rolling", 3.0, 1.0, 16, params=params)
     np.testing.assert_allclose(outward.lengths_m, inward.lengths_m[(-np.arange(16)) % 16], atol=1e-12)
+
+
+def _mirror_columns(robot) -> list[int]:
+    """Joint columns of the body mirrored in the vertical plane through module 1's first muscle (at the start)."""
+    columns = []
+    for module in range(robot.module_count):
+        angles = module * robot.module_twist_rad + np.asarray(robot.actuator_angles_rad)
+        for angle in angles:
+            gap = np.abs((angles + angle + math.pi) % (2 * math.pi) - math.pi)  # the muscle at -angle
+            columns.append(module * robot.actuators_per_module + int(np.argmin(gap)))
+    return columns
+
+
+def test_sidewinding_with_a_negative_lateral_wave_is_its_mirror_image_half_a_cycle_on():
+    """The steering of sidewinding (docs/navigation.md): lateral_rad's sign mirrors the gait, nothing else."""
+    parameter = {p.name: p for p in gait_spec("sidewinding").parameters}["lateral_rad"]
+    assert (parameter.minimum, parameter.maximum) == (-1.5, 1.5)
+    left = generate_cycle("sidewinding", 4.0, 1.0, 32)
+    right = generate_cycle("sidewinding", 4.0, 1.0, 32, params={"lateral_rad": -0.6})
+    columns = _mirror_columns(ROBOT)
+    assert sorted(columns) == list(range(9)) and columns != list(range(9))
+    mirrored = np.roll(left.lengths_m[:, columns], 16, axis=0)  # half a cycle on
+    assert np.abs(right.lengths_m - mirrored).max() < 1e-6
+    assert np.abs(right.lengths_m - left.lengths_m).max() > 0.02  # a different cycle, not the same one
+    assert right.pressures_bar.max() == pytest.approx(4.0, abs=1e-6) and right.ok
