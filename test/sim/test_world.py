@@ -67,6 +67,17 @@ def test_the_body_bends_to_the_servo_share_of_the_kinematic_shape():
     np.testing.assert_allclose(state.body_bend_rad, share * state.target_bend_rad, rtol=0.05)
 
 
+def test_the_first_muscle_of_the_tail_module_lies_on_the_left_level_with_the_axis():
+    """config/sim.yaml's start: muscle 1 of module 1 on the robot's left (body +X = up x heading), not on top."""
+    world = SimWorld(CONFIG)  # heading +x: the robot's left is +y
+    start = world.node_positions_m().copy()
+    world.command_pressures([4.0] + [0.0] * 8)  # muscle 1 extends: module 1 bends away from it
+    world.step(2.0)
+    nodes = world.node_positions_m()
+    assert nodes[0, 1] - start[0, 1] < -0.03  # the tail swings to the right, in the floor plane
+    assert nodes[:, 2].max() < start[:, 2].max() + 0.005  # nothing lifts
+
+
 def test_the_tracked_pose_alone_is_the_states_while_the_body_rolls():
     """sim_world publishes the pose at 50 Hz from tracked_pose (a sixth of the state's cost): the same figures."""
     world = SimWorld(CONFIG.replace("start", x_m=0.1, y_m=-0.2, yaw_rad=0.5))

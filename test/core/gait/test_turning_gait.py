@@ -89,3 +89,11 @@ def test_sidewinding_with_a_negative_lateral_wave_is_its_mirror_image_half_a_cyc
     assert np.abs(right.lengths_m - mirrored).max() < 1e-6
     assert np.abs(right.lengths_m - left.lengths_m).max() > 0.02  # a different cycle, not the same one
     assert right.pressures_bar.max() == pytest.approx(4.0, abs=1e-6) and right.ok
+
+
+def test_outward_rolling_is_inward_rolling_mirrored_in_the_plane_of_the_first_muscle():
+    """That plane lies level at rest (test/sim/test_world.py), so the two gaits are mirror images upside down only."""
+    inward = generate_cycle("inward_rolling", 4.0, 1.0, 32)
+    outward = generate_cycle("outward_rolling", 4.0, 1.0, 32)
+    assert np.abs(outward.lengths_m - inward.lengths_m[:, _mirror_columns(ROBOT)]).max() < 1e-9
+    assert np.abs(outward.lengths_m - inward.lengths_m).max() > 0.01
