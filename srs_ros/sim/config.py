@@ -140,11 +140,12 @@ class PhysicsConfig:
 
 @dataclass(frozen=True)
 class StartConfig:
-    """Where the straight robot starts on the floor: reference point (m) and heading (rad)."""
+    """Where the straight robot starts on the floor: reference point (m), heading (rad), roll about its axis (rad)."""
 
     x_m: float
     y_m: float
     yaw_rad: float
+    roll_rad: float
 
 
 @dataclass(frozen=True)
@@ -274,6 +275,8 @@ SIM_TABLES: dict[str, Table] = {table.path.split(".")[1]: table for table in (
         Field("x_m", float, minimum=-1e3, maximum=1e3, unit="m"),
         Field("y_m", float, minimum=-1e3, maximum=1e3, unit="m"),
         Field("yaw_rad", float, minimum=-10.0, maximum=10.0, unit="rad"),
+        Field("roll_rad", float, minimum=-10.0, maximum=10.0, unit="rad",
+              description="the body turned about its axis: 0 = actuator 1 of module 1 level on the left, pi/2 on top"),
     )),
     Table("sim.camera", (
         Field("calibration_file", str, description="a calibration YAML, or empty for the package's"),

@@ -58,13 +58,16 @@ class BodyLayout:
 def _start_frame(config: SimConfig, robot: RobotDescription) -> tuple[np.ndarray, np.ndarray]:
     """Tail position (3,) and orientation quaternion (w, x, y, z) of the straight robot at the start pose.
 
-    The robot frame's +Z points along the heading on the floor and its +Y up (the body frame of the gaits,
-    :func:`srs_ros.core.gait.library._in_body_frame`), so planar gaits bend in the floor plane.
+    The robot frame's +Z points along the heading on the floor and, at ``roll_rad`` 0, its +Y up (the body frame
+    of the gaits, :func:`srs_ros.core.gait.library._in_body_frame`), so planar gaits bend in the floor plane and
+    actuator 1 of module 1 (on +X) lies level on the left; ``roll_rad`` turns the body about +Z (pi/2: +X up).
     """
     start = config.start
     heading = np.array([math.cos(start.yaw_rad), math.sin(start.yaw_rad), 0.0])
     up = np.array([0.0, 0.0, 1.0])
-    rotation = np.column_stack([np.cross(up, heading), up, heading])
+    left = np.cross(up, heading)
+    c, s = math.cos(start.roll_rad), math.sin(start.roll_rad)
+    rotation = np.column_stack([c * left + s * up, c * up - s * left, heading])
     quat = np.zeros(4)
     mujoco.mju_mat2Quat(quat, rotation.ravel())
     length_m = robot.module_count * robot.unactuated_length_m + (robot.module_count - 1) * robot.mounting_offset_m

@@ -76,6 +76,10 @@ def test_the_first_muscle_of_the_tail_module_lies_on_the_left_level_with_the_axi
     nodes = world.node_positions_m()
     assert nodes[0, 1] - start[0, 1] < -0.03  # the tail swings to the right, in the floor plane
     assert nodes[:, 2].max() < start[:, 2].max() + 0.005  # nothing lifts
+    turned = SimWorld(CONFIG.replace("start", roll_rad=math.pi))  # start.roll_rad pi: that muscle on the right
+    turned.command_pressures([4.0] + [0.0] * 8)
+    turned.step(2.0)
+    assert turned.node_positions_m()[0, 1] - start[0, 1] > 0.03  # the tail swings to the left
 
 
 def test_the_tracked_pose_alone_is_the_states_while_the_body_rolls():
