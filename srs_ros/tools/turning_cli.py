@@ -129,27 +129,27 @@ def main(argv: list[str] | None = None) -> int:
                 print(f"| inward {inward:+g} / outward {outward:+g} | {turn:+.1f} | {spread:.1f} | {100 * drift:.1f} |")
         if args.serpentine:
             floor = config if args.friction else config.replace("contact", friction="anisotropic")
-            runs = []
-            for c in (-0.2, -0.1, 0.0, 0.1, 0.2):
-                _say(f"  serpentine c {c:+g} ...")
-                runs += turning.measure_serpentine(c, args.amplitude_bar, args.frequency_hz, floor,
-                                                   cycles=args.cycles)
-            print(f"serpentine on {floor.contact.describe()}:")
-            print(turning.table_markdown(runs, "c_rad_per_unit"))
+            _print_setting_runs("serpentine", "c_rad_per_unit", (-0.2, -0.1, 0.0, 0.1, 0.2), floor, args,
+                                turning.measure_serpentine)
         if args.sidewinding:
-            runs = []
-            for lateral in SIDEWINDING_LATERAL_RAD:
-                _say(f"  sidewinding lateral_rad {lateral:+g} ...")
-                runs += turning.measure_sidewinding(lateral, args.amplitude_bar, args.frequency_hz, config,
-                                                    cycles=args.cycles)
-            print(f"sidewinding on {config.contact.describe()}:")
-            print(turning.table_markdown(runs, "lateral_rad"))
+            _print_setting_runs("sidewinding", "lateral_rad", SIDEWINDING_LATERAL_RAD, config, args,
+                                turning.measure_sidewinding)
         if not (args.grid or args.candidates or args.serpentine or args.sidewinding) or args.write_map:
             _print_map(config, args)
     except (SrsError, ValueError) as exc:
         print(f"srs_turning: error: {exc}", file=sys.stderr)
         return 2
     return 0
+
+
+def _print_setting_runs(gait: str, setting: str, values, config, args, measure) -> None:
+    """``measure(value, amplitude, frequency, config, cycles=...)`` for each value of a gait's setting, as a table."""
+    runs = []
+    for value in values:
+        _say(f"  {gait} {setting} {value:+g} ...")
+        runs += measure(value, args.amplitude_bar, args.frequency_hz, config, cycles=args.cycles)
+    print(f"{gait} on {config.contact.describe()}:")
+    print(turning.table_markdown(runs, setting))
 
 
 def _print_map(config, args) -> None:
