@@ -192,7 +192,7 @@ def test_sim_world_vents_by_itself_when_the_hardware_node_dies(launch_node, ros_
     # timeout is unit-tested (test/sim/test_realtime.py).
     # The lower bound keeps 0.3 of the hold: sim_world's executor, stalled by the busy suite just before the kill,
     # may not have taken the last commands this client saw (a fresh clone's suite measured 0.61 s: 0.23 s of hold
-    # visible; a suite beside a benchmark 0.39 s after the last command, the decay alone: that command, or the ones
+    # visible; a suite beside a nav. trace 0.39 s after the last command, the decay alone: that command, or the ones
     # before it, most likely never reached the board); without a hold the read-back is down within the decay alone,
     # 0.38 s after the last command the board got (5 ms after the one before at 200 commands per second).
     assert vented_after_previous_s > 0.3 * SIM_BOARD_TIMEOUT_S + decay_s

@@ -250,7 +250,7 @@ def test_the_moment_limit_moves_the_hinge_servos_damping_onto_the_joints():
 
 @pytest.mark.parametrize("pressure_bar", [2.0, 4.0])
 def test_no_node_bends_with_more_than_the_limit_at_its_pressure(pressure_bar):
-    bent = [pressure_bar, 0.0, 0.0] * 3                               # every module bends toward its first muscle
+    bent = [pressure_bar, 0.0, 0.0] * 3  # every module bends away from its (extending) first muscle
     limited, free = SimWorld(LIMITED, ROBOT), SimWorld(CONFIG, ROBOT)
     peaks = []
     for world in (limited, free):

@@ -2,6 +2,7 @@
 
 import math
 
+import mujoco
 import numpy as np
 import pytest
 
@@ -9,6 +10,7 @@ from srs_ros.core.errors import InvalidInputError, SimulationError
 from srs_ros.core.kinematics import base_transform
 from srs_ros.core.robot import default_robot
 from srs_ros.sim.config import load_sim_config
+from srs_ros.sim.model import _start_frame
 from srs_ros.sim.world import SimWorld
 
 CONFIG = load_sim_config()
@@ -80,6 +82,18 @@ def test_the_first_muscle_of_the_tail_module_lies_on_the_left_level_with_the_axi
     turned.command_pressures([4.0] + [0.0] * 8)
     turned.step(2.0)
     assert turned.node_positions_m()[0, 1] - start[0, 1] > 0.03  # the tail swings to the left
+
+
+@pytest.mark.parametrize(("roll_rad", "first_muscle_side"), [(0.0, (0, 1, 0)), (math.pi / 2, (0, 0, 1)),
+                                                             (math.pi, (0, -1, 0))])
+def test_start_roll_turns_the_first_muscle_from_the_left_to_the_top_to_the_right(roll_rad, first_muscle_side):
+    """start.roll_rad turns the body about its axis: the robot frame's +X (muscle 1 of module 1) in the floor frame."""
+    _, quat = _start_frame(CONFIG.replace("start", roll_rad=roll_rad), ROBOT)
+    rotation = np.zeros(9)
+    mujoco.mju_quat2Mat(rotation, quat)
+    rotation = rotation.reshape(3, 3)
+    np.testing.assert_allclose(rotation[:, 0], first_muscle_side, atol=1e-12)  # heading +x, left +y
+    np.testing.assert_allclose(rotation[:, 2], (1, 0, 0), atol=1e-12)  # the axis stays along the heading
 
 
 def test_the_tracked_pose_alone_is_the_states_while_the_body_rolls():

@@ -67,7 +67,7 @@ def test_outward_with_turn_phase_is_inward_reversed_in_time():
 
 
 def _mirror_columns(robot) -> list[int]:
-    """Joint columns of the body mirrored in the vertical plane through module 1's first muscle (at the start)."""
+    """Joint columns relabelled by the mirror in the plane of the axis and module 1's first muscle (level at rest)."""
     columns = []
     for module in range(robot.module_count):
         angles = module * robot.module_twist_rad + np.asarray(robot.actuator_angles_rad)
@@ -78,17 +78,21 @@ def _mirror_columns(robot) -> list[int]:
 
 
 def test_sidewinding_with_a_negative_lateral_wave_is_its_mirror_image_half_a_cycle_on():
-    """The steering of sidewinding (docs/navigation.md): lateral_rad's sign mirrors the gait, nothing else."""
+    """The steering of sidewinding (docs/navigation.md): lateral_rad's sign mirrors the gait, nothing else.
+
+    The body's shape is the left-right mirror image at the same phase; in the muscles' lengths that is the
+    positive gait with its columns relabelled by the mirror and shifted half a cycle.
+    """
     parameter = {p.name: p for p in gait_spec("sidewinding").parameters}["lateral_rad"]
     assert (parameter.minimum, parameter.maximum) == (-1.5, 1.5)
-    left = generate_cycle("sidewinding", 4.0, 1.0, 32)
-    right = generate_cycle("sidewinding", 4.0, 1.0, 32, params={"lateral_rad": -0.6})
+    positive = generate_cycle("sidewinding", 4.0, 1.0, 32)
+    negative = generate_cycle("sidewinding", 4.0, 1.0, 32, params={"lateral_rad": -0.6})
     columns = _mirror_columns(ROBOT)
     assert sorted(columns) == list(range(9)) and columns != list(range(9))
-    mirrored = np.roll(left.lengths_m[:, columns], 16, axis=0)  # half a cycle on
-    assert np.abs(right.lengths_m - mirrored).max() < 1e-6
-    assert np.abs(right.lengths_m - left.lengths_m).max() > 0.02  # a different cycle, not the same one
-    assert right.pressures_bar.max() == pytest.approx(4.0, abs=1e-6) and right.ok
+    mirrored = np.roll(positive.lengths_m[:, columns], 16, axis=0)  # half a cycle on
+    assert np.abs(negative.lengths_m - mirrored).max() < 1e-6
+    assert np.abs(negative.lengths_m - positive.lengths_m).max() > 0.02  # a different cycle, not the same one
+    assert negative.pressures_bar.max() == pytest.approx(4.0, abs=1e-6) and negative.ok
 
 
 def test_outward_rolling_is_inward_rolling_mirrored_in_the_plane_of_the_first_muscle():
