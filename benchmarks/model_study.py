@@ -27,6 +27,7 @@ import numpy as np
 import yaml
 
 from srs_ros.core.errors import ConfigurationError
+from srs_ros.core.robot import config_dir
 from srs_ros.experiments.cluster import add_runner_arguments, runner_from_args
 from srs_ros.experiments.fidelity import fidelity_figures
 from srs_ros.experiments.sweep import SweepGrid
@@ -74,6 +75,13 @@ _AUTHORS_BEND = 1.5 * 1750.0 * 0.0125 ** 2     # 3 muscles of 1750 N/m at r = 12
 _TETHER_RIGID_SLIP = {"tether.enabled": True, "tether.twist_stiffness_nm2": 0.2, "tether.bend_stiffness_nm2": 0.3,
                       "tether.damping_nms_per_rad": 0.01, "tether.anchor_slip_torque_nm": 0.1}
 _LIMIT = {"servo.bend_moment_limit_nm": 0.2}     # the muscles' force limit at 4 bar (N m per module)
+
+
+def _changes_in(file_name: str) -> dict:
+    """The ``{"section.key": value}`` by which a sim YAML of config/ differs from config/sim.yaml."""
+    changed, default = to_dict(load_sim_config(config_dir() / file_name)), to_dict(load_sim_config())
+    return {f"{name}.{key}": value for name, values in changed.items() for key, value in values.items()
+            if value != default[name][key]}
 
 
 def _tubes(hold_nm_per_rad: float) -> dict:
@@ -177,9 +185,9 @@ VARIANTS = [Variant(*v) for v in (
     ("moment_limit_tubes_line_lag", {**_LIMIT, "servo.skin_bend_stiffness_nm_per_rad": 0.25, **_tubes(0.5),
                                      "muscles.pressure_time_constant_s": 0.2},
      "moment_limit_tubes with line_lag's 0.2 s supply lines (less bend at high frequency)"),
-    ("moment_limit_soft_tubes_line_lag", {**_LIMIT, "servo.skin_bend_stiffness_nm_per_rad": 0.25, **_tubes(0.2),
-                                          "muscles.pressure_time_constant_s": 0.2},
-     "moment_limit_tubes_line_lag with a 0.2 N m/rad hold (nearer the tied bundle's estimate, 0.1)"),
+    ("moment_limit_soft_tubes_line_lag", _changes_in("sim_held_spin.yaml"),
+     "moment_limit_tubes_line_lag with a 0.2 N m/rad hold (nearer the tied bundle's estimate, 0.1): "
+     "config/sim_held_spin.yaml, shipped as a named file since stop 50"),
 )]
 
 

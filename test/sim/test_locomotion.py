@@ -71,6 +71,20 @@ def test_the_shipped_calibration_rolls_inward_toward_the_opening_and_outward_awa
     assert inward > 1.0 and outward < -1.0, (inward, outward)
 
 
+@pytest.mark.slow(seconds=6)
+def test_the_held_spin_file_rolls_faster_with_pressure_and_farther_per_cycle_at_a_slower_cycle():
+    """Table I's two trends, which config/sim.yaml lacks (it rolls 6.9 cm/s at 2 bar and 6.2 at 4 bar, 0.5 Hz):
+    config/sim_held_spin.yaml (docs/simulation.md, "The muscles' moment limit") gives both."""
+    def speed_cm_s(amplitude_bar, frequency_hz):
+        result, _ = run("inward_rolling", amplitude_bar, frequency_hz, duration_s=8.0, sim_config="sim_held_spin.yaml")
+        return result.velocity.speed_cm_s
+
+    low, high = speed_cm_s(2.0, 0.5), speed_cm_s(4.0, 0.5)
+    assert high > 2.0 * low, (low, high)  # measured 3.0 and 11.0 cm/s
+    slow_cm, fast_cm = speed_cm_s(4.0, 0.25) / 0.25, speed_cm_s(4.0, 1.0) / 1.0  # per cycle
+    assert slow_cm > 1.2 * fast_cm, (slow_cm, fast_cm)  # measured 22 and 15 cm per cycle
+
+
 @pytest.mark.slow(seconds=8)
 def test_serpentine_needs_anisotropic_friction_to_progress():
     isotropic, _ = run("serpentine", 4.0, 0.25)
