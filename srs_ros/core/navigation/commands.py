@@ -54,6 +54,9 @@ class GaitCommand:
     #: until then, at most one cycle); None: ramp out at once. The navigator stops a cycle ahead at a set
     #: phase, so the stop is exact however late the command arrives (within the cycle).
     stop_phase: float | None = None
+    #: The navigator took the body's head for its tail (:class:`~srs_ros.core.navigation.motion.TravelSides`): its
+    #: moves along the axis then play the serpentine the other way in time.
+    ends_swapped: bool = False
 
     @property
     def moving(self) -> bool:
@@ -77,8 +80,10 @@ class GaitCommand:
 
     @property
     def reverse(self) -> bool:
-        """True when the cycle is played backward (outward rolling, the serpentine backward)."""
-        return self.direction in ("outward_rolling", AXIS_DIRECTIONS[1])
+        """True when the cycle is played backward: outward rolling, the serpentine backward (forward, ends swapped)."""
+        if self.along_axis:
+            return (self.direction == AXIS_DIRECTIONS[1]) != self.ends_swapped
+        return self.direction == "outward_rolling"
 
     @property
     def cycle_key(self) -> tuple[str, float, float]:
@@ -108,6 +113,7 @@ class NavigationProgress:
     turn_phase_rad: float
     elapsed_s: float
     message: str
+    inward_side: str = "left"
 
     @property
     def level(self) -> str:
@@ -122,4 +128,5 @@ class NavigationProgress:
         return {"state": self.state.value, "goal_m": goal, "goal": f"{self.goal_index + 1} of {self.goal_count}",
                 "distance_to_go_m": f"{self.distance_to_go_m:.3f}",
                 "heading_error_deg": f"{math.degrees(self.heading_error_rad):.1f}", "direction": self.direction,
-                "turn_phase_rad": f"{self.turn_phase_rad:.3f}", "elapsed_s": f"{self.elapsed_s:.1f}"}
+                "turn_phase_rad": f"{self.turn_phase_rad:.3f}", "elapsed_s": f"{self.elapsed_s:.1f}",
+                "inward_side": self.inward_side}

@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterable, Sequence
+from dataclasses import replace
 
 import numpy as np
 
@@ -34,6 +35,7 @@ from srs_ros.core.navigation.motion import (
     Pose2D,
     PoseHistory,
     TravelModel,
+    TravelSides,
     TurnModel,
     arc_miss_m,
     measure_cycle,
@@ -77,6 +79,7 @@ class NavigationController(CruiseStopping, FineDriving, EdgeGuard):
         self.history = PoseHistory()
         self.turns = TurnModel(settings.turning_map, settings.turn_levels_rad, settings.learning_rate)
         self.travel = TravelModel(settings.turn_levels_rad, settings.learning_rate, settings.turning_map)
+        self.sides = TravelSides()
         self.stops = StopModel(settings.turning_map, settings.learning_rate, settings.turn_levels_rad)
         self.fine = FineApproach(settings.learning_rate)
         self.shuffle = AxisShuffle(settings.learning_rate)
@@ -96,7 +99,7 @@ class NavigationController(CruiseStopping, FineDriving, EdgeGuard):
         self._stop: StopPlan | None = None
         self._phase: float | None = None
         self._phase_seen: float | None = None
-        self._direction_since_s = 0.0
+        self._direction_since_s = self._sides_measured_s = 0.0
         self._clock_s = 0.0
         self._fresh_goal = False
         self._best = (math.inf, 0.0)
@@ -184,6 +187,8 @@ class NavigationController(CruiseStopping, FineDriving, EdgeGuard):
     # ------------------------------------------------------------------ poses and time
     def update_pose(self, pose: Pose2D) -> GaitCommand:
         """Take a camera pose (older than the last one: ignored) and return the command for now."""
+        if self.sides.swapped:
+            pose = Pose2D(pose.x_m, pose.y_m, pose.yaw_rad + self.sides.yaw_offset_rad, pose.time_s)
         if not self.history.add(pose):
             return self._command
         self._last_pose_s = self._clock_s = pose.time_s
@@ -377,10 +382,25 @@ class NavigationController(CruiseStopping, FineDriving, EdgeGuard):
         elif command.frequency_hz != old.frequency_hz:
             self._measured_s = now_s
         self._level = level
-        self._command = command
+        self._command = replace(command, ends_swapped=self.sides.swapped) if command.along_axis else command
+
+    def _learn_sides(self, now_s: float) -> None:
+        """Every whole cycle in one rolling direction (past the start's settling, whatever the level): which side."""
+        command = self._command
+        if not command.moving or command.along_axis:
+            return
+        period = 1.0 / command.frequency_hz
+        if now_s - self._direction_since_s < (1.0 + START_SETTLE_CYCLES) * period or \
+                now_s - self._sides_measured_s < period:
+            return
+        cycle = measure_cycle(self.history, period)
+        self._sides_measured_s = now_s
+        if cycle is not None and self.sides.observe(command.direction, cycle):
+            self._swap_ends()
 
     def _learn(self, now_s: float) -> None:
         """After a whole cycle at one level (past the settling), measure it and correct the models."""
+        self._learn_sides(now_s)
         command = self._command
         if not command.moving or self._level is None:
             return
@@ -395,6 +415,13 @@ class NavigationController(CruiseStopping, FineDriving, EdgeGuard):
             return                       # the map and the estimates are per cycle at the cruise frequency
         self.turns.learn(command.direction, self._level, cycle.turn_deg)
         self.travel.learn(command.direction, self._level, cycle)
+
+    def _swap_ends(self) -> None:
+        """The gaits roll to the other sides than the model's: take the body's head for its tail from now on."""
+        self.history.turn_yaws(math.pi)
+        self._message = (f"inward rolling travels to the {self.sides.inward_side} of the camera's tail -> head "
+                         f"heading, the other side than the model's: driving with the body's ends swapped; "
+                         f"{self._driving_message()}")
 
     def _finish(self, state: NavigationState, message: str) -> None:
         self.state, self._message = state, message
@@ -418,4 +445,4 @@ class NavigationController(CruiseStopping, FineDriving, EdgeGuard):
         return NavigationProgress(self.state, goal, self._index, len(self._goals), distance,
                                   self._heading_error_rad if self.state.active else 0.0,
                                   self._command.direction or "", self._command.turn_phase_rad,
-                                  float(now_s) - self._started_s, self._message)
+                                  float(now_s) - self._started_s, self._message, self.sides.inward_side)

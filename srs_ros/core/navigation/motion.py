@@ -23,6 +23,10 @@ NEIGHBOUR_SPREAD_RAD = 0.2
 #: The travel direction learned stays within this of square to the body (rad): a rolling body travels roughly
 #: across its axis; a cycle measured beyond it (a reversal, a flop of the body) is not taken.
 MAX_TRAVEL_SKEW_RAD = math.radians(60.0)
+#: Rolling cycles in a row that travel to the other side of the body before the navigator swaps its ends
+#: (:class:`TravelSides`), and how near square to the body on that side such a cycle travels (rad).
+SIDE_VOTES = 3
+OTHER_SIDE_RAD = math.radians(45.0)
 #: A level is kept unless another one comes this much closer to the asked rate (deg per cycle).
 LEVEL_HYSTERESIS_DEG = 2.0
 
@@ -102,6 +106,10 @@ class PoseHistory:
             return False
         return float(np.max(np.linalg.norm(rows[:, 1:3] - rows[-1, 1:3], axis=1))) <= within_m
 
+    def turn_yaws(self, delta_rad: float) -> None:
+        """Add ``delta_rad`` to every stored yaw (the controller took the body's other end as its head)."""
+        self._rows = deque((t, x, y, yaw + float(delta_rad)) for t, x, y, yaw in self._rows)
+
     def smoothed_yaw_rad(self, duration_s: float) -> float:
         """The yaw now from a line fit over the last ``duration_s`` (a rolling body's yaw wobbles within a cycle)."""
         rows = self.window(duration_s)
@@ -127,6 +135,50 @@ def measure_cycle(history: PoseHistory, period_s: float) -> CycleMeasurement | N
         return None
     slope = np.polyfit(rows[:, 0], rows[:, 3], 1)[0]
     return CycleMeasurement(math.degrees(slope * period_s), rows[-1, 1:3] - rows[0, 1:3], float(np.mean(rows[:, 3])))
+
+
+class TravelSides:
+    """Which side of the body the rolling gaits travel to, as the camera sees it: the model's, or the other.
+
+    The model's robot rolls inward to the left of its tail -> head heading and outward to the right (config/sim.yaml,
+    docs/simulation.md "Which way a held spin rolls"). A robot wired as its mirror image, or one whose body holds its
+    spin (config/sim_held_spin.yaml), rolls inward to the right: that is the model's robot seen from its other end.
+    After :data:`SIDE_VOTES` cycles in a row that travelled within :data:`OTHER_SIDE_RAD` of square to the body on
+    the other side, the navigator takes the head for the tail: its poses' yaw turned by pi (:attr:`yaw_offset_rad`)
+    and its moves along the axis swapped forward for backward.
+    """
+
+    def __init__(self, votes_needed: float = SIDE_VOTES):
+        """``votes_needed``: cycles in a row on the other side that swap the ends (``math.inf``: never)."""
+        self.swapped = False
+        self.votes_needed = votes_needed
+        self._votes = 0
+
+    @property
+    def yaw_offset_rad(self) -> float:
+        """What to add to the camera's tail -> head yaw."""
+        return math.pi if self.swapped else 0.0
+
+    @property
+    def inward_side(self) -> str:
+        """Where inward rolling travels, seen along the camera's tail -> head heading."""
+        return "right" if self.swapped else "left"
+
+    def observe(self, direction: str, cycle: CycleMeasurement, min_travel_m: float = 0.02) -> bool:
+        """Count a rolling cycle (its yaw in the controller's frame); True when it swaps the ends now."""
+        dx, dy = cycle.displacement_m
+        if direction not in DIRECTIONS or math.hypot(dx, dy) < min_travel_m:
+            return False
+        square = math.pi / 2 if direction == DIRECTIONS[0] else -math.pi / 2
+        measured = wrap_rad(math.atan2(dy, dx) - cycle.mean_yaw_rad)
+        if abs(wrap_rad(measured - square - math.pi)) <= OTHER_SIDE_RAD:
+            self._votes += 1
+        elif abs(wrap_rad(measured - square)) <= MAX_TRAVEL_SKEW_RAD:
+            self._votes = 0
+        if self._votes < self.votes_needed:
+            return False
+        self.swapped, self._votes = not self.swapped, 0
+        return True
 
 
 class TurnModel:

@@ -12,6 +12,7 @@ import pytest
 
 from srs_ros.core.navigation import NavigationController, NavigationState, Pose2D
 from srs_ros.core.navigation.commands import GaitCommand
+from srs_ros.core.navigation.motion import TravelSides
 
 from .test_controller import AREA, FRAME_S, Roller, drive, settings
 
@@ -37,6 +38,13 @@ class LaggingRoller(Roller):
         self.phase = (self.phase + self.signed_hz * FRAME_S) % 1.0
 
 
+def _keeping_the_models_sides(controller):
+    """The controller with its travel sides never swapped: a robot that rolls the other way round than the model's
+    (``travel_sign`` -1) then heads away from its goals, toward the view's edge (the swap: test_controller.py)."""
+    controller.sides = TravelSides(votes_needed=math.inf)
+    return controller
+
+
 def drive_near_the_edge(controller, roller, until_s=60.0):
     """Drive; the tracked point's distance inside the view at every frame and the controller's messages."""
     inside_m, messages = [], set()
@@ -54,7 +62,7 @@ def test_a_robot_rolling_out_of_view_is_turned_back_by_the_edge_guard(edge_guard
     """A robot that rolls the other way round (as on the calibrated physics) heads away from the goal; near the
     edge of the view the guard rolls it back in, judged on the track alone, and judges the new direction only
     once the reversal is over (a lagging body still moves out during it). Without the guard it leaves the view."""
-    controller = NavigationController(settings(edge_guard_m=edge_guard_m), AREA)
+    controller = _keeping_the_models_sides(NavigationController(settings(edge_guard_m=edge_guard_m), AREA))
     controller.set_goal(0.0, 0.6, 0.0)
     inside_m, messages = drive_near_the_edge(controller, roller_type(travel_sign=-1.0))
     if edge_guard_m:
@@ -79,7 +87,7 @@ def test_the_edge_guard_lets_the_robot_drive_to_a_goal_near_the_edge(goal):
 def test_the_edge_guard_lets_go_when_switched_off_and_leaves_the_creep_alone():
     """Set to 0 live, the guard's hold ends at once; it never acts on the creeping gait (a new goal while
     creeping near the edge: the cruise gait's steering takes over, no 4 bar command at the creep's frequency)."""
-    controller = NavigationController(settings(), AREA)
+    controller = _keeping_the_models_sides(NavigationController(settings(), AREA))
     controller.set_goal(0.0, 0.6, 0.0)
     roller = Roller(travel_sign=-1.0)
     drive_near_the_edge(controller, roller, until_s=25.0)
