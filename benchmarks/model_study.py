@@ -32,7 +32,7 @@ from srs_ros.experiments.cluster import add_runner_arguments, runner_from_args
 from srs_ros.experiments.fidelity import fidelity_figures
 from srs_ros.experiments.sweep import SweepGrid
 from srs_ros.experiments.table import cell_key, paper_table
-from srs_ros.sim.config import SimConfig, load_sim_config, sim_config_from_dict, to_dict
+from srs_ros.sim.config import SimConfig, changed_values, load_sim_config, sim_config_from_dict, to_dict
 from srs_ros.sim.experiment import run_experiment
 
 
@@ -79,9 +79,7 @@ _LIMIT = {"servo.bend_moment_limit_nm": 0.2}     # the muscles' force limit at 4
 
 def _changes_in(file_name: str) -> dict:
     """The ``{"section.key": value}`` by which a sim YAML of config/ differs from config/sim.yaml."""
-    changed, default = to_dict(load_sim_config(config_dir() / file_name)), to_dict(load_sim_config())
-    return {f"{name}.{key}": value for name, values in changed.items() for key, value in values.items()
-            if value != default[name][key]}
+    return changed_values(load_sim_config(config_dir() / file_name), load_sim_config())
 
 
 def _tubes(hold_nm_per_rad: float) -> dict:

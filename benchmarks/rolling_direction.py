@@ -72,7 +72,7 @@ def main() -> None:
                 side, toward, speed, facing = roll(config, gait, amplitude, frequency, args.duration_s)
                 sides[gait].append(side)
                 opening += int(toward * sign > 0.0)
-                steady += int(not 0.1 < facing < 0.9)
+                steady += int(math.isfinite(facing) and not 0.1 < facing < 0.9)
                 cells.append(f"{side:+5.2f} / {toward:+5.1f} / {speed:4.1f} / {facing:.2f}")
             print(f"{gait} {amplitude:g} | " + " | ".join(cells), flush=True)
     inward, outward = (np.sign(sides[g]) for g in GAIT_SIDE)

@@ -346,6 +346,13 @@ def to_dict(config: SimConfig) -> dict[str, dict[str, Any]]:
     return data
 
 
+def changed_values(config: SimConfig, base: SimConfig) -> dict[str, Any]:
+    """``{"section.key": value}`` of ``config`` wherever it differs from ``base`` (e.g. a named file from sim.yaml)."""
+    changed, reference = to_dict(config), to_dict(base)
+    return {f"{name}.{key}": value for name, values in changed.items() for key, value in values.items()
+            if value != reference[name][key]}
+
+
 def with_friction(config: SimConfig, text: str) -> SimConfig:
     """``config`` with the floor friction set from a short text (the ``srs_sim --friction`` argument).
 

@@ -9,7 +9,13 @@ import yaml
 from srs_ros.core.actuation.muscle_model import MUSCLE_OPTION_DEFAULTS
 from srs_ros.core.errors import ConfigurationError
 from srs_ros.core.robot import config_dir, default_robot
-from srs_ros.sim.config import default_sim_config_path, load_sim_config, sim_config_from_dict, to_dict, with_friction
+from srs_ros.sim.config import (
+    changed_values,
+    default_sim_config_path,
+    load_sim_config,
+    sim_config_from_dict,
+    with_friction,
+)
 
 
 @pytest.fixture(scope="module")
@@ -127,9 +133,7 @@ def test_the_shipped_calibration_to_the_paper_loads_and_differs_from_the_default
 def test_the_held_spin_file_differs_from_the_defaults_in_the_five_values_its_header_gives_only():
     """config/sim_held_spin.yaml (docs/simulation.md): the moment limit, the sleeve-only skin, the tubes' hold on the
     spin and 0.2 s lines. benchmarks/model_study.py reads its variant moment_limit_soft_tubes_line_lag from it."""
-    held, default = to_dict(load_sim_config(config_dir() / "sim_held_spin.yaml")), to_dict(load_sim_config())
-    changed = {f"{name}.{key}": value for name, values in held.items() for key, value in values.items()
-               if value != default[name][key]}
+    changed = changed_values(load_sim_config(config_dir() / "sim_held_spin.yaml"), load_sim_config())
     assert changed == {"servo.bend_moment_limit_nm": 0.2, "servo.skin_bend_stiffness_nm_per_rad": 0.25,
                        "contact.roll_stiffness_nm_per_rad": 0.2, "contact.roll_damping_nms_per_rad": 0.002,
                        "muscles.pressure_time_constant_s": 0.2}

@@ -178,9 +178,10 @@ class FineDriving:
         direction, cycles = plan
         self.shuffle.start(pose, body_yaw, direction, cycles)
         fine.start_pivot(pose.time_s, 1 if direction == AXIS_DIRECTIONS[0] else -1, [(direction, None)] * cycles)
+        forward = (direction == AXIS_DIRECTIONS[0]) != self.sides.swapped  # toward the head the camera sees
         self._message = (f"at rest {distance:.3f} m from the goal, {100 * abs(across):.1f} cm off its line: moving "
-                         f"{cycles} cycle(s) {'forward' if direction == AXIS_DIRECTIONS[0] else 'backward'} along "
-                         "the body's axis onto it")
+                         f"{cycles} cycle(s) {'forward' if forward else 'backward'} along the body's axis onto it"
+                         + (" (the body's ends swapped)" if self.sides.swapped else ""))
         return True
 
     def _pivot_toward(self, pose: Pose2D, distance: float) -> bool:

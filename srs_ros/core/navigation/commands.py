@@ -6,6 +6,8 @@ import enum
 import math
 from dataclasses import dataclass
 
+from srs_ros.core.navigation.settings import MODEL_INWARD_SIDE
+
 #: The gait whose cycle the navigator plays (forward: inward rolling, backward: outward rolling).
 GAIT = "inward_rolling"
 #: The gait of the moves along the body's axis (:mod:`srs_ros.core.navigation.shuffle`): the paper's serpentine,
@@ -113,7 +115,7 @@ class NavigationProgress:
     turn_phase_rad: float
     elapsed_s: float
     message: str
-    inward_side: str = "left"
+    inward_side: str = MODEL_INWARD_SIDE
 
     @property
     def level(self) -> str:

@@ -417,11 +417,20 @@ class NavigationController(CruiseStopping, FineDriving, EdgeGuard):
         self.travel.learn(command.direction, self._level, cycle)
 
     def _swap_ends(self) -> None:
-        """The gaits roll to the other sides than the model's: take the body's head for its tail from now on."""
+        """The sides just swapped (:class:`TravelSides`): turn the kept poses, forget what was learned in the old frame.
+
+        Rests after a stop are learned relative to the travel heading, which was pi off; so was the three-point turns'
+        bearing. Turn rates and travel directions are kept: the first are the world's, the second were never
+        learned from cycles on the other side.
+        """
         self.history.turn_yaws(math.pi)
+        self.stops = StopModel(self.settings.turning_map, self.settings.learning_rate, self.settings.turn_levels_rad)
+        self.fine.forget_rests()
+        self._new_three_point_row()
+        ends = ("the other side than the model's: driving with the body's ends swapped" if self.sides.swapped else
+                "as the model's robot: driving with the body's ends as the camera sees them")
         self._message = (f"inward rolling travels to the {self.sides.inward_side} of the camera's tail -> head "
-                         f"heading, the other side than the model's: driving with the body's ends swapped; "
-                         f"{self._driving_message()}")
+                         f"heading, {ends}; {self._driving_message()}")
 
     def _finish(self, state: NavigationState, message: str) -> None:
         self.state, self._message = state, message

@@ -22,7 +22,7 @@ import math
 import numpy as np
 
 from srs_ros.core.navigation.motion import Pose2D, PoseHistory, wrap_rad
-from srs_ros.core.navigation.settings import DIRECTIONS, STOP_PHASES
+from srs_ros.core.navigation.settings import DIRECTIONS, STOP_PHASES, square_rad
 from srs_ros.core.navigation.stopping import STOP_WITHIN, rotate
 
 #: A goal farther across the creeping line than this (times goal_tolerance_m) is not crept to. A line that passes
@@ -64,9 +64,7 @@ class FineApproach:
         self.since_s = 0.0
         self.pivot_sense, self.pivot_since_s, self.pivots = 0, 0.0, 0
         self._strokes: list[tuple[str, int]] = []
-        self.offset_m = {d: np.tile(np.asarray(FINE_REST_GUESS_M, dtype=np.float64), (len(STOP_PHASES), 1))
-                         for d in DIRECTIONS}
-        self.measured = {d: np.zeros(len(STOP_PHASES), dtype=int) for d in DIRECTIONS}
+        self.forget_rests()
         #: Per direction, the angle from the body's yaw (a 1 s fit while creeping, used from rest) to the yaw whose
         #: square the robot creeps on (rad): a nearly straight body still creeps up to 10 deg off square, the same
         #: way every time (measured).
@@ -79,6 +77,12 @@ class FineApproach:
         #: other way round, and which way depends on the direction of the first stroke (the calibrated physics).
         self.pivot_turn_rad: dict[tuple[str, int], float] = {}
         self._pivot_from: tuple[tuple[str, int], float] | None = None  # (its key, the resting yaw) under way
+
+    def forget_rests(self) -> None:
+        """Back to the first guess of where a creep rests after a stop (the learned ones were in the wrong frame)."""
+        self.offset_m = {d: np.tile(np.asarray(FINE_REST_GUESS_M, dtype=np.float64), (len(STOP_PHASES), 1))
+                         for d in DIRECTIONS}
+        self.measured = {d: np.zeros(len(STOP_PHASES), dtype=int) for d in DIRECTIONS}
 
     def start(self, now_s: float) -> None:
         """Begin creeping (from rest: the controller starts it after a stop near the goal, on the goal's line)."""
@@ -145,7 +149,7 @@ class FineApproach:
     @staticmethod
     def heading_rad(yaw_rad: float, direction: str) -> float:
         """The travel heading of a nearly straight body: square to its axis, to the left rolling inward."""
-        return yaw_rad + (math.pi / 2 if direction == DIRECTIONS[0] else -math.pi / 2)
+        return yaw_rad + square_rad(direction)
 
     @staticmethod
     def line(pose: Pose2D, goal: tuple[float, float], yaw_rad: float) -> tuple[float, float]:
@@ -199,7 +203,7 @@ class FineApproach:
         if len(rows) < 3 or float(np.linalg.norm(rows[-1, 1:3] - rows[0, 1:3])) < FINE_MIN_MOVE_M:
             return None
         dx, dy = rows[-1, 1:3] - rows[0, 1:3]
-        line_yaw = math.atan2(dy, dx) - (math.pi / 2 if direction == DIRECTIONS[0] else -math.pi / 2)
+        line_yaw = math.atan2(dy, dx) - square_rad(direction)
         return line_yaw if abs(wrap_rad(line_yaw - body_yaw_rad)) <= FINE_MAX_SKEW_RAD else None
 
     @staticmethod

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from srs_ros.core.errors import InvalidInputError
-from srs_ros.core.navigation.settings import DIRECTIONS, TurningMap
+from srs_ros.core.navigation.settings import DIRECTIONS, MODEL_INWARD_SIDE, TurningMap, square_rad
 
 #: Cycles after a gait change before the camera's cycle measurements count (the cross-fade and the body settle).
 SETTLE_CYCLES = 0.5
@@ -23,6 +23,8 @@ NEIGHBOUR_SPREAD_RAD = 0.2
 #: The travel direction learned stays within this of square to the body (rad): a rolling body travels roughly
 #: across its axis; a cycle measured beyond it (a reversal, a flop of the body) is not taken.
 MAX_TRAVEL_SKEW_RAD = math.radians(60.0)
+#: A cycle that moved the robot less than this (m) says nothing of where it travels.
+MIN_CYCLE_TRAVEL_M = 0.02
 #: Rolling cycles in a row that travel to the other side of the body before the navigator swaps its ends
 #: (:class:`TravelSides`), and how near square to the body on that side such a cycle travels (rad).
 SIDE_VOTES = 3
@@ -141,16 +143,19 @@ class TravelSides:
     """Which side of the body the rolling gaits travel to, as the camera sees it: the model's, or the other.
 
     The model's robot rolls inward to the left of its tail -> head heading and outward to the right (config/sim.yaml,
-    docs/simulation.md "Which way a held spin rolls"). A robot wired as its mirror image, or one whose body holds its
-    spin (config/sim_held_spin.yaml), rolls inward to the right: that is the model's robot seen from its other end.
-    After :data:`SIDE_VOTES` cycles in a row that travelled within :data:`OTHER_SIDE_RAD` of square to the body on
-    the other side, the navigator takes the head for the tail: its poses' yaw turned by pi (:attr:`yaw_offset_rad`)
-    and its moves along the axis swapped forward for backward.
+    docs/simulation.md "Which way a held spin rolls"). A robot wired as its mirror image (each module's muscles
+    relabelled as a mirror relabels them), or one whose body holds its spin (config/sim_held_spin.yaml), rolls
+    inward to the right: to the sides of the model's robot seen from its other end (its turn rates and rests after
+    a stop are its own: give it its own turn map). After
+    :data:`SIDE_VOTES` cycles in a row that travelled within :data:`OTHER_SIDE_RAD` of square to the body on the
+    other side, the navigator takes the head for the tail: its poses' yaw turned by pi (:attr:`yaw_offset_rad`) and
+    its moves along the axis swapped forward for backward. One flag for every gait setting: a body whose side
+    changed with the frequency would swap back and forth between cruise and creep.
     """
 
     def __init__(self, votes_needed: float = SIDE_VOTES):
         """``votes_needed``: cycles in a row on the other side that swap the ends (``math.inf``: never)."""
-        self.swapped = False
+        self.swapped = False  # False: inward rolling travels to the left, as the model's robot (MODEL_INWARD_SIDE)
         self.votes_needed = votes_needed
         self._votes = 0
 
@@ -162,19 +167,20 @@ class TravelSides:
     @property
     def inward_side(self) -> str:
         """Where inward rolling travels, seen along the camera's tail -> head heading."""
-        return "right" if self.swapped else "left"
+        return "right" if self.swapped else MODEL_INWARD_SIDE
 
-    def observe(self, direction: str, cycle: CycleMeasurement, min_travel_m: float = 0.02) -> bool:
-        """Count a rolling cycle (its yaw in the controller's frame); True when it swaps the ends now."""
+    def observe(self, direction: str, cycle: CycleMeasurement) -> bool:
+        """Count a rolling cycle (its yaw in the controller's frame); True when it swaps the ends now.
+
+        A cycle that travelled at least :data:`MIN_CYCLE_TRAVEL_M` counts: on the other side it is a vote, anywhere
+        else (the model's side, along the axis, a flop) it starts the count again.
+        """
         dx, dy = cycle.displacement_m
-        if direction not in DIRECTIONS or math.hypot(dx, dy) < min_travel_m:
+        if direction not in DIRECTIONS or math.hypot(dx, dy) < MIN_CYCLE_TRAVEL_M:
             return False
-        square = math.pi / 2 if direction == DIRECTIONS[0] else -math.pi / 2
         measured = wrap_rad(math.atan2(dy, dx) - cycle.mean_yaw_rad)
-        if abs(wrap_rad(measured - square - math.pi)) <= OTHER_SIDE_RAD:
-            self._votes += 1
-        elif abs(wrap_rad(measured - square)) <= MAX_TRAVEL_SKEW_RAD:
-            self._votes = 0
+        other_side = abs(wrap_rad(measured - square_rad(direction) - math.pi)) <= OTHER_SIDE_RAD
+        self._votes = self._votes + 1 if other_side else 0
         if self._votes < self.votes_needed:
             return False
         self.swapped, self._votes = not self.swapped, 0
@@ -238,14 +244,13 @@ class TravelModel:
             return float(offsets[level_index])
         return math.atan2(float(np.mean(np.sin(offsets))), float(np.mean(np.cos(offsets))))
 
-    def learn(self, direction: str, level_index: int, cycle: CycleMeasurement, min_travel_m: float = 0.02) -> None:
+    def learn(self, direction: str, level_index: int, cycle: CycleMeasurement) -> None:
         """Take a cycle's travel direction into the estimate (ignored when the robot hardly moved)."""
         dx, dy = cycle.displacement_m
-        if math.hypot(dx, dy) < min_travel_m:
+        if math.hypot(dx, dy) < MIN_CYCLE_TRAVEL_M:
             return
         measured = wrap_rad(math.atan2(dy, dx) - cycle.mean_yaw_rad)
-        square = math.pi / 2 if direction == DIRECTIONS[0] else -math.pi / 2
-        if abs(wrap_rad(measured - square)) > MAX_TRAVEL_SKEW_RAD:
+        if abs(wrap_rad(measured - square_rad(direction))) > MAX_TRAVEL_SKEW_RAD:
             return
         error = wrap_rad(measured - self.offset_rad[direction][level_index])
         spread = np.exp(-np.abs(self.levels_rad - self.levels_rad[level_index]) / NEIGHBOUR_SPREAD_RAD)

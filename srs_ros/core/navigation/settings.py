@@ -31,6 +31,15 @@ def other_direction(direction: str) -> str:
     return DIRECTIONS[1 - DIRECTIONS.index(direction)]
 
 
+#: Where the model's robot rolls inward, seen along its tail -> head heading (square_rad's sign).
+MODEL_INWARD_SIDE = "left"
+
+
+def square_rad(direction: str) -> float:
+    """Where a nearly straight body travels in ``direction``, from its yaw: inward rolling square to the left (rad)."""
+    return math.pi / 2 if direction == DIRECTIONS[0] else -math.pi / 2
+
+
 #: Gait phases at which the navigator stops the robot: stopped at one phase, it comes to rest at the same
 #: place relative to its pose every time (within millimetres); stopped anywhere, within +-10 cm.
 STOP_PHASES = (0.0, 0.25, 0.5, 0.75)

@@ -40,7 +40,7 @@ class LaggingRoller(Roller):
 
 def _keeping_the_models_sides(controller):
     """The controller with its travel sides never swapped: a robot that rolls the other way round than the model's
-    (``travel_sign`` -1) then heads away from its goals, toward the view's edge (the swap: test_controller.py)."""
+    (``travel_sign`` -1) then heads away from its goals, toward the view's edge (the swap: test_travel_sides.py)."""
     controller.sides = TravelSides(votes_needed=math.inf)
     return controller
 
@@ -59,7 +59,7 @@ def drive_near_the_edge(controller, roller, until_s=60.0):
 
 @pytest.mark.parametrize(("edge_guard_m", "roller_type"), [(0.2, Roller), (0.2, LaggingRoller), (0.0, Roller)])
 def test_a_robot_rolling_out_of_view_is_turned_back_by_the_edge_guard(edge_guard_m, roller_type):
-    """A robot that rolls the other way round (as on the calibrated physics) heads away from the goal; near the
+    """A robot that rolls the other way round, its sides never swapped, heads away from the goal; near the
     edge of the view the guard rolls it back in, judged on the track alone, and judges the new direction only
     once the reversal is over (a lagging body still moves out during it). Without the guard it leaves the view."""
     controller = _keeping_the_models_sides(NavigationController(settings(edge_guard_m=edge_guard_m), AREA))

@@ -1,19 +1,22 @@
 """Which side of the body the rolling gaits travel to, learned from the camera (srs_ros.core.navigation.motion).
 
-The model's robot rolls inward to the left of its tail -> head heading. A robot wired as its mirror image, or one
-whose body holds its spin (config/sim_held_spin.yaml), rolls inward to the right; the controller then takes its head
-for its tail (docs/navigation.md, "Which side the gaits roll to").
+The model's robot rolls inward to the left of its tail -> head heading. A robot wired as its mirror image (each
+module's muscles relabelled as a mirror relabels them), or one whose body holds its spin (config/sim_held_spin.yaml),
+rolls inward to the right; the controller then takes its head for its tail (docs/navigation.md, "Which side the gaits
+roll to").
 """
 
 import math
 
 import numpy as np
+import pytest
 
 from srs_ros.core.navigation import NavigationController, NavigationState, load_navigation_settings
 from srs_ros.core.navigation.commands import GaitCommand
 from srs_ros.core.navigation.motion import SIDE_VOTES, CycleMeasurement, TravelSides
 
 from .test_controller import AREA, MAP, Roller, drive, settings
+from .test_edge_guard import LaggingRoller
 from .test_fine_approach import AxisRoller, drive_to
 
 
@@ -32,6 +35,9 @@ def test_cycles_in_a_row_on_the_other_side_swap_the_ends_and_a_single_flop_does_
     assert not sides.observe("outward_rolling", cycle(math.pi / 2, metres=0.01))  # too short to count
     for _ in range(SIDE_VOTES - 1):
         assert not sides.observe("outward_rolling", cycle(math.pi / 2 + 0.5))  # outward to the left: the other side
+    assert not sides.observe("inward_rolling", cycle(0.0))  # along the axis (a flop): neither side, the count restarts
+    for _ in range(SIDE_VOTES - 1):
+        assert not sides.observe("inward_rolling", cycle(-math.pi / 2))
     assert sides.observe("inward_rolling", cycle(-math.pi / 2))
     assert (sides.swapped, sides.inward_side, sides.yaw_offset_rad) == (True, "right", math.pi)
     assert not sides.observe("serpentine_forward", cycle(math.pi))  # a move along the axis says nothing
@@ -59,11 +65,16 @@ def test_a_robot_that_rolls_to_the_other_sides_reaches_goals_in_every_direction(
         assert any("inward rolling travels to the right of the camera's tail -> head heading" in m for m in said)
 
 
-def test_a_robot_of_the_model_keeps_its_ends():
-    controller, roller = NavigationController(settings(), AREA), Roller()
-    controller.set_goal(-0.6, 0.3, now_s=0.0)
-    drive(controller, roller, 120.0)
-    assert controller.state is NavigationState.REACHED and not controller.sides.swapped
+@pytest.mark.parametrize("goal", [(-0.6, 0.3), (0.45, 0.0), (0.0, 0.72)])
+@pytest.mark.parametrize("roller_type", [Roller, LaggingRoller])
+def test_a_robot_of_the_models_sides_never_swaps_its_ends(goal, roller_type):
+    """Where a false swap is likeliest: a reversal that lags (the body goes on the old way for a while), a goal along
+    the axis (a three-point turn: backing away while turning) and one near the view's edge (the edge guard)."""
+    controller, roller, swapped = NavigationController(settings(), AREA), roller_type(), []
+    controller.set_goal(*goal, now_s=0.0)
+    drive(controller, roller, 120.0, each_frame=lambda now: swapped.append(controller.sides.swapped))
+    assert controller.state is NavigationState.REACHED, controller.progress(0.0).message
+    assert not any(swapped)
 
 
 def test_with_the_ends_swapped_a_move_along_the_axis_still_goes_toward_the_goal():
