@@ -80,7 +80,7 @@ class NavigationController(CruiseStopping, FineDriving, EdgeGuard):
         self.turns = TurnModel(settings.turning_map, settings.turn_levels_rad, settings.learning_rate)
         self.travel = TravelModel(settings.turn_levels_rad, settings.learning_rate, settings.turning_map)
         self.sides = TravelSides()
-        self.stops = StopModel(settings.turning_map, settings.learning_rate, settings.turn_levels_rad)
+        self.stops = self._first_stop_model()
         self.fine = FineApproach(settings.learning_rate)
         self.shuffle = AxisShuffle(settings.learning_rate)
         self.state = NavigationState.IDLE
@@ -188,7 +188,7 @@ class NavigationController(CruiseStopping, FineDriving, EdgeGuard):
     def update_pose(self, pose: Pose2D) -> GaitCommand:
         """Take a camera pose (older than the last one: ignored) and return the command for now."""
         if self.sides.swapped:
-            pose = Pose2D(pose.x_m, pose.y_m, pose.yaw_rad + self.sides.yaw_offset_rad, pose.time_s)
+            pose = replace(pose, yaw_rad=pose.yaw_rad + self.sides.yaw_offset_rad)
         if not self.history.add(pose):
             return self._command
         self._last_pose_s = self._clock_s = pose.time_s
@@ -416,6 +416,10 @@ class NavigationController(CruiseStopping, FineDriving, EdgeGuard):
         self.turns.learn(command.direction, self._level, cycle.turn_deg)
         self.travel.learn(command.direction, self._level, cycle)
 
+    def _first_stop_model(self) -> StopModel:
+        """Where the robot rests after a stop, as the turn map first guesses it."""
+        return StopModel(self.settings.turning_map, self.settings.learning_rate, self.settings.turn_levels_rad)
+
     def _swap_ends(self) -> None:
         """The sides just swapped (:class:`TravelSides`): turn the kept poses, forget what was learned in the old frame.
 
@@ -424,7 +428,7 @@ class NavigationController(CruiseStopping, FineDriving, EdgeGuard):
         learned from cycles on the other side.
         """
         self.history.turn_yaws(math.pi)
-        self.stops = StopModel(self.settings.turning_map, self.settings.learning_rate, self.settings.turn_levels_rad)
+        self.stops = self._first_stop_model()
         self.fine.forget_rests()
         self._new_three_point_row()
         ends = ("the other side than the model's: driving with the body's ends swapped" if self.sides.swapped else

@@ -232,8 +232,7 @@ class TravelModel:
     def __init__(self, levels_rad, learning_rate: float, turning_map: TurningMap):
         self.levels_rad = np.asarray(levels_rad, dtype=np.float64)
         self.learning_rate = float(learning_rate)
-        self.offset_rad = {d: np.full(len(self.levels_rad), sign * math.pi / 2)
-                           for d, sign in zip(DIRECTIONS, (1.0, -1.0))}
+        self.offset_rad = {d: np.full(len(self.levels_rad), square_rad(d)) for d in DIRECTIONS}
         self.travel_m = {d: turning_map[d].travel_at(self.levels_rad).astype(np.float64) for d in DIRECTIONS}
         self.measured = {d: np.zeros(len(self.levels_rad), dtype=int) for d in DIRECTIONS}
 
