@@ -121,19 +121,19 @@ def run_experiment(gait: str, amplitude_bar: float, frequency_hz: float, duratio
             world.command_pressures(pressures[next_command])
             next_command += 1
         if t_record <= now:
-            state = world.state()
-            rows[next_record] = (state.time_s, *state.pose)
-            peak_target = max(peak_target, float(state.target_bend_rad.sum()))
-            peak_body = max(peak_body, float(np.nansum(state.body_bend_rad)))
             if on_frame is not None:
-                on_frame(state)
+                on_frame(world.state())
+            pose, target, body = world.track_sample()
+            rows[next_record] = (world.time_s, *pose)
+            peak_target, peak_body = max(peak_target, target), max(peak_body, body)
             next_record += 1
         if progress is not None and now >= next_progress_s:
             progress(now, float(duration_s))
             next_progress_s += 1.0
+    final_state = world.state()
     wall = time.perf_counter() - started
     velocity = traveling_velocity(rows[:, 0], rows[:, 1], rows[:, 2], end_window_s)
     return ExperimentResult(gait=cycle.gait, amplitude_bar=float(amplitude_bar), frequency_hz=float(frequency_hz),
                             duration_s=float(duration_s), friction=config.contact.describe(), track=rows,
                             velocity=velocity, wall_time_s=wall, peak_target_bend_rad=peak_target,
-                            peak_body_bend_rad=peak_body, final_state=state)
+                            peak_body_bend_rad=peak_body, final_state=final_state)

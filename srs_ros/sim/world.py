@@ -324,6 +324,22 @@ class SimWorld:
             contacts=self._contacts() if with_contacts else None,
         )
 
+    def track_sample(self) -> tuple[np.ndarray, float, float]:
+        """What an offline run records per frame, at a third of :meth:`state`'s cost (the same values).
+
+        ``(pose, target_bend_rad, body_bend_rad)``: the tracked ``(x_m, y_m, yaw_rad)`` as :attr:`SimState.pose`,
+        and the sums over the modules of :attr:`SimState.target_bend_rad` and of :attr:`SimState.body_bend_rad`
+        (NaN left out).
+        """
+        self._raise_if_diverged()
+        nodes = self.data.xpos[self.layout.node_body]
+        _, _, tail, head = self._markers(nodes)
+        reference = 0.5 * (tail[:2] + head[:2])
+        _, length = self.muscles.state(self.time_s)
+        target = lengths_to_bend(length.reshape(self.robot.module_count, -1), self.robot)[0]
+        pose = np.array([reference[0], reference[1], _heading_rad(tail, head)])
+        return pose, float(target.sum()), float(np.nansum(_module_bends(nodes, self.layout)))
+
     def _contacts(self) -> Contacts:
         data, layout = self.data, self.layout
         count = data.ncon

@@ -96,8 +96,9 @@ def test_start_roll_turns_the_first_muscle_from_the_left_to_the_top_to_the_right
     np.testing.assert_allclose(rotation[:, 2], (1, 0, 0), atol=1e-12)  # the axis stays along the heading
 
 
-def test_the_tracked_pose_alone_is_the_states_while_the_body_rolls():
-    """sim_world publishes the pose at 50 Hz from tracked_pose (a sixth of the state's cost): the same figures."""
+def test_the_tracked_pose_alone_and_the_offline_runs_sample_are_the_states_while_the_body_rolls():
+    """sim_world publishes the pose at 50 Hz from tracked_pose (a sixth of the state's cost), run_experiment records
+    track_sample (a third): the same figures as the state's."""
     world = SimWorld(CONFIG.replace("start", x_m=0.1, y_m=-0.2, yaw_rad=0.5))
     phase = np.tile([0.0, 2.1, 4.2], 3)  # each module's three muscles a third of a cycle apart: it bends round
     for step in range(60):
@@ -107,6 +108,9 @@ def test_the_tracked_pose_alone_is_the_states_while_the_body_rolls():
         state = world.state(with_contacts=False)
         np.testing.assert_array_equal(reference_xy_m, state.reference_xy_m)
         assert heading_rad == state.heading_rad
+        pose, target_bend_rad, body_bend_rad = world.track_sample()
+        np.testing.assert_array_equal(pose, state.pose)
+        assert target_bend_rad == state.target_bend_rad.sum() and body_bend_rad == np.nansum(state.body_bend_rad)
     assert np.linalg.norm(state.reference_xy_m - [0.1, -0.2]) > 0.01  # it moved: the check saw a changing body
 
 
