@@ -8,7 +8,8 @@
 4. Speed and fidelity against the segment count (3, 5, 8 per module): real-time factor, the chords'
    distance to the kinematic arc at the largest bend of the run, the traveling velocity and turning.
 
-Run: python benchmarks/bench_sim.py [--quick]   (pinned to one core)
+Run: python benchmarks/bench_sim.py [--quick] [--sim-config FILE]   (pinned to one core; FILE e.g.
+config/sim_held_spin.yaml, default config/sim.yaml)
 """
 
 import argparse
@@ -97,14 +98,15 @@ def chord_error_mm(config, result_lengths):
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="fewer repeats, shorter real-time loop")
+    parser.add_argument("--sim-config", help="simulation config YAML (default config/sim.yaml)")
     args = parser.parse_args()
     warnings.simplefilter("ignore")
     cv2.setNumThreads(1)
     if hasattr(os, "sched_setaffinity"):
         os.sched_setaffinity(0, {sorted(os.sched_getaffinity(0))[0]})
-    config = load_sim_config()
+    config = load_sim_config(args.sim_config)
     cycle = generate_cycle(GAIT, AMPLITUDE_BAR, FREQUENCY_HZ, 64)
-    print(f"{GAIT} {AMPLITUDE_BAR:g} bar {FREQUENCY_HZ:g} Hz, {RUN_S:g} s; time step "
+    print(f"{config.source}: {GAIT} {AMPLITUDE_BAR:g} bar {FREQUENCY_HZ:g} Hz, {RUN_S:g} s; time step "
           f"{1000 * config.physics.time_step_s:g} ms, control period {1000 * config.physics.control_period_s:g} ms, "
           f"{config.body.segments_per_module} segments per module; one core")
 
