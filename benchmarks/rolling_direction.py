@@ -7,7 +7,7 @@ and frequency (0.25-1 Hz) this runs the simulated robot from rest and prints the
 the left, -1 square to the right), the mean speed of the tracked point toward the body's opening
 (``SimState.opening_speed_m_s``, cm/s; negative: away; meaningful while the bend stays put in the world, as it
 does for a body that spins freely about its axis) and the net speed. A body whose spin about its own axis is held
-(a crankshaft rather than a rolling pin) steps to the other side (docs/simulation.md, "Which way a held spin
+(a crankshaft rather than a rolling pin) steps to the other side (docs/studies/simulation.md, "Which way a held spin
 rolls"). Last, the share of the frames after the first cycle in which the curve an overhead camera sees (the body
 projected on the floor, from its middle node toward the midpoint of its ends) opens toward the run's net travel:
 1.00 or 0.00 is one steady opening, as the paper describes its robot rolling toward or away from it; near 0.5 the

@@ -95,7 +95,7 @@ FIT_PARAMETERS: dict[str, FitParameter] = {p.name: p for p in (
 #: The parameters fitted by default besides the friction of the configured model. Not roll_damping_nms_per_rad
 #: (``--fit`` still takes it): a viscous resistance to the body's spin holds a fast spin and not a slow one, so
 #: the fitted body rolled inward toward its opening at 0.25 Hz and to the other side at 0.75-1 Hz, where the
-#: paper's robot kept its direction at every frequency (docs/simulation.md, "Which way a held spin rolls").
+#: paper's robot kept its direction at every frequency (docs/studies/simulation.md, "Which way a held spin rolls").
 DEFAULT_FIT_BEYOND_FRICTION = ("skin_radius_m", "pressure_time_constant_s", "transport_delay_s", "deadzone_bar")
 
 

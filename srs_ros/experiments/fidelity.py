@@ -17,7 +17,8 @@ figures say whether the model answers the paper's questions the right way round 
 - ``rolling_sides``: rolling runs at 2-4 bar that travelled to their gait's side of the body
   (:func:`travel_side`): inward rolling to the left of the tail -> head heading, toward the opening of a body whose
   bend stays put as it rolls, outward rolling to the right. The paper's robot kept its direction at every pressure
-  and frequency; a body whose spin is held steps to the other side (docs/simulation.md).
+  and frequency; a body whose spin is held steps to the other side
+  (docs/studies/simulation.md, "Which way a held spin rolls").
 
 Only the rows of ``records`` matter (a failed run counts against every figure it belongs to).
 """

@@ -11,7 +11,7 @@ A clamped MuJoCo position servo loses its damping term too (``kv`` is part of th
 spring then rings undamped: the servo's damping is moved onto the joint (implicit, never clamped) when the limit is
 on (:func:`srs_ros.sim.model.build_spec`). The circular cap is set once per control period, from the servo's moment
 without the limit at that instant (its direction changes little within 10 ms); the x and y ranges then bound the
-vector to the circle. Why it is here: docs/simulation.md, "The muscles' moment limit" (issue 19).
+vector to the circle. Why it is here: docs/studies/simulation.md, "The muscles' moment limit" (issue 19).
 """
 
 from __future__ import annotations

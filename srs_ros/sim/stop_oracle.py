@@ -7,7 +7,7 @@ controller, but while it cruises near the goal it copies the world and the gait 
 the copy at once and lets it rest: when the copy rests within ``within_m`` of the goal, the real robot is
 stopped there. The copy is stepped on the loop's own command grid, so it rests exactly where the robot will. It
 answers "how fast could this controller's cruise reach goals if it knew where every stop rests?"
-(docs/navigation.md, "Where the time target is lost").
+(docs/studies/navigation.md, "Where the time target is lost").
 """
 
 from __future__ import annotations

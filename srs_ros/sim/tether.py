@@ -4,7 +4,7 @@ The nine tubes leaving the robot's tail are modelled as one bundle: a chain of c
 from a clamp ``length_m`` behind the robot (the regulators) to the tail, welded to it. Its joints bend and
 twist with the bundle's rigidity (``EI / l``, ``GJ / l`` per link), so its torque on the tail grows with the
 turns the body spins about its own axis, whatever their rate; ``slack_fraction`` lays it longer than the
-anchor's distance as an S, and ``anchor_slip_torque_nm`` lets the clamp slip. docs/simulation.md, "Supply
+anchor's distance as an S, and ``anchor_slip_torque_nm`` lets the clamp slip. docs/studies/simulation.md, "Supply
 bundle", says what it does to the rolling robot.
 """
 

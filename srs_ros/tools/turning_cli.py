@@ -12,7 +12,7 @@ Examples::
 Every run starts at rest and plays the gait through the gait player's logic, as the navigator does
 (:mod:`srs_ros.experiments.turning`); each value is run from two start headings (the spread says how
 repeatable it is). Re-run after any change of the simulated physics; the tables in docs/navigation.md
-come from here. Exit codes: 0, 2 bad arguments or configuration.
+and docs/studies/navigation.md come from here. Exit codes: 0, 2 bad arguments or configuration.
 """
 
 from __future__ import annotations

@@ -4,7 +4,7 @@ The fine approach creeps back and forth along a line and stops where it predicts
 (srs_ros/core/navigation/fine.py). At the shipped fine amplitude the roll-on after a stop is the same whichever
 way the robot creeps; at 2 bar (the default until stop 45) outward rolling rested 7-10 cm farther along than
 inward rolling at the same stop phase, and a creep that passed the goal and reversed missed it again
-(docs/navigation.md, "A creep just above the deadzone").
+(docs/studies/navigation.md, "A creep just above the deadzone").
 """
 
 import pytest

@@ -65,7 +65,7 @@ def test_outward_rolling_moves_the_opposite_way(frequency_hz):
 @pytest.mark.parametrize("frequency_hz", [0.25, 1.0])
 def test_the_shipped_calibration_rolls_inward_toward_the_opening_and_outward_away_slow_and_fast(frequency_hz):
     """The paper's robot did so at every frequency (Sec. IV-C/D). A calibration whose viscous roll damping held a
-    fast spin stepped the other way at 1 Hz (docs/simulation.md, "Which way a held spin rolls")."""
+    fast spin stepped the other way at 1 Hz (docs/studies/simulation.md, "Which way a held spin rolls")."""
     _, inward = run("inward_rolling", 4.0, frequency_hz, duration_s=8.0, sim_config="sim_calibrated_paper.yaml")
     _, outward = run("outward_rolling", 4.0, frequency_hz, duration_s=8.0, sim_config="sim_calibrated_paper.yaml")
     assert inward > 1.0 and outward < -1.0, (inward, outward)
@@ -74,7 +74,7 @@ def test_the_shipped_calibration_rolls_inward_toward_the_opening_and_outward_awa
 @pytest.mark.slow(seconds=6)
 def test_the_held_spin_file_rolls_faster_with_pressure_and_farther_per_cycle_at_a_slower_cycle():
     """Table I's two trends, which config/sim.yaml lacks (it rolls 6.9 cm/s at 2 bar and 6.2 at 4 bar, 0.5 Hz):
-    config/sim_held_spin.yaml (docs/simulation.md, "The muscles' moment limit") gives both."""
+    config/sim_held_spin.yaml (docs/studies/simulation.md, "The muscles' moment limit") gives both."""
     def speed_cm_s(amplitude_bar, frequency_hz):
         result, _ = run("inward_rolling", amplitude_bar, frequency_hz, duration_s=8.0, sim_config="sim_held_spin.yaml")
         return result.velocity.speed_cm_s

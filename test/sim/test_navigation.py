@@ -94,8 +94,9 @@ def test_on_the_anisotropic_floor_a_goal_off_the_line_is_reached_by_a_move_along
 def test_on_a_body_that_rolls_to_the_other_sides_the_navigator_swaps_its_ends_and_drives_to_the_goal():
     """config/sim_held_spin.yaml rolls inward to the right of its tail -> head heading, the model's robot to the left
     (docs/simulation.md, "A held spin"): a fresh controller learns it from the camera within a few cycles, takes the
-    head for the tail and comes within 10 cm of the goal (without the swap it ends 2.9 m away; docs/navigation.md "A
-    robot that rolls to the other sides": on this physics the end game leaves some goals 4-24 cm off). Real MuJoCo."""
+    head for the tail and comes within 10 cm of the goal (without the swap it ends 2.9 m away;
+    docs/studies/navigation.md "A robot that rolls to the other sides": on this physics the end game leaves some goals
+    4-24 cm off). Real MuJoCo."""
     from srs_ros.core.navigation import load_navigation_settings
     from srs_ros.core.robot import config_dir
 

@@ -1,4 +1,5 @@
-"""srs_turning: how the simulated robot turns, as tables (docs/navigation.md's come from here)."""
+"""srs_turning: how the simulated robot turns, as tables (those of docs/navigation.md and docs/studies/navigation.md
+come from here)."""
 
 import re
 

@@ -1,8 +1,8 @@
 """The fine approach as the controller drives it: creep along the goal's line, turn on the spot toward it.
 
 :class:`FineDriving` is the part of :class:`~srs_ros.core.navigation.controller.NavigationController` that
-plays :mod:`srs_ros.core.navigation.fine` (why and what was measured: there and docs/navigation.md). At rest
-near the last goal (after a stop, or given the goal at rest) the robot creeps at ``fine_amplitude_bar`` and
+plays :mod:`srs_ros.core.navigation.fine` (why: there and docs/navigation.md; measured: docs/studies/navigation.md).
+At rest near the last goal (after a stop, or given the goal at rest) the robot creeps at ``fine_amplitude_bar`` and
 ``fine_frequency_hz`` when the goal lies on the line square to its body, else it moves along its own axis onto
 that line where the floor lets it (:mod:`srs_ros.core.navigation.shuffle`) or turns on the spot (an inward and an
 outward stroke of the cruise gait at the turn levels that turn fastest the same way), and looks again; while
@@ -44,7 +44,7 @@ FINE_PIVOT_MAX_RAD = math.radians(60.0)
 #: ... except a goal this near (times goal_tolerance_m), which the cruise gait cannot land on (it rests 5-27 cm past
 #: a stop): any turn the line needs (at most 90 deg). Near the body's axis the unit tests' stand-in cruised on
 #: instead, switching direction every half cycle for a minute 4-7 cm from the goal, spinning the body round without
-#: a stop (docs/navigation.md, "A goal beside the resting robot").
+#: a stop (docs/studies/navigation.md, "A goal beside the resting robot").
 FINE_PIVOT_ANY_WITHIN = 2.0
 #: A robot whose pose moved less than 5 mm over this long (s) is at rest (a goal given at rest).
 FINE_REST_WINDOW_S = 0.5

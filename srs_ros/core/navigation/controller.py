@@ -52,19 +52,20 @@ STRAIGHT_WITHIN = 0.7
 #: A robot that turns less than this (deg per cycle, the fastest level of either direction in the sense needed)
 #: has every goal inside its tightest turn, and backing away does not turn it toward one: on the calibrated physics
 #: (at most 7 deg per cycle; the default and anisotropic ones 14-21) it backed away from goals 4-10 deg off its line
-#: for the whole minute (docs/navigation.md, "Backing away without a turn"). Such a robot drives on to a goal that
-#: its tightest arc toward it passes within BACK_UNLESS_MISS_WITHIN x FINE_STOP_NEAR x fine_distance_m (the fine
+#: for the whole minute (docs/studies/navigation.md, "Backing away without a turn"). Such a robot drives on to a goal
+#: that its tightest arc toward it passes within BACK_UNLESS_MISS_WITHIN x FINE_STOP_NEAR x fine_distance_m (the fine
 #: approach on): the cruise stops near it and the fine approach finishes from rest. Any robot drives on to a goal
 #: its straight line passes that close (since stop 45: over DDS a direction that could not turn toward a goal 5-15
-#: deg off backed away from it and drove at it by turns for a minute; docs/navigation.md, "A goal nearly ahead").
+#: deg off backed away from it and drove at it by turns for a minute; docs/studies/navigation.md, "A goal nearly
+#: ahead").
 WEAK_TURN_DEG_PER_CYCLE = 8.0
 BACK_UNLESS_MISS_WITHIN = 0.5
 #: Three-point turns in a row that each begin with the goal no nearer the bearing (deg) than the one before did,
 #: after which the goal is driven at with the tightest turn toward it. A weak turner gains 2-3 deg per turn and
 #: reaches side goals by a dozen; over DDS on the anisotropic floor a robot whose map got its turns wrong lost
 #: 7-11 deg per turn, backed away and drove at the goal by turns for a minute and ended 1 m farther away. A level
-#: changed every second or two is never measured, so its map was never corrected (docs/navigation.md, "Three-point
-#: turns that turn nothing").
+#: changed every second or two is never measured, so its map was never corrected (docs/studies/navigation.md,
+#: "Three-point turns that turn nothing").
 FUTILE_BACK_AWAYS = 2
 BACK_AWAY_GAIN_DEG = 1.0
 

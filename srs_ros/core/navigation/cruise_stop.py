@@ -4,7 +4,8 @@
 stops the rolling gait at a stop phase (a quarter cycle apart) where the robot is predicted to rest on or near the
 goal, a cycle ahead (``stop_cycle_ahead``), waits for the gait to pass that phase and the robot to rest, learns where
 it rested (:class:`~srs_ros.core.navigation.stopping.StopModel`), and then finishes (reached) or drives on (the fine
-approach from rest, :mod:`srs_ros.core.navigation.approach`). Why and what was measured: docs/navigation.md.
+approach from rest, :mod:`srs_ros.core.navigation.approach`). Why: docs/navigation.md, "Stopping"; what was
+measured: docs/studies/navigation.md.
 """
 
 from __future__ import annotations

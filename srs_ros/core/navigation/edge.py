@@ -1,8 +1,8 @@
 """Keeping the robot in the camera's view: the controller's edge guard (``edge_guard_m``), mixed into the controller.
 
 Near the edge of the camera's calibrated floor area and seen moving out of it over the last cycle, the cruise gait
-rolls back in, or, moving along the edge, turns its travel inward (docs/navigation.md, "Keeping the robot in view"
-and "The robot stuck along the edge").
+rolls back in, or, moving along the edge, turns its travel inward (docs/navigation.md, "Keeping the robot in view";
+the study: docs/studies/navigation.md, "The robot stuck along the edge").
 """
 
 from __future__ import annotations
@@ -65,7 +65,8 @@ class EdgeGuard:
 
         Judged on the learned travel heading, before the direction plays: the track-based guard above judges a
         direction only after its change-over and a cycle, and a three-point turn started at rest a few cm from the
-        edge backed out of view before that (over DDS the camera then lost the robot: docs/navigation.md).
+        edge backed out of view before that (over DDS the camera then lost the robot: docs/studies/navigation.md,
+        "A three-point turn backed out of view").
         """
         last = self.history.window(0.0)
         if self.area is None or self.settings.edge_guard_m <= 0.0 or not len(last):

@@ -5,7 +5,8 @@ markers) sits in the C's mouth; when the gait stops the body straightens and tha
 amplitude a little above the deadzone (``fine_amplitude_bar``, 1.5 bar) the body bends little: it still rolls
 about a skin circumference per cycle (12-18 cm) but, slowly (``fine_frequency_hz``, 0.25 Hz), it comes to rest
 about 4 cm along its travel either way and under 0.2 cm across it, repeatably at one gait phase (at 2 bar: -2 to
-+7 cm along, under 1 cm across; measured on the default, anisotropic and calibrated physics: docs/navigation.md).
++7 cm along, under 1 cm across; measured on the default, anisotropic and calibrated physics:
+docs/studies/navigation.md, "A creep just above the deadzone").
 It hardly turns (under 1 deg per cycle) and it rolls both ways, so near the goal the robot moves on a line,
 square to its body: at rest near the goal it creeps along that line toward the goal, inward or outward rolling
 (back and forth with a run-up if it went past), and stops at a stop phase about a second ahead
@@ -27,7 +28,7 @@ from srs_ros.core.navigation.stopping import STOP_WITHIN, rotate
 
 #: A goal farther across the creeping line than this (times goal_tolerance_m) is not crept to. A line that passes
 #: the goal this close still ends within the tolerance; beyond it the robot turns on the spot, whose 4 bar strokes a
-#: rolling body does not repeat closely (docs/navigation.md, "The goal a little off the creeping line").
+#: rolling body does not repeat closely (docs/studies/navigation.md, "The goal a little off the creeping line").
 FINE_LINE_WITHIN = 0.85
 #: Seconds after the fine gait starts (a cross-fade from the cruise gait, a start from rest or a reversal)
 #: before the line and the speed are taken from the camera: the body straightens and settles meanwhile.
@@ -41,7 +42,7 @@ FINE_MIN_MOVE_M = 0.01
 #: ... and only when that motion lies within this angle (rad) of square to the body in the gait's direction: a
 #: nearly straight body creeps up to 10 deg off square; a motion farther off is not the creep (the body still
 #: rolling on from the gait before, or pushed), and taken as the line it once taught the skew 180 deg and sent every
-#: later creep the wrong way (docs/navigation.md, "A skew learned backwards").
+#: later creep the wrong way (docs/studies/navigation.md, "A skew learned backwards").
 FINE_MAX_SKEW_RAD = math.radians(30.0)
 #: First guess of where the robot rests after a stop at each stop phase: (along, across) its travel (m);
 #: measured at 1.5 bar 0.25 Hz: +3.6 cm along on average (a 6 cm range over the stop phases), under 0.2 cm across

@@ -143,7 +143,7 @@ class TravelSides:
     """Which side of the body the rolling gaits travel to, as the camera sees it: the model's, or the other.
 
     The model's robot rolls inward to the left of its tail -> head heading and outward to the right (config/sim.yaml,
-    docs/simulation.md "Which way a held spin rolls"). A robot wired as its mirror image (each module's muscles
+    docs/studies/simulation.md "Which way a held spin rolls"). A robot wired as its mirror image (each module's muscles
     relabelled as a mirror relabels them), or one whose body holds its spin (config/sim_held_spin.yaml), rolls
     inward to the right: to the sides of the model's robot seen from its other end (its turn rates and rests after
     a stop are its own: give it its own turn map). After

@@ -4,7 +4,7 @@ The stand-in rolls across its body axis, turns at rates that are NOT those of th
 (30 % less gain, biased by 6-8 deg per cycle), rests after a stop at a phase-dependent offset 1-2 cm off the
 map's guess, and reports the gait phase, so these tests check the controller's logic and that it corrects a
 wrong turn model online. (With resting offsets 5-13 cm off the guess it dithers near some goals: a known
-limit, docs/navigation.md.) Physics: test/sim/test_navigation.py.
+limit, docs/studies/navigation.md, "Not reached yet".) Physics: test/sim/test_navigation.py.
 """
 
 import math
@@ -172,9 +172,9 @@ def test_a_goal_nearly_ahead_is_driven_on_to_though_this_direction_cannot_turn_t
     """A goal 0.7 m ahead and 4 deg clockwise, which inward rolling cannot turn toward but passes 5 cm off, is
     driven on to and finished from rest. Before, it was backed away from (a three-point turn); over DDS on the
     anisotropic floor such turns dithered between the directions for a minute with the goal 0.4-1.2 m away and
-    5-15 deg off (docs/navigation.md, "A goal nearly ahead"). This stand-in's outward rolling turns fast, so here
-    the three-point turn was the quicker (9.7 s against 23 s); on the three simulated bodies driving on was, over
-    120 goals each."""
+    5-15 deg off (docs/studies/navigation.md, "A goal nearly ahead"). This stand-in's outward rolling turns fast, so
+    here the three-point turn was the quicker (9.7 s against 23 s); on the three simulated bodies driving on was,
+    over 120 goals each."""
     turner = TurningMap(4.0, 1.0, "one-way turner", {
         d: DirectionMap(LEVELS, one_way_inward(d, LEVELS), np.full(len(LEVELS), 0.09),
                         np.tile([0.05, 0.0], (len(STOP_PHASES), 1))) for d in DIRECTIONS})
@@ -192,7 +192,8 @@ def test_three_point_turns_that_turn_the_robot_no_nearer_the_goal_are_given_up()
     drifts 8 deg per cycle) is not turned toward a goal to its side by three-point turns: each began with the goal
     farther off the line. Before, it backed away and drove at the goal by turns 25 times in a minute and ended
     0.67 m away; now it gives up after the second that gained nothing and says so. (Over DDS on the anisotropic floor
-    such turns went on for a minute and took the robot from 0.6 to 1.6 m away: docs/navigation.md.)"""
+    such turns went on for a minute and took the robot from 0.6 to 1.6 m away:
+    docs/studies/navigation.md, "Three-point turns that turn nothing".)"""
     controller, roller = NavigationController(settings(), AREA), Roller(bias_deg=8.0, scale=-0.5)
     controller.set_goal(0.45, 0.0, now_s=0.0)
     begun, said = [], []
@@ -492,7 +493,8 @@ def test_stop_offsets_are_learned_per_turn_level_and_shared_with_unmeasured_leve
 def test_the_heading_error_that_steers_does_not_move_when_only_the_turn_level_changes():
     # Each level's travel direction is learned (a fast-turning body travels up to 40 deg off square). Steering by the
     # offset of the level played moved the error at every change of level, and the level chosen from that error
-    # changed it back: on the simulated robot, a minute of three-point turns (docs/navigation.md, 2026-11-25).
+    # changed it back: on the simulated robot, a minute of three-point turns
+    # (docs/studies/navigation.md, "The three-point turn that never ended").
     controller = NavigationController(settings(), AREA)
     controller.travel.offset_rad["inward_rolling"] = math.pi / 2 + math.radians(80.0) * LEVELS
     controller.set_goal(0.4, 0.2, 0.0)

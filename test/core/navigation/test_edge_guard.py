@@ -135,7 +135,8 @@ def test_a_robot_drifting_out_along_the_edge_is_turned_inward_not_rolled_back_an
 def test_a_three_point_turn_near_the_edge_is_not_backed_out_of_view(goal):
     """At rest 8 cm inside the bottom edge, the goal 0.4 m along the body's axis and inside its tightest turn: the
     three-point turn backed away (outward rolling, toward the edge) 5 cm out of view before the track-based guard
-    could judge it (over DDS the camera lost the robot: docs/navigation.md). It now drives on instead, in view."""
+    could judge it (over DDS the camera lost the robot: docs/studies/navigation.md, "A three-point turn backed out of
+    view"). It now drives on instead, in view."""
     controller, roller = NavigationController(settings(), AREA), Roller()
     roller.y = -0.92
     controller.set_goal(*goal, now_s=0.0)

@@ -1,7 +1,7 @@
 """The fine approach (srs_ros.core.navigation.fine): creeping just above the deadzone along the body's line.
 
 The stand-in is the kinematic roller of test_controller.py made amplitude-aware as the physics is (measured at
-2 bar 0.25 Hz, docs/navigation.md): at the fine amplitude it rolls square to its body, hardly turns and rests
+2 bar 0.25 Hz, docs/studies/navigation.md): at the fine amplitude it rolls square to its body, hardly turns and rests
 2 cm past where it stopped; at 4 bar it rests far from where the controller's map says (12-20 cm ahead
 against the map's 5 cm), so the cruise gait's stop alone misses the goal.
 """
@@ -340,7 +340,8 @@ def test_a_creep_stop_on_a_line_that_passes_the_goal_aside_is_made_where_it_ends
 class KickedRoller(AmplitudeRoller):
     """A 4 bar stroke started from rest kicks the body round, inward rolling counter-clockwise and outward rolling
     clockwise, by more than a turn on the spot's cycles turn it (on the calibrated physics one stroke from rest
-    turned the body -24 deg inward and +28 deg outward, both ways more than its cycles: docs/navigation.md)."""
+    turned the body -24 deg inward and +28 deg outward, both ways more than its cycles:
+    docs/studies/navigation.md, "The turn on the spot that turned the wrong way")."""
 
     KICK_DEG = 15.0
 
