@@ -206,20 +206,6 @@ def test_nothing_points_outside_the_repository():
     assert offenders == []
 
 
-def test_relative_links_of_readme_and_docs_resolve():
-    import re
-
-    broken = []
-    for page in [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md"))]:
-        for target in re.findall(r"\]\(([^)#\s]+)(?:#[^)]*)?\)", page.read_text()):
-            if "://" in target:
-                continue
-            path = (page.parent / target).resolve()
-            if not path.exists():
-                broken.append(f"{page.relative_to(ROOT)} -> {target}")
-    assert broken == []
-
-
 def test_readme_names_the_image_topic_that_camera_tracker_subscribes_to():
     from srs_ros.ros.interfaces import IMAGE_TOPIC
 
