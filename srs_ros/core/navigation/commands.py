@@ -116,6 +116,8 @@ class NavigationProgress:
     elapsed_s: float
     message: str
     inward_side: str = MODEL_INWARD_SIDE
+    #: The fine approach's creep amplitude now (bar): ``fine_amplitude_bar``, raised if the creep was too weak.
+    creep_amplitude_bar: float | None = None
 
     @property
     def level(self) -> str:
@@ -131,4 +133,5 @@ class NavigationProgress:
                 "distance_to_go_m": f"{self.distance_to_go_m:.3f}",
                 "heading_error_deg": f"{math.degrees(self.heading_error_rad):.1f}", "direction": self.direction,
                 "turn_phase_rad": f"{self.turn_phase_rad:.3f}", "elapsed_s": f"{self.elapsed_s:.1f}",
-                "inward_side": self.inward_side}
+                "inward_side": self.inward_side,
+                "creep_amplitude_bar": "" if self.creep_amplitude_bar is None else f"{self.creep_amplitude_bar:g}"}

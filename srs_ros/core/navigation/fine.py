@@ -50,6 +50,13 @@ FINE_MAX_SKEW_RAD = math.radians(30.0)
 FINE_REST_GUESS_M = (0.02, 0.0)
 #: A reversal needs the goal at least this far behind (times goal_tolerance_m), and the run-up a stop needs.
 FINE_REVERSE_BEYOND = 0.3
+#: A creep that moves the robot less than this along its line in a whole cycle (m) is too weak for this body (the
+#: model's bodies creep 11-13 cm a cycle at 1.5 bar 0.25 Hz; a body whose muscles cannot bend it much near the deadzone,
+#: the held spin of config/sim_held_spin.yaml, 2 cm): its amplitude is then raised by FINE_AMPLITUDE_STEP_BAR for the
+#: rest of the run, up to the cruise gait's amplitude_bar (docs/studies/navigation.md, "A creep too weak for its body").
+FINE_MIN_STEP_M = 0.04
+#: How much a too weak creep's amplitude is raised at a time (bar).
+FINE_AMPLITUDE_STEP_BAR = 0.5
 #: A creep stop is set this long (s) before the gait reaches its phase, at least a quarter cycle and at most a whole
 #: one (:func:`stop_quarters_ahead`): a pose or a command that comes late by less still stops the gait at the phase
 #: the prediction was made for (at 0.25 Hz the next stop phase; at 1 Hz the same phase a cycle later).
@@ -59,8 +66,15 @@ FINE_STOP_LEAD_S = 1.0
 class FineApproach:
     """Whether the robot creeps, on which line, and where it rests after a stop per direction and stop phase."""
 
-    def __init__(self, learning_rate: float):
+    def __init__(self, learning_rate: float, amplitude_bar: float, max_amplitude_bar: float):
+        """Nothing learned yet; the creep starts at ``amplitude_bar`` (``fine_amplitude_bar``).
+
+        While it is too weak for the body it is raised up to ``max_amplitude_bar`` (:meth:`weak_cycle`,
+        :meth:`raise_amplitude`).
+        """
         self.learning_rate = float(learning_rate)
+        self.amplitude_bar, self.max_amplitude_bar = float(amplitude_bar), max(float(max_amplitude_bar),
+                                                                              float(amplitude_bar))
         self.active = False
         self.since_s = 0.0
         self.pivot_sense, self.pivot_since_s, self.pivots = 0, 0.0, 0
@@ -146,6 +160,28 @@ class FineApproach:
         :data:`FINE_REVERSE_SETTLE_S` since its direction last changed (``changed_s``).
         """
         return now_s - self.since_s >= FINE_SETTLE_S and now_s - changed_s >= FINE_REVERSE_SETTLE_S
+
+    def weak_cycle(self, history: PoseHistory, heading_rad: float, period_s: float, playing_since_s: float
+                   ) -> float | None:
+        """The move (m) along ``heading_rad`` over the last whole cycle when it is under :data:`FINE_MIN_STEP_M`.
+
+        None while the creep has not played a whole cycle past :data:`FINE_SETTLE_S` since ``playing_since_s`` (its
+        start, or its last change of direction or amplitude), when it moved enough, or when it cannot be raised.
+        """
+        now_s = float(history.window(0.0)[-1, 0]) if len(history) else -math.inf
+        if self.amplitude_bar >= self.max_amplitude_bar or now_s - playing_since_s < FINE_SETTLE_S + period_s:
+            return None
+        rows = history.window(period_s)
+        if len(rows) < 3 or rows[-1, 0] - rows[0, 0] < 0.9 * period_s:
+            return None
+        moved = rows[-1, 1:3] - rows[0, 1:3]
+        along = float(moved[0] * math.cos(heading_rad) + moved[1] * math.sin(heading_rad))
+        return along if along < FINE_MIN_STEP_M else None
+
+    def raise_amplitude(self) -> None:
+        """Creep :data:`FINE_AMPLITUDE_STEP_BAR` harder from now on; the rests learned at the old amplitude go."""
+        self.amplitude_bar = min(self.amplitude_bar + FINE_AMPLITUDE_STEP_BAR, self.max_amplitude_bar)
+        self.forget_rests()
 
     @staticmethod
     def heading_rad(yaw_rad: float, direction: str) -> float:

@@ -73,9 +73,10 @@ NAVIGATION_TABLE = Table("navigation", (
           "turns on the spot toward it) and stops at the next stop phase; the cruise gait also stops where it will "
           "rest on the goal's line; 0: off"),
     Field("fine_amplitude_bar", float, 1.5, 0.5, 4.0, "bar",
-          "amplitude of the fine approach: just above the muscles' deadzone the body bends little, so it rests "
-          "within a few cm of where it stopped (at 4 bar: 10-35 cm); set it above your robot's deadzone (the "
-          "calibrated simulation's is 1.35 bar)"),
+          "first amplitude of the fine approach: just above the muscles' deadzone the body bends little, so it "
+          "rests within a few cm of where it stopped (at 4 bar: 10-35 cm); set it above your robot's deadzone (the "
+          "calibrated simulation's is 1.35 bar). A creep seen to move the robot under 4 cm in a whole cycle goes "
+          "on 0.5 bar higher, up to amplitude_bar, for the rest of the run"),
     Field("fine_frequency_hz", float, 0.25, 0.1, 2.0, "Hz",
           "cycle frequency of the fine approach (slow: the 1 s ramp-out is a quarter cycle of roll-on)"),
     Field("axis_move_max_cycles", int, 3, 0, 10, "cycles",

@@ -44,6 +44,7 @@ class Roller:
         self.axis_step_m = axis_step_m  # per cycle of the serpentine, along the yaw (0: an isotropic floor)
         self.travel_sign = travel_sign  # -1: rolls the other way round (inward to the right of its yaw)
         self.bias_deg, self.scale, self.rest_m = bias_deg, scale, rest_m
+        self.travel_m_per_cycle = 0.09
         self.rest: tuple[float, np.ndarray] | None = None
         self._moving = None  # the last moving command
 
@@ -83,7 +84,7 @@ class Roller:
             self.turn_deg(command.direction, command.turn_phase_rad)
         self.yaw += math.radians(rate_deg) * command.frequency_hz * FRAME_S
         self._heading = self.yaw + sign * self.travel_sign * math.pi / 2
-        travel = 0.09 * command.frequency_hz * FRAME_S
+        travel = self.travel_m_per_cycle * command.frequency_hz * FRAME_S
         self.x += travel * math.cos(self._heading)
         self.y += travel * math.sin(self._heading)
         self.phase = (self.phase + sign * command.frequency_hz * FRAME_S) % 1.0

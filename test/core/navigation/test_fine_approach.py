@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 
 from srs_ros.core.navigation import NavigationController, NavigationState, Pose2D, load_navigation_settings
+from srs_ros.core.navigation import fine as fine_module
 from srs_ros.core.navigation.approach import rests_near_enough
 from srs_ros.core.navigation.fine import FineApproach, next_stop_phase, stop_lead_s, stop_quarters_ahead
 from srs_ros.core.navigation.motion import PoseHistory
@@ -40,10 +41,19 @@ class AmplitudeRoller(Roller):
         super().step(command, now_s)
 
 
-def run(fine_distance_m, goal, until_s=120.0):
+class WeakCreepRoller(AmplitudeRoller):
+    """AmplitudeRoller whose creep at 1.5 bar moves it 1 cm a cycle (the held spin's body: 2 cm), 9 cm from 2 bar."""
+
+    def step(self, command, now_s):
+        if command.moving:
+            self.travel_m_per_cycle = 0.01 if command.amplitude_bar <= 1.5 else 0.09
+        super().step(command, now_s)
+
+
+def run(fine_distance_m, goal, until_s=120.0, roller=None):
     overrides = {} if fine_distance_m is None else {"fine_distance_m": fine_distance_m}  # None: the default
     settings = load_navigation_settings(overrides, turning_map=MAP)
-    controller, roller = NavigationController(settings, AREA), AmplitudeRoller()
+    controller, roller = NavigationController(settings, AREA), roller or AmplitudeRoller()
     controller.set_goal(*goal, now_s=0.0)
     amplitudes, now = set(), 0.0
     while now < until_s:
@@ -82,6 +92,42 @@ def test_without_the_fine_approach_the_same_robot_misses_the_goal():
     assert misses >= 2
 
 
+def test_a_creep_too_weak_for_the_body_is_raised_half_a_bar_and_reaches_the_goal(monkeypatch):
+    """A body that creeps 1 cm a cycle at 1.5 bar: once a whole cycle shows it, the creep goes on at 2 bar."""
+    times = {}
+    for raise_weak in (True, False):
+        if not raise_weak:
+            monkeypatch.setattr(fine_module, "FINE_MIN_STEP_M", -math.inf)  # no creep is ever too weak
+        for goal in GOALS:
+            controller, roller, amplitudes = run(None, goal, until_s=90.0, roller=WeakCreepRoller())
+            times[raise_weak, goal] = (controller.state, math.dist(goal, (roller.x, roller.y)), amplitudes,
+                                       controller.progress(0.0).values()["creep_amplitude_bar"])
+    for goal in GOALS:
+        state, miss_m, amplitudes, creep = times[True, goal]
+        assert state is NavigationState.REACHED and miss_m <= 0.05, (goal, times[True, goal])
+        assert creep in ("1.5", "2") and amplitudes <= {4.0, 1.5, 2.0}, (goal, times[True, goal])
+    assert any(times[True, goal][3] == "2" for goal in GOALS)  # the weak creep was seen and raised
+    missed = [goal for goal in GOALS if times[False, goal][0] is not NavigationState.REACHED]
+    assert missed, times  # without the raise, the 1 cm creep leaves a goal unreached in 90 s
+
+
+def test_a_weak_cycle_is_judged_over_a_whole_cycle_after_the_settling_and_the_raise_stops_at_the_cruise_amplitude():
+    fine, history = FineApproach(0.5, 1.5, 2.5), PoseHistory()
+    for k in range(200):  # 0.02 m/s along +y from t = 0: 2 cm per 1 s cycle, 6.7 s of poses
+        history.add(Pose2D(0.0, 0.02 * k / 30.0, 0.0, k / 30.0))
+    heading = math.pi / 2
+    assert fine.weak_cycle(history, heading, 1.0, playing_since_s=4.0) is None  # 2.6 s: not settled and a cycle
+    assert fine.weak_cycle(history, heading, 1.0, playing_since_s=0.0) == pytest.approx(0.02, abs=1e-3)
+    assert fine.weak_cycle(history, -heading, 1.0, playing_since_s=0.0) == pytest.approx(-0.02, abs=1e-3)
+    assert fine.weak_cycle(history, heading, 0.5, playing_since_s=0.0) == pytest.approx(0.01, abs=1e-3)
+    assert fine.weak_cycle(history, heading, 3.0, playing_since_s=0.0) is None  # a 3 s cycle moves it 6 cm: enough
+    fine.offset_m["inward_rolling"][:] = 0.3
+    fine.raise_amplitude()
+    assert fine.amplitude_bar == 2.0 and np.all(fine.offset_m["inward_rolling"] != 0.3)  # the old rests forgotten
+    fine.raise_amplitude()
+    assert fine.amplitude_bar == 2.5 and fine.weak_cycle(history, heading, 1.0, playing_since_s=0.0) is None
+
+
 def test_the_creeping_line_and_the_direction_with_its_run_up():
     pose = Pose2D(1.0, 2.0, 0.0, 0.0)
     # body along x: inward rolling travels +y; the goal 10 cm ahead of it and 2 cm to the right of the line
@@ -93,7 +139,7 @@ def test_the_creeping_line_and_the_direction_with_its_run_up():
     assert FineApproach.direction(-0.04, "inward_rolling", 0.05) == "inward_rolling"
     assert FineApproach.direction(-0.06, "inward_rolling", 0.05) == "outward_rolling"
     assert FineApproach.direction(0.06, "outward_rolling", 0.05) == "inward_rolling"
-    fine = FineApproach(0.5)
+    fine = FineApproach(0.5, 1.5, 4.0)
     # a quarter cycle at 3 cm/s and 0.25 Hz (3 cm), the roll-on guess (2 cm), the tolerance (5 cm)
     assert fine.runup_m("inward_rolling", 0.03, 0.25, 0.05) == pytest.approx(0.10)
     assert next_stop_phase(3, reverse=False) == 0 and next_stop_phase(0, reverse=True) == 3
@@ -120,7 +166,7 @@ def test_the_line_is_taken_from_the_motion_and_the_roll_on_is_learned():
     assert FineApproach.line_yaw_rad(history, "outward_rolling", 0.0) is None
     assert FineApproach.line_yaw_rad(history, "inward_rolling", math.radians(45.0)) is None  # 35 deg off square
     assert FineApproach.speed_m_s(history, math.radians(100)) == pytest.approx(0.04)
-    fine = FineApproach(0.5)
+    fine = FineApproach(0.5, 1.5, 4.0)
     fine.learn("outward_rolling", 2, math.pi / 2, np.array([0.0, 0.06]))  # rolled on 6 cm along +y
     np.testing.assert_allclose(fine.offset_m["outward_rolling"][2], [0.06, 0.0], atol=1e-12)  # first: taken whole
     fine.learn("outward_rolling", 2, math.pi / 2, np.array([0.0, 0.02]))
