@@ -92,7 +92,7 @@ class FineDriving:
             fine.leave()
             return False
         now_s, command = pose.time_s, self._command
-        creeping = command.moving and command.amplitude_bar == fine.amplitude_bar
+        creeping = command.moving and command.creep
         if not creeping:
             fine.start(now_s)  # the body straightens from the cruise gait's C, or starts from rest
         settled = creeping and fine.settled(now_s, self._changed_s)
@@ -128,20 +128,22 @@ class FineDriving:
                 return True
         self._message = f"creeping to the goal ({distance:.3f} m to go, {100 * abs(across):.1f} cm off the line)"
         if creeping and direction == command.direction:
-            self._strengthen_weak_creep(heading, 1.0 / command.frequency_hz)
-        self._set_command(now_s, GaitCommand(direction, 0.0, fine.amplitude_bar, settings.fine_frequency_hz,
-                                             "creeping to the goal (fine approach)"), None)
+            self._strengthen_weak_creep(now_s, heading, command)
+        if fine.raise_note:
+            self._message += f"; {fine.raise_note}"
+        self._set_command(now_s, GaitCommand(direction, 0.0, fine.amplitude_bar(settings), settings.fine_frequency_hz,
+                                             "creeping to the goal (fine approach)", creep=True), None)
         return True
 
-    def _strengthen_weak_creep(self, heading_rad: float, period_s: float) -> None:
+    def _strengthen_weak_creep(self, now_s: float, heading_rad: float, command: GaitCommand) -> None:
         """A creep that moved the robot under FINE_MIN_STEP_M in its last whole cycle goes on at a higher amplitude."""
-        fine = self.fine
-        moved = fine.weak_cycle(self.history, heading_rad, period_s, max(fine.since_s, self._changed_s))
-        if moved is not None:
-            old = fine.amplitude_bar
-            fine.raise_amplitude()
-            self._message = (f"the creep moved the robot {100 * moved:.1f} cm in a cycle at {old:g} bar (under "
-                             f"{100 * FINE_MIN_STEP_M:g} cm): creeping at {fine.amplitude_bar:g} bar from now on")
+        fine, settings = self.fine, self.settings
+        since_s = fine.playing((command.direction, command.amplitude_bar, command.frequency_hz), now_s)
+        moved = fine.weak_cycle(self.history, heading_rad, 1.0 / command.frequency_hz, since_s)
+        if moved is None:
+            return
+        fine.raise_amplitude(settings, now_s, f"the creep moved the robot {100 * abs(moved):.1f} cm in a cycle at "
+                                              f"{command.amplitude_bar:g} bar (under {100 * FINE_MIN_STEP_M:g} cm)")
 
     def _begin_fine_stop(self, pose: Pose2D, direction: str, phase_index: int, rest: np.ndarray) -> None:
         self.state = NavigationState.STOPPING

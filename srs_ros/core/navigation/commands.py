@@ -59,6 +59,8 @@ class GaitCommand:
     #: The navigator took the body's head for its tail (:class:`~srs_ros.core.navigation.motion.TravelSides`): its
     #: moves along the axis then play the serpentine the other way in time.
     ends_swapped: bool = False
+    #: The fine approach's creep (once raised, its amplitude may equal the cruise gait's).
+    creep: bool = False
 
     @property
     def moving(self) -> bool:

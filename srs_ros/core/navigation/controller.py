@@ -82,7 +82,7 @@ class NavigationController(CruiseStopping, FineDriving, EdgeGuard):
         self.travel = TravelModel(settings.turn_levels_rad, settings.learning_rate, settings.turning_map)
         self.sides = TravelSides()
         self.stops = self._first_stop_model()
-        self.fine = FineApproach(settings.learning_rate, settings.fine_amplitude_bar, settings.amplitude_bar)
+        self.fine = FineApproach(settings.learning_rate)
         self.shuffle = AxisShuffle(settings.learning_rate)
         self.state = NavigationState.IDLE
         self._goals: list[tuple[float, float]] = []
@@ -460,4 +460,4 @@ class NavigationController(CruiseStopping, FineDriving, EdgeGuard):
                                   self._heading_error_rad if self.state.active else 0.0,
                                   self._command.direction or "", self._command.turn_phase_rad,
                                   float(now_s) - self._started_s, self._message, self.sides.inward_side,
-                                  self.fine.amplitude_bar)
+                                  self.fine.amplitude_bar(self.settings))

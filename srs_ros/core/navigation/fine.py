@@ -23,7 +23,7 @@ import math
 import numpy as np
 
 from srs_ros.core.navigation.motion import Pose2D, PoseHistory, wrap_rad
-from srs_ros.core.navigation.settings import DIRECTIONS, STOP_PHASES, square_rad
+from srs_ros.core.navigation.settings import DIRECTIONS, STOP_PHASES, NavigationSettings, square_rad
 from srs_ros.core.navigation.stopping import STOP_WITHIN, rotate
 
 #: A goal farther across the creeping line than this (times goal_tolerance_m) is not crept to. A line that passes
@@ -50,13 +50,17 @@ FINE_MAX_SKEW_RAD = math.radians(30.0)
 FINE_REST_GUESS_M = (0.02, 0.0)
 #: A reversal needs the goal at least this far behind (times goal_tolerance_m), and the run-up a stop needs.
 FINE_REVERSE_BEYOND = 0.3
-#: A creep that moves the robot less than this along its line in a whole cycle (m) is too weak for this body (the
-#: model's bodies creep 11-13 cm a cycle at 1.5 bar 0.25 Hz; a body whose muscles cannot bend it much near the deadzone,
-#: the held spin of config/sim_held_spin.yaml, 2 cm): its amplitude is then raised by FINE_AMPLITUDE_STEP_BAR for the
-#: rest of the run, up to the cruise gait's amplitude_bar (docs/studies/navigation.md, "A creep too weak for its body").
+#: A creep that moves the robot less than this along its line, either way, in a whole cycle (m) is too weak for this
+#: body (the model's bodies creep 11-13 cm a cycle at 1.5 bar 0.25 Hz; a body whose muscles cannot bend it much near
+#: the deadzone, the held spin of config/sim_held_spin.yaml, 2 cm): its amplitude is then raised by
+#: FINE_AMPLITUDE_STEP_BAR for the rest of the run (docs/studies/navigation.md, "A creep too weak for its body"). A
+#: creep moving the robot the wrong way is left to the sides' and the skew's learning.
 FINE_MIN_STEP_M = 0.04
-#: How much a too weak creep's amplitude is raised at a time (bar).
+#: How much a too weak creep's amplitude is raised at a time (bar) ...
 FINE_AMPLITUDE_STEP_BAR = 0.5
+#: ... and at most in all, above fine_amplitude_bar (and never above amplitude_bar): a creep that stood still for
+#: another reason (an e-stop, a hand on the robot) must not leave the fine approach at the cruise gait's amplitude.
+FINE_MAX_RAISE_BAR = 1.0
 #: A creep stop is set this long (s) before the gait reaches its phase, at least a quarter cycle and at most a whole
 #: one (:func:`stop_quarters_ahead`): a pose or a command that comes late by less still stops the gait at the phase
 #: the prediction was made for (at 0.25 Hz the next stop phase; at 1 Hz the same phase a cycle later).
@@ -66,15 +70,14 @@ FINE_STOP_LEAD_S = 1.0
 class FineApproach:
     """Whether the robot creeps, on which line, and where it rests after a stop per direction and stop phase."""
 
-    def __init__(self, learning_rate: float, amplitude_bar: float, max_amplitude_bar: float):
-        """Nothing learned yet; the creep starts at ``amplitude_bar`` (``fine_amplitude_bar``).
-
-        While it is too weak for the body it is raised up to ``max_amplitude_bar`` (:meth:`weak_cycle`,
-        :meth:`raise_amplitude`).
-        """
+    def __init__(self, learning_rate: float):
         self.learning_rate = float(learning_rate)
-        self.amplitude_bar, self.max_amplitude_bar = float(amplitude_bar), max(float(max_amplitude_bar),
-                                                                              float(amplitude_bar))
+        #: The creep's raises so far (:meth:`raise_amplitude`), counted from the fine_amplitude_bar they were made at;
+        #: why the last one was made (one line for the status, '' before any).
+        self._raises, self._raised_from_bar, self.raise_note = 0, math.nan, ""
+        #: The creep now played (direction, amplitude, frequency) and since when (s): a whole cycle of it is judged.
+        self._playing: tuple | None = None
+        self._playing_since_s = 0.0
         self.active = False
         self.since_s = 0.0
         self.pivot_sense, self.pivot_since_s, self.pivots = 0, 0.0, 0
@@ -161,27 +164,58 @@ class FineApproach:
         """
         return now_s - self.since_s >= FINE_SETTLE_S and now_s - changed_s >= FINE_REVERSE_SETTLE_S
 
+    def amplitude_bar(self, settings: NavigationSettings) -> float:
+        """The creep's amplitude now (bar): ``fine_amplitude_bar``, raised as the creep was seen too weak.
+
+        Read from the settings each time (a node changes them live): raises made from another fine_amplitude_bar
+        are void; never above :data:`FINE_MAX_RAISE_BAR` over it, nor above ``amplitude_bar``.
+        """
+        fine_bar = settings.fine_amplitude_bar
+        if self._raised_from_bar != fine_bar:
+            self._raises, self._raised_from_bar, self.raise_note = 0, fine_bar, ""
+        raised = fine_bar + min(self._raises * FINE_AMPLITUDE_STEP_BAR, FINE_MAX_RAISE_BAR)
+        return min(raised, max(settings.amplitude_bar, fine_bar))
+
+    def playing(self, key: tuple, now_s: float) -> float:
+        """Note the creep played now (``key``: direction, amplitude, frequency); returns since when it has played."""
+        if key != self._playing:
+            self._playing, self._playing_since_s = key, float(now_s)
+        return max(self._playing_since_s, self.since_s)
+
     def weak_cycle(self, history: PoseHistory, heading_rad: float, period_s: float, playing_since_s: float
                    ) -> float | None:
-        """The move (m) along ``heading_rad`` over the last whole cycle when it is under :data:`FINE_MIN_STEP_M`.
+        """The move (m) along ``heading_rad`` over the last whole cycle, when it is within :data:`FINE_MIN_STEP_M`.
 
         None while the creep has not played a whole cycle past :data:`FINE_SETTLE_S` since ``playing_since_s`` (its
-        start, or its last change of direction or amplitude), when it moved enough, or when it cannot be raised.
+        start, or its last change of direction, amplitude or frequency), and when it moved the robot that far or
+        farther either way.
         """
         now_s = float(history.window(0.0)[-1, 0]) if len(history) else -math.inf
-        if self.amplitude_bar >= self.max_amplitude_bar or now_s - playing_since_s < FINE_SETTLE_S + period_s:
+        if now_s - playing_since_s < FINE_SETTLE_S + period_s:
             return None
         rows = history.window(period_s)
         if len(rows) < 3 or rows[-1, 0] - rows[0, 0] < 0.9 * period_s:
             return None
         moved = rows[-1, 1:3] - rows[0, 1:3]
         along = float(moved[0] * math.cos(heading_rad) + moved[1] * math.sin(heading_rad))
-        return along if along < FINE_MIN_STEP_M else None
+        return along if abs(along) < FINE_MIN_STEP_M else None
 
-    def raise_amplitude(self) -> None:
-        """Creep :data:`FINE_AMPLITUDE_STEP_BAR` harder from now on; the rests learned at the old amplitude go."""
-        self.amplitude_bar = min(self.amplitude_bar + FINE_AMPLITUDE_STEP_BAR, self.max_amplitude_bar)
+    def raise_amplitude(self, settings: NavigationSettings, now_s: float, why: str) -> float | None:
+        """Creep :data:`FINE_AMPLITUDE_STEP_BAR` harder from now on (``why``: for the status); the new amplitude (bar).
+
+        None if it cannot be raised further. The rests learned at the old amplitude are forgotten and the creep
+        settles again from ``now_s``.
+        """
+        before = self.amplitude_bar(settings)
+        self._raises += 1
+        after = self.amplitude_bar(settings)
+        if after <= before:
+            self._raises -= 1
+            return None
+        self.raise_note = f"{why}: creeping at {after:g} bar from now on"
         self.forget_rests()
+        self.start(now_s)
+        return after
 
     @staticmethod
     def heading_rad(yaw_rad: float, direction: str) -> float:

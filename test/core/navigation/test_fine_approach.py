@@ -111,8 +111,8 @@ def test_a_creep_too_weak_for_the_body_is_raised_half_a_bar_and_reaches_the_goal
     assert missed, times  # without the raise, the 1 cm creep leaves a goal unreached in 90 s
 
 
-def test_a_weak_cycle_is_judged_over_a_whole_cycle_after_the_settling_and_the_raise_stops_at_the_cruise_amplitude():
-    fine, history = FineApproach(0.5, 1.5, 2.5), PoseHistory()
+def test_a_weak_cycle_is_one_whole_cycle_after_the_settling_that_moved_the_robot_under_4_cm_either_way():
+    fine, history = FineApproach(0.5), PoseHistory()
     for k in range(200):  # 0.02 m/s along +y from t = 0: 2 cm per 1 s cycle, 6.7 s of poses
         history.add(Pose2D(0.0, 0.02 * k / 30.0, 0.0, k / 30.0))
     heading = math.pi / 2
@@ -121,11 +121,29 @@ def test_a_weak_cycle_is_judged_over_a_whole_cycle_after_the_settling_and_the_ra
     assert fine.weak_cycle(history, -heading, 1.0, playing_since_s=0.0) == pytest.approx(-0.02, abs=1e-3)
     assert fine.weak_cycle(history, heading, 0.5, playing_since_s=0.0) == pytest.approx(0.01, abs=1e-3)
     assert fine.weak_cycle(history, heading, 3.0, playing_since_s=0.0) is None  # a 3 s cycle moves it 6 cm: enough
+    assert fine.weak_cycle(history, -heading, 3.0, playing_since_s=0.0) is None  # 6 cm the wrong way: not weak
+    # since when the creep plays: its key (direction, amplitude, frequency) or its (re)start, whichever is later
+    assert fine.playing(("inward_rolling", 1.5, 0.25), 1.0) == 1.0
+    assert fine.playing(("inward_rolling", 1.5, 0.25), 5.0) == 1.0
+    assert fine.playing(("inward_rolling", 1.5, 0.5), 6.0) == 6.0  # the frequency changed
+    fine.start(7.0)
+    assert fine.playing(("inward_rolling", 1.5, 0.5), 8.0) == 7.0
+
+
+def test_the_raise_is_half_a_bar_at_most_a_bar_in_all_never_above_the_cruise_amplitude_and_follows_the_settings():
+    fine = FineApproach(0.5)
+    shipped = load_navigation_settings({}, turning_map=MAP)
+    assert fine.amplitude_bar(shipped) == 1.5 and fine.raise_note == ""
     fine.offset_m["inward_rolling"][:] = 0.3
-    fine.raise_amplitude()
-    assert fine.amplitude_bar == 2.0 and np.all(fine.offset_m["inward_rolling"] != 0.3)  # the old rests forgotten
-    fine.raise_amplitude()
-    assert fine.amplitude_bar == 2.5 and fine.weak_cycle(history, heading, 1.0, playing_since_s=0.0) is None
+    assert fine.raise_amplitude(shipped, 10.0, "weak") == 2.0 and fine.since_s == 10.0  # settles again from now
+    assert np.all(fine.offset_m["inward_rolling"] != 0.3)  # the rests learned at 1.5 bar forgotten
+    assert fine.raise_note == "weak: creeping at 2 bar from now on"
+    assert fine.raise_amplitude(shipped, 11.0, "weak") == 2.5
+    assert fine.raise_amplitude(shipped, 12.0, "weak") is None and fine.amplitude_bar(shipped) == 2.5  # +1 bar in all
+    low_cruise = load_navigation_settings({"amplitude_bar": 2.0}, turning_map=MAP)
+    assert fine.amplitude_bar(low_cruise) == 2.0  # never above the cruise gait's amplitude, read live
+    new_fine = load_navigation_settings({"fine_amplitude_bar": 1.8}, turning_map=MAP)
+    assert fine.amplitude_bar(new_fine) == 1.8 and fine.raise_note == ""  # a new setting voids the raises
 
 
 def test_the_creeping_line_and_the_direction_with_its_run_up():
@@ -139,7 +157,7 @@ def test_the_creeping_line_and_the_direction_with_its_run_up():
     assert FineApproach.direction(-0.04, "inward_rolling", 0.05) == "inward_rolling"
     assert FineApproach.direction(-0.06, "inward_rolling", 0.05) == "outward_rolling"
     assert FineApproach.direction(0.06, "outward_rolling", 0.05) == "inward_rolling"
-    fine = FineApproach(0.5, 1.5, 4.0)
+    fine = FineApproach(0.5)
     # a quarter cycle at 3 cm/s and 0.25 Hz (3 cm), the roll-on guess (2 cm), the tolerance (5 cm)
     assert fine.runup_m("inward_rolling", 0.03, 0.25, 0.05) == pytest.approx(0.10)
     assert next_stop_phase(3, reverse=False) == 0 and next_stop_phase(0, reverse=True) == 3
@@ -166,7 +184,7 @@ def test_the_line_is_taken_from_the_motion_and_the_roll_on_is_learned():
     assert FineApproach.line_yaw_rad(history, "outward_rolling", 0.0) is None
     assert FineApproach.line_yaw_rad(history, "inward_rolling", math.radians(45.0)) is None  # 35 deg off square
     assert FineApproach.speed_m_s(history, math.radians(100)) == pytest.approx(0.04)
-    fine = FineApproach(0.5, 1.5, 4.0)
+    fine = FineApproach(0.5)
     fine.learn("outward_rolling", 2, math.pi / 2, np.array([0.0, 0.06]))  # rolled on 6 cm along +y
     np.testing.assert_allclose(fine.offset_m["outward_rolling"][2], [0.06, 0.0], atol=1e-12)  # first: taken whole
     fine.learn("outward_rolling", 2, math.pi / 2, np.array([0.0, 0.02]))
