@@ -76,7 +76,7 @@ NAVIGATION_TABLE = Table("navigation", (
           "first amplitude of the fine approach: just above the muscles' deadzone the body bends little, so it "
           "rests within a few cm of where it stopped (at 4 bar: 10-35 cm); set it above your robot's deadzone (the "
           "calibrated simulation's is 1.35 bar). A creep seen to move the robot under 4 cm in a whole cycle goes "
-          "on 0.5 bar higher, up to amplitude_bar, for the rest of the run"),
+          "on 0.5 bar higher for the rest of the run, at most 1 bar over this and never over amplitude_bar"),
     Field("fine_frequency_hz", float, 0.25, 0.1, 2.0, "Hz",
           "cycle frequency of the fine approach (slow: the 1 s ramp-out is a quarter cycle of roll-on)"),
     Field("axis_move_max_cycles", int, 3, 0, 10, "cycles",
