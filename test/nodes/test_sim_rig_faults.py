@@ -59,17 +59,17 @@ class Rig:
         self.readback.append((time.monotonic(), max(msg.effort)))
         self.readback_stamped.append((stamp_to_seconds(msg.header.stamp), max(msg.effort)))
 
-    def slips(self) -> list[tuple[float, float]]:
-        """(wall stamp s, wall time the world has not followed so far s) from sim_world's diagnostics, in order."""
-        return [(stamp_to_seconds(m.header.stamp), float(diagnostic_values(s)["slipped_s"]))
+    def world_values(self) -> list[tuple[float, dict]]:
+        """(wall stamp s, key values) of sim_world's diagnostics, in order."""
+        return [(stamp_to_seconds(m.header.stamp), diagnostic_values(s))
                 for m in self.diagnostics for s in m.status if s.name.startswith("sim_world")]
 
-    def slipped_between(self, start_s: float, end_s: float) -> float:
-        """The world's slips (its pacer's own count) over the diagnostics that bracket [start_s, end_s], s."""
-        samples = self.slips()
-        before = [slipped_s for stamp_s, slipped_s in samples if stamp_s <= start_s]
-        after = [slipped_s for stamp_s, slipped_s in samples if stamp_s >= end_s]
-        return after[0] - (before[-1] if before else 0.0)  # the count starts at 0 with the world (this test's)
+    def world_change(self, key: str, start_s: float, end_s: float) -> float:
+        """How much sim_world's count ``key`` (e.g. ``slipped_s``) grew over the diagnostics around [start_s, end_s]."""
+        samples = [(stamp_s, float(values[key])) for stamp_s, values in self.world_values()]
+        before = [count for stamp_s, count in samples if stamp_s <= start_s]
+        after = [count for stamp_s, count in samples if stamp_s >= end_s]
+        return after[0] - (before[-1] if before else 0.0)  # the counts start at 0 with the world (this test's)
 
     def commanding(self, since_s: float = -np.inf) -> bool:
         """The last command received (after ``since_s``, monotonic s) is the full setpoint."""
@@ -156,44 +156,62 @@ def test_a_paused_simulator_holds_a_stopped_one_faults_and_recovers_and_a_restar
     assert "Traceback" not in output and "unexpected error" not in output, output[-3000:]
 
 
-@pytest.mark.slow(seconds=5)
-def test_sim_world_vents_by_itself_when_the_hardware_node_dies(launch_node, ros_client):
-    launch_node("sim_world", WORLD_ARGS)
+#: Trials of the kill below; a trial a busy machine disturbed (the world slipped or its executor stalled around the
+#: hold) is run again, since its lower bound cannot tell a hold from a command that never reached the board.
+KILL_TRIALS = 3
+
+
+def _kill_trial(launch_node, ros_client, rig: "Rig") -> dict:
+    """Command 4 bar through a fresh hardware node, SIGKILL it, and time the board's own vent (bus stamps, s)."""
+    started_s = time.monotonic()
     hardware = launch_node("hardware_node", HARDWARE_ARGS)
-    rig = Rig(ros_client)
-    ros_client.spin_until(lambda: rig.readback and rig.readback[-1][1] > FULL_BAR, 60.0, "4 bar read back")
+    ros_client.spin_until(lambda: rig.readback and rig.readback[-1][0] > started_s and rig.readback[-1][1] > FULL_BAR,
+                          60.0, "4 bar read back")
     hardware.kill()  # SIGKILL while commanding 4 bar: no vent from the host
     ros_client.spin_until(lambda: rig.readback[-1][1] < 0.05, 10.0, "the read-back falling to 0 bar")
     # The board's hold counts from the last command it got, which may come before the kill (a node stalled by a
     # busy machine just before it died): measure from the last command on the bus, by the stamps the hardware
     # node and sim_world put on them (this client, stalled by a busy machine, may take both late and together).
+    last_command_s = rig.board_stamped[-1][0]
+    vented_at_s = min(t for t, bar in rig.readback_stamped if t > last_command_s and bar < 0.05)
+    # The board's timeout counts world time: a world starved by a busy machine runs late by its slips. Its own
+    # diagnostics (1 Hz, stamped on the wall clock) say how much world time passed around the hold, and how often
+    # its executor (which hears the commands) stalled.
+    ros_client.spin_until(lambda: rig.world_values() and rig.world_values()[-1][0] > vented_at_s, 5.0,
+                          "sim_world's diagnostics after the vent")
+    # A SIGKILL may cut the delivery of the last command (this client got it, the board may not: as a kill cuts a set
+    # of CAN frames): the lower bound counts from the command before it.
+    return {"vented_s": vented_at_s - last_command_s,
+            "vented_after_previous_s": vented_at_s - rig.board_stamped[-2][0],
+            "slipped_s": rig.world_change("slipped_s", last_command_s - 1.0, vented_at_s),
+            "stalls": rig.world_change("receiver_stalls", last_command_s - 1.0, vented_at_s),
+            "gaps_s": np.round(np.diff([stamp_s for stamp_s, _ in rig.board_stamped[-4:]]), 3),
+            "output": hardware.output()}
+
+
+@pytest.mark.slow(seconds=5)
+def test_sim_world_vents_by_itself_when_the_hardware_node_dies(launch_node, ros_client):
+    launch_node("sim_world", WORLD_ARGS)
+    rig = Rig(ros_client)
     # The read-back decays from 4 to 0.05 bar in the muscles' delay + ln(80) lag time constants once it vents.
     muscles = load_sim_config().muscles
     decay_s = muscles.transport_delay_s + np.log(4.0 / 0.05) * muscles.pressure_time_constant_s
-    last_command_s = rig.board_stamped[-1][0]
-    vented_at_s = min(t for t, bar in rig.readback_stamped if t > last_command_s and bar < 0.05)
-    vented_s = vented_at_s - last_command_s
-    # The board's timeout counts world time: a world starved by a busy machine runs late by its slips. Its own
-    # diagnostics (1 Hz, stamped on the wall clock) say how much world time passed around the hold.
-    ros_client.spin_until(lambda: rig.slips() and rig.slips()[-1][0] > vented_at_s, 5.0,
-                          "sim_world's diagnostics after the vent")
-    slipped_s = rig.slipped_between(last_command_s, vented_at_s)
-    # A SIGKILL may cut the delivery of the last command (this client got it, the board may not: as a kill cuts a set
-    # of CAN frames): the lower bound counts from the command before it.
-    gaps_s = np.diff([stamp_s for stamp_s, _ in rig.board_stamped[-4:]])
-    vented_after_previous_s = vented_at_s - rig.board_stamped[-2][0]
-    print(f"hardware_node SIGKILLed at 4 bar: read-back < 0.05 bar {vented_s:.2f} s after the last command "
-          f"({vented_after_previous_s:.2f} s after the one before; the last commands {np.round(gaps_s, 3)} s apart), "
-          f"of which the world slipped {slipped_s:.2f} s (board timeout {SIM_BOARD_TIMEOUT_S:g} s + the muscles' "
-          f"decay {decay_s:.2f} s)")
-    # The board holds the last command for its timeout of world time, then vents. Without the hold the read-back
-    # is at 0.05 bar after the decay alone; the upper bound is in world time (the wall time less the world's slips
-    # over the diagnostics around the hold); before the board had a watchdog it held 4 bar for ever. The exact
-    # timeout is unit-tested (test/sim/test_realtime.py).
-    # The lower bound keeps 0.3 of the hold: sim_world's executor, stalled by the busy suite just before the kill,
-    # may not have taken the last commands this client saw (a fresh clone's suite measured 0.61 s: 0.23 s of hold
-    # visible; a suite beside a nav. trace 0.39 s after the last command, the decay alone: that command, or the ones
-    # before it, most likely never reached the board); without a hold the read-back is down within the decay alone,
-    # 0.38 s after the last command the board got (5 ms after the one before at 200 commands per second).
-    assert vented_after_previous_s > 0.3 * SIM_BOARD_TIMEOUT_S + decay_s
-    assert vented_s - slipped_s < SIM_BOARD_TIMEOUT_S + decay_s + 1.5
+    for trial in range(1, KILL_TRIALS + 1):
+        found = _kill_trial(launch_node, ros_client, rig)
+        print(f"trial {trial}: hardware_node SIGKILLed at 4 bar: read-back < 0.05 bar {found['vented_s']:.2f} s after "
+              f"the last command ({found['vented_after_previous_s']:.2f} s after the one before; the last commands "
+              f"{found['gaps_s']} s apart); around it the world slipped {found['slipped_s']:.2f} s and its executor "
+              f"stalled {found['stalls']:g} times (board timeout {SIM_BOARD_TIMEOUT_S:g} s + the muscles' decay "
+              f"{decay_s:.2f} s)")
+        # The upper bound is in world time (the wall time less the world's slips): before the board had a watchdog
+        # it held 4 bar for ever. The exact timeout is unit-tested (test/sim/test_realtime.py).
+        assert found["vented_s"] - found["slipped_s"] < SIM_BOARD_TIMEOUT_S + decay_s + 1.5
+        held = found["vented_after_previous_s"] > 0.3 * SIM_BOARD_TIMEOUT_S + decay_s
+        if held or not (found["slipped_s"] > 0.02 or found["stalls"] > 0):
+            break  # a trial no stall disturbed decides
+    # The board holds the last command for its timeout of world time, then vents; without the hold the read-back is
+    # down within the decay alone, 0.38 s after the last command the board got (5 ms after the one before at 200
+    # commands per second). The lower bound keeps 0.3 of the hold, on a trial no stall disturbed (or the last): a world
+    # or an executor stalled just before the kill may not have taken the last commands this client saw (CI measured
+    # 0.50 s after the one before, with 0.52 s slipped around it).
+    assert held, f"no hold seen in {trial} trials: the board vented within the muscles' decay of the last command"
