@@ -109,7 +109,8 @@ class FineDriving:
             fine.leave()
             self._message = f"the goal lies {100 * abs(across):.1f} cm off the line the robot creeps on: stopping"
             self.state = NavigationState.STOPPING  # at rest, it turns on the spot toward the goal or drives round
-            self._stop = StopPlan(pose, command.direction, None, -1, False, (pose.x_m, pose.y_m), stopped=pose)
+            self._stop = StopPlan(pose, command.direction, None, -1, False, (pose.x_m, pose.y_m), stopped=pose,
+                                  fine=True)
             self._command = self._stop_command(self._message)
             return True
         direction = command.direction

@@ -29,6 +29,13 @@ CYCLE_AHEAD_FROM_LAST_CYCLE = True
 #: A stop phase passed within this many cycles of the present one, in the same direction, is the one before it
 #: (the stop phases are a quarter cycle apart): its predicted resting point and this one's give the next one's.
 LAST_STOP_PHASE_CYCLES = 0.6
+#: A creep's stop: the robot whose pose moved less than SETTLED_WITHIN_M over the last SETTLED_WINDOW_S (s) is at rest
+#: before ``settle_s`` is up, once SETTLED_AFTER_S (s, the gait player's ramp-out) have passed since the stop: a
+#: creep's nearly straight body rests within 0.5 s of its stop (under 2.3 mm of motion after it, default physics),
+#: where a 4 bar body rolls on for 1.5 s.
+SETTLED_WITHIN_M = 0.002
+SETTLED_WINDOW_S = 0.3
+SETTLED_AFTER_S = 1.0
 
 
 class CruiseStopping:
@@ -130,6 +137,12 @@ class CruiseStopping:
             self._command = self._stop_command(self._message)
         self._level = None
 
+    def _rested(self, waited_s: float, plan: StopPlan) -> bool:
+        """True once the stopped robot has waited ``settle_s``; a creep's, once seen at rest after SETTLED_AFTER_S."""
+        if waited_s >= self.settings.settle_s:
+            return True
+        return plan.fine and waited_s >= SETTLED_AFTER_S and self.history.at_rest(SETTLED_WINDOW_S, SETTLED_WITHIN_M)
+
     def _settle(self, pose: Pose2D) -> None:
         """Wait for the stop a cycle ahead; after ``settle_s`` at rest learn the resting point, then reached or on."""
         plan = self._stop
@@ -145,7 +158,7 @@ class CruiseStopping:
                 if plan.stopped is None:  # the phase was not seen: no learning from this stop
                     plan.stopped, plan.phase_index = pose, -1
             return
-        if pose.time_s - plan.stopped.time_s < self.settings.settle_s:
+        if not self._rested(pose.time_s - plan.stopped.time_s, plan):
             return
         if plan.phase_index >= 0:
             moved = np.array([pose.x_m - plan.stopped.x_m, pose.y_m - plan.stopped.y_m])

@@ -509,3 +509,66 @@ def test_on_a_floor_where_the_serpentine_does_not_move_the_body_it_is_tried_once
     start = np.array([roller.x, roller.y])
     played, end = drive_to(controller, roller, tuple(start + [0.12, 0.25]), start_s=end + 1.0)
     assert not any(c.along_axis for c in played)  # the next goal off the line: straight to a turn on the spot
+
+
+class DriftingRoller(AmplitudeRoller):
+    """AmplitudeRoller that, after each creep, drifts on ``drift_m_s`` (m/s) along its travel for 2 s after resting."""
+
+    def __init__(self, drift_m_s: float):
+        super().__init__()
+        self.drift_m_s = drift_m_s
+
+    def pose(self, now_s):
+        pose = super().pose(now_s)
+        if self.rest is None or now_s < self.rest[0] or not hasattr(self, "_heading"):
+            return pose
+        drift_m = self.drift_m_s * min(now_s - self.rest[0], 2.0)
+        return Pose2D(pose.x_m + drift_m * math.cos(self._heading), pose.y_m + drift_m * math.sin(self._heading),
+                      pose.yaw_rad, now_s)
+
+
+#: The kinematic stand-in's jump to its resting point comes this long after its stop (s; Roller.step).
+LANDING_S = 0.8
+
+
+def stop_waits(roller, goal, until_s=120.0):
+    """Each stop as ``(creep, s from the robot's last motion until the controller leaves STOPPING)``, in order."""
+    settings = load_navigation_settings({}, turning_map=MAP)
+    controller = NavigationController(settings, AREA)
+    controller.set_goal(*goal, now_s=0.0)
+    waits, last_moving, stopping, now = [], None, None, 0.0
+    while now < until_s and (controller.state.active or roller.moving_or_settling(now)):
+        controller.update_gait_phase(roller.phase)
+        controller.update_pose(roller.pose(now))
+        command = controller.tick(now)
+        roller.step(command, now)
+        last_moving = command if command.moving else last_moving
+        if controller.state is NavigationState.STOPPING and stopping is None and last_moving is not None:
+            stopping = last_moving.creep
+        elif controller.state is not NavigationState.STOPPING and stopping is not None:
+            motion_ended_s = roller.rest[0] if roller.rest is not None else now  # the stand-in's jump to its rest
+            waits.append((stopping, now - motion_ended_s))
+            stopping = None
+        now += FRAME_S
+    return controller, waits
+
+
+def test_a_creep_stop_ends_its_settling_once_the_robot_is_seen_at_rest_and_a_cruise_stop_waits_settle_s():
+    settle_s = load_navigation_settings({}, turning_map=MAP).settle_s
+    for goal in GOALS:
+        controller, waits = stop_waits(AmplitudeRoller(), goal)
+        assert controller.state is NavigationState.REACHED, (goal, controller.progress(0.0).message)
+        creeps = [wait for creep, wait in waits if creep]
+        cruises = [wait for creep, wait in waits if not creep]
+        assert creeps and cruises, waits
+        # The stand-in lands LANDING_S after its stop and is seen at rest over the 0.3 s window 0.3 s later, at
+        # 1.1 s: 0.4 s before settle_s (1.5 s), which a cruise stop still waits (both counted from the landing).
+        assert all(wait < settle_s - LANDING_S - 0.2 for wait in creeps), waits
+        assert all(wait >= settle_s - LANDING_S - FRAME_S for wait in cruises), waits
+
+
+def test_a_creep_stop_still_drifting_waits_the_whole_settle_s():
+    settle_s = load_navigation_settings({}, turning_map=MAP).settle_s
+    _, waits = stop_waits(DriftingRoller(drift_m_s=0.01), GOALS[0])  # 3 mm per 0.3 s: over the 2 mm of "at rest"
+    creeps = [wait for creep, wait in waits if creep]
+    assert creeps and all(wait >= settle_s - LANDING_S - FRAME_S for wait in creeps), waits
