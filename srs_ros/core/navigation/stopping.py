@@ -44,7 +44,8 @@ class StopPlan:
     predicted_xy_m: tuple[float, float]
     stopped: Pose2D | None = None
     heading_rad: float = 0.0
-    #: A stop of the fine approach (:mod:`srs_ros.core.navigation.fine`): its resting points are learned there.
+    #: A stop of the fine approach's creep (:mod:`srs_ros.core.navigation.fine`): its resting points are learned there,
+    #: and its settling ends once the robot is seen at rest (``cruise_stop.SETTLED_*``).
     fine: bool = False
     #: The gait's period when the stop was decided (s): the stop phase comes within it.
     period_s: float = 1.0
