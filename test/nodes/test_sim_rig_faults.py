@@ -185,8 +185,7 @@ def _kill_trial(launch_node, ros_client, rig: "Rig") -> dict:
             "vented_after_previous_s": vented_at_s - rig.board_stamped[-2][0],
             "slipped_s": rig.world_change("slipped_s", last_command_s - 1.0, vented_at_s),
             "stalls": rig.world_change("receiver_stalls", last_command_s - 1.0, vented_at_s),
-            "gaps_s": np.round(np.diff([stamp_s for stamp_s, _ in rig.board_stamped[-4:]]), 3),
-            "output": hardware.output()}
+            "gaps_s": np.round(np.diff([stamp_s for stamp_s, _ in rig.board_stamped[-4:]]), 3)}
 
 
 @pytest.mark.slow(seconds=5)

@@ -98,7 +98,7 @@ NAVIGATION_TABLE = Table("navigation", (
           "weight of a new per-cycle measurement in the online turn-rate and travel-direction estimates"),
     Field("settle_s", float, 1.5, 0.0, 30.0, "s",
           "after a stop near the goal, wait this long for the robot to rest before checking the tolerance "
-          "(a creep's stop ends sooner, from 1 s, once the pose is seen at rest)"),
+          "(a creep's stop ends sooner, once the pose is seen at rest)"),
     Field("stop_cycle_ahead", bool, True,
           description="stop one cycle ahead at a set gait phase (the gait player ramps out as it passes the phase, "
                       "however late the stop arrived); false: ramp out at once as the gait passes the phase"),

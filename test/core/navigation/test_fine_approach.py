@@ -19,7 +19,7 @@ from srs_ros.core.navigation.motion import PoseHistory
 from srs_ros.core.navigation.settings import DIRECTIONS, STOP_PHASES
 from srs_ros.core.navigation.stopping import landing_ahead
 
-from .test_controller import AREA, FRAME_S, MAP, Roller
+from .test_controller import AREA, FRAME_S, MAP, Roller, drive
 
 #: Where the 4-bar stand-in rests after a stop, per stop phase (m ahead): far from the map's 5 cm.
 FAR_REST_M = (0.12, 0.20, 0.15, 0.18)
@@ -533,23 +533,18 @@ LANDING_S = 0.8
 
 def stop_waits(roller, goal, until_s=120.0):
     """Each stop as ``(creep, s from the robot's last motion until the controller leaves STOPPING)``, in order."""
-    settings = load_navigation_settings({}, turning_map=MAP)
-    controller = NavigationController(settings, AREA)
+    controller = NavigationController(load_navigation_settings({}, turning_map=MAP), AREA)
     controller.set_goal(*goal, now_s=0.0)
-    waits, last_moving, stopping, now = [], None, None, 0.0
-    while now < until_s and (controller.state.active or roller.moving_or_settling(now)):
-        controller.update_gait_phase(roller.phase)
-        controller.update_pose(roller.pose(now))
-        command = controller.tick(now)
-        roller.step(command, now)
-        last_moving = command if command.moving else last_moving
-        if controller.state is NavigationState.STOPPING and stopping is None and last_moving is not None:
-            stopping = last_moving.creep
-        elif controller.state is not NavigationState.STOPPING and stopping is not None:
+    waits, stopping = [], []  # stopping: the creep flag of the stop under way
+
+    def each_frame(now):
+        if controller.state is NavigationState.STOPPING and not stopping and roller._moving is not None:
+            stopping.append(roller._moving.creep)  # the stand-in keeps the last moving command until it stops
+        elif controller.state is not NavigationState.STOPPING and stopping:
             motion_ended_s = roller.rest[0] if roller.rest is not None else now  # the stand-in's jump to its rest
-            waits.append((stopping, now - motion_ended_s))
-            stopping = None
-        now += FRAME_S
+            waits.append((stopping.pop(), now - motion_ended_s))
+
+    drive(controller, roller, until_s, each_frame=each_frame)
     return controller, waits
 
 
