@@ -14,7 +14,7 @@ from srs_ros.core.navigation import NavigationController, NavigationState, Pose2
 from srs_ros.core.navigation.commands import GaitCommand
 from srs_ros.core.navigation.motion import TravelSides
 
-from .test_controller import AREA, FRAME_S, Roller, drive, settings
+from .standins import AREA, FRAME_S, Roller, drive, settings
 
 
 class LaggingRoller(Roller):

@@ -15,9 +15,8 @@ from srs_ros.core.navigation import NavigationController, NavigationState, load_
 from srs_ros.core.navigation.commands import GaitCommand
 from srs_ros.core.navigation.motion import SIDE_VOTES, CycleMeasurement, TravelSides
 
-from .test_controller import AREA, MAP, Roller, drive, settings
+from .standins import AREA, MAP, AxisRoller, Roller, drive, drive_to, settings
 from .test_edge_guard import LaggingRoller
-from .test_fine_approach import AxisRoller, drive_to
 
 
 def cycle(travel_rad: float, yaw_rad: float = 0.3, metres: float = 0.09) -> CycleMeasurement:
