@@ -28,15 +28,14 @@ from __future__ import annotations
 import threading
 import time
 
-import numpy as np
 from diagnostic_msgs.msg import DiagnosticArray
-from geometry_msgs.msg import Point, PoseStamped
+from geometry_msgs.msg import PoseStamped
 from rclpy.experimental import EventsExecutor
 from rclpy.node import Node
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import Image, JointState
 from std_srvs.srv import Trigger
-from visualization_msgs.msg import Marker, MarkerArray
+from visualization_msgs.msg import MarkerArray
 
 from srs_ros.core.actuation.pressure import clamp_pressures_bar, pressures_to_lengths_m
 from srs_ros.core.errors import InvalidInputError, SrsError
@@ -58,6 +57,7 @@ from srs_ros.ros.interfaces import (
     bus_qos,
     diagnostic_array,
     diagnostic_status,
+    line_strip_marker,
     seconds_to_stamp,
 )
 from srs_ros.ros.parameters import REALTIME_PRIORITY, ParameterSpec, declare_parameters
@@ -315,8 +315,8 @@ class SimWorldNode(Node):
         commanded_shape = backbone_points(commanded_m, robot=self.robot, base=state.base_pose)
         diameter_m = 2.0 * self.config.body.skin_radius_m
         self._markers_pub.publish(MarkerArray(markers=[
-            _line_strip(0, "simulated", state.backbone_m, diameter_m, (0.25, 0.25, 0.28, 1.0), stamp),
-            _line_strip(1, "commanded", commanded_shape, 0.004, (0.1, 0.8, 0.2, 0.9), stamp),
+            line_strip_marker(0, "simulated", state.backbone_m, diameter_m, (0.25, 0.25, 0.28, 1.0), stamp),
+            line_strip_marker(1, "commanded", commanded_shape, 0.004, (0.1, 0.8, 0.2, 0.9), stamp),
         ]))
 
     def _publish_diagnostics(self) -> None:
@@ -340,17 +340,6 @@ class SimWorldNode(Node):
             return "WARN", (f"vented by the board's own watchdog: no regulator command for "
                             f"{self.board.command_timeout_s:g} s (is the hardware node running?)")
         return "OK", "stepping in real time"
-
-
-def _line_strip(marker_id: int, namespace: str, points_m: np.ndarray, width_m: float, rgba, stamp) -> Marker:
-    marker = Marker(id=marker_id, ns=namespace, type=Marker.LINE_STRIP, action=Marker.ADD)
-    marker.header.stamp = stamp
-    marker.header.frame_id = FLOOR_FRAME
-    marker.pose.orientation.w = 1.0
-    marker.scale.x = float(width_m)
-    marker.color.r, marker.color.g, marker.color.b, marker.color.a = (float(c) for c in rgba)
-    marker.points = [Point(x=float(x), y=float(y), z=float(z)) for x, y, z in np.asarray(points_m)]
-    return marker
 
 
 def main(args: list[str] | None = None) -> int:

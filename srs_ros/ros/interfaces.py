@@ -12,7 +12,7 @@ Topic graph (relative names, remappable with ``--ros-args -r``)::
     camera_tracker    --robot_pose (PoseStamped), robot_twist (TwistStamped), robot_path (Path)
     navigator         <--goal_pose (PoseStamped), goal_path (Path), robot_pose; drives trajectory_server and
                       gait_player through their parameters and services; --navigation_progress (String, JSON,
-                      reliable+transient_local), /diagnostics
+                      reliable+transient_local), navigation_markers (MarkerArray, for RViz), /diagnostics
 
 Nodes, backends, experiments, tests and benchmarks take names and profiles from here, never as literals.
 """
@@ -26,9 +26,11 @@ from typing import Any
 import numpy as np
 from builtin_interfaces.msg import Duration, Time
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from geometry_msgs.msg import Point
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import Image, JointState
 from std_msgs.msg import Float64MultiArray, MultiArrayDimension, String
+from visualization_msgs.msg import Marker
 
 from srs_ros.core.errors import InvalidInputError
 
@@ -295,6 +297,30 @@ CLOCK_TOPIC = "/clock"
 FLOOR_FRAME = "floor"
 
 
+def floor_marker(marker_id: int, namespace: str, kind: int, rgba: Sequence[float], stamp: Time,
+                 scale_m: Sequence[float] = (1.0, 1.0, 1.0), xyz_m: Sequence[float] = (0.0, 0.0, 0.0)) -> Marker:
+    """An RViz marker of ``kind`` (``Marker.CYLINDER``, ``Marker.TEXT_VIEW_FACING``...) in :data:`FLOOR_FRAME`."""
+    marker = Marker(id=marker_id, ns=namespace, type=kind, action=Marker.ADD)
+    marker.header.stamp = stamp
+    marker.header.frame_id = FLOOR_FRAME
+    marker.pose.position.x, marker.pose.position.y, marker.pose.position.z = (float(v) for v in xyz_m)
+    marker.pose.orientation.w = 1.0
+    marker.scale.x, marker.scale.y, marker.scale.z = (float(v) for v in scale_m)
+    marker.color.r, marker.color.g, marker.color.b, marker.color.a = (float(c) for c in rgba)
+    return marker
+
+
+def line_strip_marker(marker_id: int, namespace: str, points_m, width_m: float, rgba: Sequence[float],
+                      stamp: Time) -> Marker:
+    """A line through ``points_m`` ((n, 3), or (n, 2) on the floor) in :data:`FLOOR_FRAME`, ``width_m`` wide."""
+    points = np.asarray(points_m, dtype=float).reshape(len(points_m), -1) if len(points_m) else np.zeros((0, 3))
+    if points.shape[1] == 2:
+        points = np.column_stack([points, np.zeros(len(points))])
+    marker = floor_marker(marker_id, namespace, Marker.LINE_STRIP, rgba, stamp, (width_m, 0.0, 0.0))
+    marker.points = [Point(x=float(x), y=float(y), z=float(z)) for x, y, z in points]
+    return marker
+
+
 SIM_COMMAND_TOPIC = "sim/regulator_command"
 
 
@@ -339,6 +365,9 @@ GOAL_PATH_TOPIC = "goal_path"
 #: The navigator's progress: std_msgs/String holding one JSON object (:func:`progress_message`), reliable and
 #: transient_local (a late subscriber gets the current state at once).
 NAVIGATION_PROGRESS_TOPIC = "navigation_progress"
+#: What the navigator is doing, drawn for RViz (visualization_msgs/MarkerArray in :data:`FLOOR_FRAME`, reliable and
+#: transient_local): the goal's tolerance disc, the waypoints ahead, the track driven and the state as text.
+NAVIGATION_MARKERS_TOPIC = "navigation_markers"
 
 
 def progress_message(fields: Mapping[str, Any]) -> String:

@@ -58,6 +58,19 @@ def test_a_new_goal_replaces_the_current_one_mid_way(robot):
     assert taken["state"] in ("driving", "stopping") and taken["goal_count"] == 1, taken
     robot.wait(lambda: robot.state()["distance_to_go_m"] < taken["distance_to_go_m"] - 0.05, 60.0,
                "the robot closing on the second goal")
+    # What RViz shows (navigation_markers): the tolerance disc on the second goal, the track driven toward it.
+    robot.wait(lambda: robot.marker("goal") is not None and math.dist(
+        (robot.marker("goal").pose.position.x, robot.marker("goal").pose.position.y), second) < 1e-6, 5.0,
+        "the goal's disc on navigation_markers at the second goal")
+    assert robot.marker("goal").header.frame_id == "floor" and robot.marker("goal").scale.x == pytest.approx(
+        2 * TOLERANCE_M)
+
+    def track():
+        return np.array([(p.x, p.y) for p in robot.marker("track").points]).reshape(-1, 2)
+
+    robot.wait(lambda: len(track()) >= 3 and np.linalg.norm(track()[-1] - track()[0]) > 0.03, 10.0,
+               "a track of 3 cm or more since the second goal on navigation_markers")
+    assert np.linalg.norm(track()[-1] - robot.xy(robot.tracked)) < 0.15  # it ends where the robot is (2 Hz, late)
     assert robot.client.trigger("/navigator/cancel").success
     robot.wait(robot.vented, 5.0, "the vent after the cancel")
 

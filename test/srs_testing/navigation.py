@@ -2,8 +2,8 @@
 
 :class:`NavigationSystem` starts sim_world (MuJoCo, its overhead camera), camera_tracker (colour bands),
 hardware_node (sim rig), trajectory_server, gait_player (no autostart) and the navigator on a
-:class:`~srs_testing.ros.RosSession`'s domain, and gives the client's view of them: the navigator's progress,
-the commanded pressures, the tracked pose and the simulator's ground truth (read by the harness only, to
+:class:`~srs_testing.ros.RosSession`'s domain, and gives the client's view of them: the navigator's progress and
+RViz markers, the commanded pressures, the tracked pose and the simulator's ground truth (read by the harness only, to
 check where the robot really is; the navigator never sees it). The processes use the launch file's Fast DDS profile, so
 camera images travel through shared memory. Random goals as the issue's statistical test
 asks them: :func:`srs_ros.sim.navigation.random_goals`.
@@ -29,6 +29,7 @@ class NavigationSystem:
         from nav_msgs.msg import Path
         from std_msgs.msg import Float64MultiArray, String
         from std_srvs.srv import Trigger
+        from visualization_msgs.msg import MarkerArray
 
         from srs_ros.core.robot import config_dir
         from srs_ros.ros.interfaces import (
@@ -36,6 +37,7 @@ class NavigationSystem:
             GOAL_PATH_TOPIC,
             GOAL_POSE_TOPIC,
             GROUND_TRUTH_TOPIC,
+            NAVIGATION_MARKERS_TOPIC,
             NAVIGATION_PROGRESS_TOPIC,
             POSE_TOPIC,
             latched_qos,
@@ -55,6 +57,7 @@ class NavigationSystem:
         self.navigator = session.launch("navigator", ros_args({"calibration_preset": "sim_bands",
                                                                **(navigator_params or {})}))
         self.progress = client.subscribe(String, NAVIGATION_PROGRESS_TOPIC, latched_qos())
+        self.markers = client.subscribe(MarkerArray, NAVIGATION_MARKERS_TOPIC, latched_qos())
         self.pressures = client.subscribe(Float64MultiArray, COMMANDED_PRESSURE_TOPIC)
         self.tracked = client.subscribe(PoseStamped, POSE_TOPIC)
         self.truth = client.subscribe(PoseStamped, GROUND_TRUTH_TOPIC)
@@ -72,6 +75,11 @@ class NavigationSystem:
         from srs_ros.ros.interfaces import progress_fields
 
         return progress_fields(self.progress[-1])
+
+    def marker(self, namespace: str):
+        """The navigator's newest RViz marker of ``namespace`` ("goal", "status", "path ahead", "track"), or None."""
+        newest = {m.ns: m for m in self.markers[-1].markers} if self.markers else {}
+        return newest.get(namespace)
 
     @staticmethod
     def xy(poses) -> np.ndarray:

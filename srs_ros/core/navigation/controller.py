@@ -124,6 +124,13 @@ class NavigationController(CruiseStopping, FineDriving, EdgeGuard):
         return tuple(self._goals)
 
     @property
+    def goals_ahead(self) -> tuple[tuple[float, float], ...]:
+        """The goals still to drive to, the current one first (a patrol: its next round's worth); none at rest."""
+        if not self.state.active:
+            return ()
+        return tuple(self._goals[self._index:self._index + max(self._waypoint_count, 1)])
+
+    @property
     def goal(self) -> tuple[float, float] | None:
         """The goal now driven to, None when there is none."""
         return self._goals[self._index] if self._goals else None

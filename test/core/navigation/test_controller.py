@@ -231,10 +231,12 @@ def test_a_path_followed_in_rounds_names_the_waypoint_and_the_round():
     controller, path = NavigationController(settings(), AREA), [(0.0, -0.3), (0.0, 0.4)]
     assert controller.set_path(path, 0.0, rounds=100).accepted
     assert controller.progress(0.0).message == "driving to waypoint 1 of 2 (round 1) at (0.000, -0.300) m"
+    assert controller.goals_ahead == tuple(path)  # what navigation_markers draws ahead: a round's worth
     said = []
     for time_s, (x_m, y_m) in enumerate(path + path[:1], start=1):  # on each waypoint in turn: the next one
         controller.update_pose(Pose2D(x_m, y_m, 0.0, float(time_s)))
         said.append(controller.progress(float(time_s)).message)
+        assert controller.goals_ahead == (path[time_s % 2], path[(time_s + 1) % 2])
     assert said == ["waypoint reached; driving to waypoint 2 of 2 (round 1)",
                     "waypoint reached; driving to waypoint 1 of 2 (round 2)",
                     "waypoint reached; driving to waypoint 2 of 2 (round 2)"]
@@ -242,6 +244,10 @@ def test_a_path_followed_in_rounds_names_the_waypoint_and_the_round():
     assert controller.waypoint() == (1, 2, 2)  # what the navigator node publishes: waypoint 2 of 2, round 2
     controller.set_path(path, 4.0)
     assert controller.progress(4.0).message == "driving to goal 1 of 2 at (0.000, -0.300) m"
+    controller.update_pose(Pose2D(*path[0], 0.0, 5.0))  # a plain path: only what is left of it lies ahead
+    assert controller.goals_ahead == tuple(path[1:])
+    controller.cancel(6.0, "test")
+    assert controller.goals_ahead == ()  # nothing ahead once it stopped working
 
 
 @pytest.mark.parametrize("tolerance_m", [0.15, 0.05])
