@@ -37,6 +37,9 @@ from srs_ros.experiments.turning import measure_turn_phase
 from srs_ros.sim.config import load_sim_config
 from srs_ros.sim.navigation import Latency, random_goals, run_navigation
 
+#: Each goal is given up after this long by default (s): every table before stop 53 used it.
+GOAL_TIMEOUT_S = 60.0
+
 
 def gait_speed_m_s(config) -> float:
     """Straight rolling speed (turn_phase_rad 0), mean of both directions, on ``config``."""
@@ -45,7 +48,8 @@ def gait_speed_m_s(config) -> float:
     return statistics.mean(m.speed_m_s for m in runs)
 
 
-def report(label, config, goals, camera, settings, latency=None, goal_timeout_s=60.0) -> tuple[int, list[float]]:
+def report(label, config, goals, camera, settings, latency=None,
+           goal_timeout_s=GOAL_TIMEOUT_S) -> tuple[int, list[float]]:
     """Drive to ``goals`` and print the figures; returns (goals reached, time ratio of every goal)."""
     started = time.perf_counter()
     speed = gait_speed_m_s(config)
@@ -79,13 +83,15 @@ def main() -> None:
                         help="only this friction (repeatable; default both)")
     parser.add_argument("--latency", type=float, nargs=2, metavar=("POSE_S", "COMMAND_S"),
                         help="poses and commands this late, and a 0.3 s stall every 10 s on average")
-    parser.add_argument("--goal-timeout-s", type=float, default=60.0,
+    parser.add_argument("--goal-timeout-s", type=float, default=GOAL_TIMEOUT_S,
                         help="each goal is given up after this long (s; default 60, every table before stop 53); "
                         "bench_navigation_ros.py gives 120")
     parser.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
                         help="a navigation setting (e.g. stop_cycle_ahead=false, "
                         "turning_map_file=config/turning_map_calibrated_paper.yaml)")
     args = parser.parse_args()
+    if not args.goal_timeout_s > 0.0:
+        parser.error(f"--goal-timeout-s {args.goal_timeout_s:g}: expected a time over 0 s, e.g. 60 or 120")
     overrides = {}
     for item in args.set:
         name, _, value = item.partition("=")

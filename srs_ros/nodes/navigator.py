@@ -11,7 +11,7 @@ Interface (relative names)::
                 navigation_markers   visualization_msgs/MarkerArray  frame 'floor', for RViz: the goal's tolerance
                                                                 disc coloured by state, the waypoints ahead, the
                                                                 track driven, the state as text (reliable +
-                                                                transient_local, every MARKERS_PERIOD_S)
+                                                                transient_local; srs_ros.ros.navigation_markers)
                 /diagnostics         diagnostic_msgs/DiagnosticArray  "navigator: navigation"
     services    ~/cancel             std_srvs/Trigger           stop (ramp out, vent); state cancelled
     calls       trajectory_server/set_parameters_atomically, trajectory_server/regenerate,
@@ -50,7 +50,7 @@ from rclpy.node import Node
 from sensor_msgs.msg import JointState
 from std_msgs.msg import String
 from std_srvs.srv import Trigger
-from visualization_msgs.msg import Marker, MarkerArray
+from visualization_msgs.msg import MarkerArray
 
 from srs_ros.core.errors import ConfigurationError, SrsError
 from srs_ros.core.navigation import (
@@ -75,13 +75,12 @@ from srs_ros.ros.interfaces import (
     POSE_TOPIC,
     diagnostic_array,
     diagnostic_status,
-    floor_marker,
     latched_qos,
-    line_strip_marker,
     progress_message,
     setpoint_qos,
     stamp_to_seconds,
 )
+from srs_ros.ros.navigation_markers import MARKERS_PERIOD_S, Track, navigation_markers
 from srs_ros.ros.parameters import ParameterSpec, check_parameters, declare_parameters
 from srs_ros.ros.process import run_node, steady_timer
 
@@ -93,16 +92,6 @@ STATUS_NAME_SUFFIX = "navigation"
 STARTUP_SETTINGS = frozenset({"turn_levels_rad", "learning_rate", "turning_map_file"})
 #: Rounds of a looped path given to the controller at once (it drives through them without stopping).
 LOOP_ROUNDS = 100
-#: navigation_markers: published at most this often (s), and at every state change; the track driven keeps a point
-#: every TRAIL_STEP_M of motion, every other one dropped past TRAIL_MAX_POINTS.
-MARKERS_PERIOD_S = 0.5
-TRAIL_STEP_M = 0.01
-TRAIL_MAX_POINTS = 2000
-#: The goal's disc by state (RGBA): driving amber, reached green, failed or pose lost red, cancelled grey.
-STATE_RGBA = {NavigationState.DRIVING: (1.0, 0.65, 0.0, 0.6), NavigationState.STOPPING: (1.0, 0.65, 0.0, 0.6),
-              NavigationState.REACHED: (0.1, 0.8, 0.2, 0.6), NavigationState.FAILED: (0.9, 0.1, 0.1, 0.6),
-              NavigationState.POSE_LOST: (0.9, 0.1, 0.1, 0.6)}
-IDLE_RGBA = (0.6, 0.6, 0.6, 0.5)
 #: The gait's phase is extrapolated from a gait_phase message at most this far (s): farther, it is not known.
 PHASE_MAX_AGE_S = 0.25
 
@@ -176,28 +165,6 @@ def progress_fields(progress, **extra: Any) -> dict[str, Any]:
     return {**fields, **extra}
 
 
-def navigation_markers(progress, goals_ahead, robot_xy_m, trail_xy_m, tolerance_m: float, stamp) -> MarkerArray:
-    """What the navigator does, drawn for RViz (``navigation_markers``).
-
-    The goal's tolerance disc coloured by state with the state as text over it, the line from the robot through the
-    waypoints ahead, and the track driven since the goal came; no goal yet: every marker deleted.
-    """
-    if progress.goal_xy_m is None:
-        return MarkerArray(markers=[Marker(action=Marker.DELETEALL)])
-    gx, gy = progress.goal_xy_m
-    rgba = STATE_RGBA.get(progress.state, IDLE_RGBA)
-    disc = floor_marker(0, "goal", Marker.CYLINDER, rgba, stamp, (2 * tolerance_m, 2 * tolerance_m, 0.004),
-                        (gx, gy, 0.002))
-    text = floor_marker(1, "status", Marker.TEXT_VIEW_FACING, (1.0, 1.0, 1.0, 0.9), stamp, (0.0, 0.0, 0.05),
-                        (gx, gy, 0.12))
-    text.text = f"{progress.state.value}: {100 * progress.distance_to_go_m:.1f} cm to go" \
-        if math.isfinite(progress.distance_to_go_m) else progress.state.value
-    ahead = ([robot_xy_m] if robot_xy_m is not None else []) + list(goals_ahead)
-    path = line_strip_marker(2, "path ahead", ahead if len(ahead) > 1 else [], 0.006, (1.0, 0.65, 0.0, 0.8), stamp)
-    trail = line_strip_marker(3, "track", trail_xy_m, 0.004, (0.2, 0.5, 1.0, 0.8), stamp)
-    return MarkerArray(markers=[disc, text, path, trail])
-
-
 class Navigator(Node):
     """ROS wiring of a :class:`NavigationController` and a :class:`GaitDriver`."""
 
@@ -214,7 +181,7 @@ class Navigator(Node):
         self._refusal = ""  # the last refused goal's reason, until a goal is accepted
         self._last_state = None
         self._last_pose_s = math.nan
-        self._trail: list[tuple[float, float]] = []  # the track driven since the last goal accepted
+        self._track = Track()  # the tracked places since the last goal accepted
         self._markers_due_s = 0.0
         self.add_on_set_parameters_callback(self._check_parameters)
         self.add_post_set_parameters_callback(self._apply_parameters)
@@ -301,7 +268,8 @@ class Navigator(Node):
             self.get_logger().warning(f"{what} refused: {refusal}")
         else:
             self._refusal, self._path, self._loop = "", points, loop
-            self._trail = self._trail[-1:]
+            self._track.restart()
+            self._markers_due_s = 0.0  # the new goal drawn at once
             self.get_logger().info(f"{what} accepted{' (patrolled in a loop)' if loop else ''}: {decision.reason}")
         self._after_event(now)
 
@@ -362,7 +330,7 @@ class Navigator(Node):
             self.get_logger().error(f"robot_pose ignored: {exc}", throttle_duration_sec=5.0)
             return
         self._last_pose_s = arrival
-        self._extend_trail(pose)
+        self._track.add(pose.x_m, pose.y_m)
         if self._loop and self._nav.state is NavigationState.REACHED:  # after LOOP_ROUNDS rounds: go on
             self._nav.set_path(self._path, pose.time_s, rounds=LOOP_ROUNDS)
             self._nav.update_pose(dataclasses.replace(pose, time_s=pose.time_s + 1e-6))
@@ -374,8 +342,8 @@ class Navigator(Node):
     def _after_event(self, now: float) -> None:
         self._driver.drive(self._nav.tick(now))
         self._publish_progress(now)
-        if self._nav.state != self._last_state or now >= self._markers_due_s:
-            self._publish_markers(now)
+        if self._nav.state != self._last_state or (now >= self._markers_due_s and self._nav.goal is not None):
+            self._publish_markers(now)  # before any goal: the one DELETEALL of the first state
         if self._nav.state != self._last_state:
             self._last_state = self._nav.state
             progress = self._nav.progress(now)
@@ -402,18 +370,11 @@ class Navigator(Node):
         progress = self._nav.progress(now)
         self._progress_pub.publish(progress_message(progress_fields(progress, **self._extra(now))))
 
-    def _extend_trail(self, pose: Pose2D) -> None:
-        if self._trail and math.dist(self._trail[-1], (pose.x_m, pose.y_m)) < TRAIL_STEP_M:
-            return
-        self._trail.append((pose.x_m, pose.y_m))
-        if len(self._trail) > TRAIL_MAX_POINTS:
-            self._trail = self._trail[::2]
-
     def _publish_markers(self, now: float) -> None:
         self._markers_due_s = now + MARKERS_PERIOD_S
-        robot = self._trail[-1] if self._trail else None
         self._markers_pub.publish(navigation_markers(
-            self._nav.progress(now), self._nav.goals_ahead, robot, self._trail, self._nav.settings.goal_tolerance_m,
+            self._nav.progress(now), self._nav.goals_ahead, self._track.last, self._track.points,
+            self._nav.settings.goal_tolerance_m,
             self.get_clock().now().to_msg()))
 
     def _publish_diagnostics(self) -> None:

@@ -12,7 +12,7 @@ from visualization_msgs.msg import Marker
 
 from srs_ros.core.navigation import NavigationState
 from srs_ros.core.navigation.commands import NavigationProgress
-from srs_ros.nodes.navigator import STATE_RGBA, navigation_markers
+from srs_ros.ros.navigation_markers import STATE_RGBA, Track, navigation_markers
 
 STAMP = Time(sec=12, nanosec=5)
 
@@ -49,7 +49,7 @@ def test_the_discs_colour_tells_driving_reached_and_failed_apart_and_nothing_is_
         markers = by_namespace(navigation_markers(progress(state, distance_m=0.03), [], (0.39, -0.2), [], 0.05, STAMP))
         c = markers["goal"].color
         colours[state] = (c.r, c.g, c.b)
-        assert markers["path ahead"].points == []  # no goal ahead: no line from the robot
+        assert markers["path ahead"].action == Marker.DELETE  # no goal ahead: no line from the robot
     assert len(set(colours.values())) == 4, colours
     assert colours[NavigationState.REACHED] == pytest.approx(STATE_RGBA[NavigationState.REACHED][:3])
     assert colours[NavigationState.REACHED][1] > 0.5 and colours[NavigationState.FAILED][0] > 0.5  # green, red
@@ -62,4 +62,18 @@ def test_before_any_goal_every_marker_is_deleted_and_an_unknown_distance_shows_t
     markers = by_namespace(navigation_markers(progress(NavigationState.POSE_LOST, distance_m=math.nan), [(0.4, -0.2)],
                                               None, [], 0.05, STAMP))
     assert markers["status"].text == "pose_lost"
-    assert markers["path ahead"].points == []  # the robot's place unknown: no line
+    assert markers["path ahead"].action == Marker.DELETE  # the robot's place unknown: one point, nothing to draw
+    assert markers["track"].action == Marker.DELETE
+
+
+def test_the_track_keeps_a_point_a_step_thins_itself_and_restarts_from_the_last_place():
+    track = Track(step_m=0.01, max_points=8)
+    for i in range(40):  # 5 mm apart: every other one is a step
+        track.add(0.005 * i, 0.0)
+    assert len(track.points) <= 8 and track.points[0] == (0.0, 0.0)
+    assert np.all(np.diff(np.array(track.points)[:, 0]) >= 0.01 - 1e-12)  # in order, a step or more apart
+    assert track.last == track.points[-1] and track.last[0] >= 0.18  # still reaches the newest place
+    track.restart()
+    assert track.points == [track.last]
+    track.add(track.last[0] + 0.004, 0.0)  # under a step: not kept
+    assert len(track.points) == 1

@@ -50,8 +50,9 @@ def test_a_new_goal_replaces_the_current_one_mid_way(robot):
     first, second = start + [-0.458, 0.040], start + [-0.581, -0.281]
     robot.goal(*first)
     robot.wait_state({"driving"}, 10.0, "driving to the first goal")
-    robot.wait(lambda: np.linalg.norm(robot.xy(robot.tracked) - start) > 0.05, 60.0,
+    robot.wait(lambda: np.linalg.norm(robot.xy(robot.tracked) - start) > 0.10, 60.0,
                "the robot on its way to the first goal")
+    at_second = robot.xy(robot.tracked)
     robot.goal(*second)
     robot.wait(lambda: robot.state()["goal_xy_m"] == pytest.approx(list(second)), 5.0, "the second goal taken over")
     taken = robot.state()
@@ -70,7 +71,11 @@ def test_a_new_goal_replaces_the_current_one_mid_way(robot):
 
     robot.wait(lambda: len(track()) >= 3 and np.linalg.norm(track()[-1] - track()[0]) > 0.03, 10.0,
                "a track of 3 cm or more since the second goal on navigation_markers")
-    assert np.linalg.norm(track()[-1] - robot.xy(robot.tracked)) < 0.15  # it ends where the robot is (2 Hz, late)
+    # It starts where the robot was when the second goal came (not at the first goal's start, 10 cm or more back) ...
+    assert np.linalg.norm(track()[0] - at_second) < np.linalg.norm(track()[0] - start), (track()[0], at_second, start)
+    # ... and ends where the camera sees the robot (the markers come at 2 Hz and may be late on a busy machine).
+    robot.wait(lambda: np.linalg.norm(track()[-1] - robot.xy(robot.tracked)) < 0.05, 10.0,
+               "the track's end at the robot's tracked place")
     assert robot.client.trigger("/navigator/cancel").success
     robot.wait(robot.vented, 5.0, "the vent after the cancel")
 

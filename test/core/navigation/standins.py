@@ -6,14 +6,15 @@ offset 1-2 cm off the map's guess, and reports the gait phase. :class:`Amplitude
 the physics is (measured at 2 bar 0.25 Hz, docs/studies/navigation.md): at the fine amplitude it rolls square to its
 body, hardly turns and rests 2 cm past where it stopped; at 4 bar it rests 12-20 cm ahead against the map's 5 cm.
 :class:`AxisRoller` also moves along its axis by the serpentine. :func:`drive` and :func:`drive_to` play the loop
-a navigator node plays: gait phase and pose in, a tick, the command to the stand-in, every 1/30 s.
+a navigator node plays: gait phase and pose in, a tick, the command to the stand-in, every 1/30 s; :func:`run` drives
+one of :data:`GOALS` with the default settings (or the fine approach at another reach).
 """
 
 import math
 
 import numpy as np
 
-from srs_ros.core.navigation import FloorArea, Pose2D, load_navigation_settings
+from srs_ros.core.navigation import FloorArea, NavigationController, Pose2D, load_navigation_settings
 from srs_ros.core.navigation.settings import DIRECTIONS, STOP_PHASES, DirectionMap, TurningMap
 
 LEVELS = np.array([-0.5, -0.35, -0.2, 0.0, 0.2, 0.35, 0.5])
@@ -151,3 +152,16 @@ def drive_to(controller, roller, goal, start_s=0.0, until_s=120.0):
             played.append(controller.command)
 
     return played, drive(controller, roller, start_s + until_s, start_s, each_frame=each_frame, until_at_rest=True)
+
+
+def run(fine_distance_m, goal, until_s=120.0, roller=None):
+    """Drive to ``goal`` until the stand-in rests: the controller, the stand-in and the amplitudes played."""
+    overrides = {} if fine_distance_m is None else {"fine_distance_m": fine_distance_m}  # None: the default
+    settings = load_navigation_settings(overrides, turning_map=MAP)
+    controller, roller = NavigationController(settings, AREA), roller or AmplitudeRoller()
+    played, _ = drive_to(controller, roller, goal, until_s=until_s)
+    return controller, roller, {command.amplitude_bar for command in played}
+
+
+#: Goals in three directions from the start, for the fine approach's tests.
+GOALS = [(0.0, 0.6), (0.5, 0.5), (-0.3, -0.6)]

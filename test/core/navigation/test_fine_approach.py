@@ -20,7 +20,7 @@ from srs_ros.core.navigation.motion import PoseHistory
 from srs_ros.core.navigation.settings import DIRECTIONS
 from srs_ros.core.navigation.stopping import landing_ahead
 
-from .standins import AREA, FRAME_S, MAP, AmplitudeRoller, drive_to
+from .standins import AREA, FRAME_S, GOALS, MAP, AmplitudeRoller, run
 
 
 class WeakCreepRoller(AmplitudeRoller):
@@ -30,18 +30,6 @@ class WeakCreepRoller(AmplitudeRoller):
         if command.moving:
             self.travel_m_per_cycle = 0.01 if command.amplitude_bar <= 1.5 else 0.09
         super().step(command, now_s)
-
-
-def run(fine_distance_m, goal, until_s=120.0, roller=None):
-    """Drive to ``goal`` until the stand-in rests: the controller, the stand-in and the amplitudes played."""
-    overrides = {} if fine_distance_m is None else {"fine_distance_m": fine_distance_m}  # None: the default
-    settings = load_navigation_settings(overrides, turning_map=MAP)
-    controller, roller = NavigationController(settings, AREA), roller or AmplitudeRoller()
-    played, _ = drive_to(controller, roller, goal, until_s=until_s)
-    return controller, roller, {command.amplitude_bar for command in played}
-
-
-GOALS = [(0.0, 0.6), (0.5, 0.5), (-0.3, -0.6)]
 
 
 def test_a_robot_resting_far_from_the_maps_guess_creeps_onto_the_goal():

@@ -14,8 +14,7 @@ import pytest
 from srs_ros.core.navigation import NavigationController, NavigationState, Pose2D, load_navigation_settings
 from srs_ros.core.navigation.settings import STOP_PHASES
 
-from .standins import AREA, FRAME_S, MAP, AmplitudeRoller, AxisRoller, drive, drive_to
-from .test_fine_approach import GOALS, run
+from .standins import AREA, FRAME_S, GOALS, MAP, AmplitudeRoller, AxisRoller, drive, drive_to, run
 
 
 def test_a_goal_near_the_resting_robot_and_near_its_axis_is_turned_to_on_the_spot_not_driven_round():
