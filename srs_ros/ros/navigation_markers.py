@@ -72,7 +72,8 @@ def navigation_markers(progress, goals_ahead, robot_xy_m, trail_xy_m, tolerance_
                         (gx, gy, 0.002))
     text = floor_marker(STATUS[1], STATUS[0], Marker.TEXT_VIEW_FACING, (1.0, 1.0, 1.0, 0.9), stamp, (0.0, 0.0, 0.05),
                         (gx, gy, 0.12))
-    text.text = f"{progress.state.value}: {100 * progress.distance_to_go_m:.1f} cm to go" \
+    where = "to go" if progress.state.active else "from the goal"
+    text.text = f"{progress.state.value}: {100 * progress.distance_to_go_m:.1f} cm {where}" \
         if math.isfinite(progress.distance_to_go_m) else progress.state.value
     ahead = ([robot_xy_m] if robot_xy_m is not None and goals_ahead else []) + list(goals_ahead)
     return MarkerArray(markers=[disc, text, _line(PATH_AHEAD, ahead, 0.006, DRIVING_RGBA[:3] + (0.8,), stamp),

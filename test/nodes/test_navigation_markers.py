@@ -50,6 +50,7 @@ def test_the_discs_colour_tells_driving_reached_and_failed_apart_and_nothing_is_
         c = markers["goal"].color
         colours[state] = (c.r, c.g, c.b)
         assert markers["path ahead"].action == Marker.DELETE  # no goal ahead: no line from the robot
+        assert markers["status"].text == f"{state.value}: 3.0 cm " + ("to go" if state.active else "from the goal")
     assert len(set(colours.values())) == 4, colours
     assert colours[NavigationState.REACHED] == pytest.approx(STATE_RGBA[NavigationState.REACHED][:3])
     assert colours[NavigationState.REACHED][1] > 0.5 and colours[NavigationState.FAILED][0] > 0.5  # green, red
