@@ -341,12 +341,11 @@ class Navigator(Node):
 
     def _after_event(self, now: float) -> None:
         self._driver.drive(self._nav.tick(now))
-        self._publish_progress(now)
+        progress = self._publish_progress(now)
         if self._nav.state != self._last_state or (now >= self._markers_due_s and self._nav.goal is not None):
-            self._publish_markers(now)  # before any goal: the one DELETEALL of the first state
+            self._publish_markers(now, progress)  # before any goal: the one DELETEALL of the first state
         if self._nav.state != self._last_state:
             self._last_state = self._nav.state
-            progress = self._nav.progress(now)
             where = ""
             if self._loop:
                 extra = self._extra(now)
@@ -365,16 +364,17 @@ class Navigator(Node):
                 "gait_playing": self._driver.playing, "gait_phase": phase,
                 "waypoint_index": index, "waypoint_count": count, "round": round_}
 
-    def _publish_progress(self, now: float | None = None) -> None:
+    def _publish_progress(self, now: float | None = None):
+        """Publish navigation_progress; the progress it published."""
         now = time.monotonic() if now is None else now
         progress = self._nav.progress(now)
         self._progress_pub.publish(progress_message(progress_fields(progress, **self._extra(now))))
+        return progress
 
-    def _publish_markers(self, now: float) -> None:
+    def _publish_markers(self, now: float, progress) -> None:
         self._markers_due_s = now + MARKERS_PERIOD_S
         self._markers_pub.publish(navigation_markers(
-            self._nav.progress(now), self._nav.goals_ahead, self._track.last, self._track.points,
-            self._nav.settings.goal_tolerance_m,
+            progress, self._nav.goals_ahead, self._track.last, self._track.points, self._nav.settings.goal_tolerance_m,
             self.get_clock().now().to_msg()))
 
     def _publish_diagnostics(self) -> None:
