@@ -189,7 +189,7 @@ def test_sigkill_of_the_hardware_node_lets_the_board_vent_by_itself(launch_node,
     try:
         rig = socketcand_rig(tmp_path, daemon.port, rate_hz=100.0, setpoint_timeout_s=5.0, board_timeout_s=timeout_s)
         node = launch_node("hardware_node", ros_args({"rig_file": str(rig), "autostart": True}))
-        assert ros_client.trigger("/hardware_node/arm").success  # real regulators: the operator's go
+        assert ros_client.trigger("/hardware_node/arm", repeatable=True).success  # real regulators: the operator's go
         publisher = ros_client.node.create_publisher(JointState, SETPOINT_TOPIC, setpoint_qos())
         setpoint = JointState(name=list(default_robot().joint_names), position=[0.02] * 9)  # 2 bar
         applied = board_applies(board, 2.0 * V_PER_BAR)

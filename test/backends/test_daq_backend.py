@@ -410,7 +410,7 @@ def test_hardware_node_takes_an_expired_watchdog_through_its_fault_path_and_reco
     ros_client.spin_until(lambda: ros_client.lifecycle_state("/hardware_node") == "unconfigured", what="node up")
     for transition in ("configure", "activate"):
         assert ros_client.change_state("/hardware_node", transition), node.output()
-    assert ros_client.trigger("/hardware_node/arm").success  # real regulators: the operator's go
+    assert ros_client.trigger("/hardware_node/arm", repeatable=True).success  # real regulators: the operator's go
     stream_until(lambda: ros_client.lifecycle_state("/hardware_node") == "unconfigured",
                  "the expired watchdog to take the node through ErrorProcessing")
     assert any(max(m.data) == pytest.approx(2.0) for m in commanded)  # it was commanding 2 bar before the stall
