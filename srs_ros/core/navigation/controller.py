@@ -357,19 +357,25 @@ class NavigationController(CruiseStopping, FineDriving, EdgeGuard):
         return best
 
     def _out_of_reach(self, direction: str, error: float, distance_m: float, margin: float) -> bool:
-        """True when the goal lies inside the tightest turn toward it and a straight line would miss it."""
+        """True when the goal lies inside the tightest turn toward it and a straight line would miss it.
+
+        ``margin`` (over 1: the test that ends a backing leg) widens the turn and narrows every way of counting
+        the goal in reach (the line's and the tightest arc's miss), so a goal near a threshold does not switch
+        the robot between backing and driving (docs/studies/navigation.md, "A backing leg ended by the test that
+        began it").
+        """
         settings, miss_m = self.settings, distance_m * abs(math.sin(error))
-        if abs(error) >= 0.5 * math.pi or miss_m <= STRAIGHT_WITHIN * settings.goal_tolerance_m:
+        if abs(error) >= 0.5 * math.pi or miss_m * margin <= STRAIGHT_WITHIN * settings.goal_tolerance_m:
             return False
         sign, reach_m = (1 if error >= 0.0 else -1), BACK_UNLESS_MISS_WITHIN * FINE_STOP_NEAR * settings.fine_distance_m
-        if miss_m <= reach_m:  # driven on: the cruise stops near it and the fine approach finishes from rest
+        if miss_m * margin <= reach_m:  # driven on: the cruise stops near it and the fine approach finishes from rest
             return False
         weak = max(self.turns.fastest_deg(d, sign)[1] * sign for d in DIRECTIONS) < WEAK_TURN_DEG_PER_CYCLE
         index, rate_deg = self.turns.fastest_deg(direction, sign)
         if rate_deg * sign <= 1.0:
             return True
         radius_m = float(self.travel.travel_m[direction][index]) / math.radians(abs(rate_deg))
-        if weak and arc_miss_m(radius_m, distance_m, error) <= reach_m:
+        if weak and arc_miss_m(radius_m, distance_m, error) * margin <= reach_m:
             return False
         return distance_m < margin * settings.reach_margin * 2.0 * radius_m * abs(math.sin(error))
 

@@ -72,6 +72,23 @@ def test_a_robot_that_hardly_turns_drives_on_to_a_goal_its_line_or_arc_nearly_pa
     assert any(backing) is backs
 
 
+def test_a_backing_leg_is_not_ended_by_the_test_that_began_it():
+    """A three-point turn begins when the goal is out of reach (margin 1) and its backing leg ends when the goal is
+    back in reach with a margin of 1.2. The margin now also narrows the fine approach's reach, which lets a goal
+    the line nearly passes be driven on to: before, a goal 11 cm away along the calibrated body passed and failed
+    that reach by turns, and the robot switched between backing and driving every 0.4-2 s for 37 s, drifting 11 ->
+    42 cm away (docs/studies/navigation.md, "A backing leg ended by the test that began it")."""
+    controller = NavigationController(load_navigation_settings({}), AREA)
+    reach_m = controller_module.BACK_UNLESS_MISS_WITHIN * controller_module.FINE_STOP_NEAR * \
+        controller.settings.fine_distance_m
+    error = math.radians(60.0)
+    for miss_m, begins, keeps_backing in ((1.05 * reach_m, True, True), (0.95 * reach_m, False, True),
+                                         (0.8 * reach_m, False, False)):
+        distance_m = miss_m / math.sin(error)
+        assert controller._out_of_reach("inward_rolling", error, distance_m, 1.0) is begins, miss_m
+        assert controller._out_of_reach("inward_rolling", error, distance_m, 1.2) is keeps_backing, miss_m
+
+
 def one_way_inward(direction: str, turn_phase_rad):
     """Inward rolling turns counter-clockwise only (up to 10 deg per cycle), outward both ways (up to 20)."""
     if direction == "inward_rolling":
