@@ -8,10 +8,14 @@ Before the fix the hardware node faulted (`sim_world silent for 0.20 s`) and the
 Where the kernel groups the CPU by session (autogroup: Debian's default), each node, started in a session of its
 own, meets the busy processes only through the pytest worker's session, which is saturated whether they are niced
 or not; their niceness, :func:`load_prefix`, then decides only how that session's CPU is split between them and
-the suite's other tests. So there the busy and param-get processes run at nice 10: in the whole suite they no longer
-take 1.5 of the 2 cores for a minute (measured beside test_cluster.py and test_opencv46.py: the three files in
-75-81 s instead of 87-90 s), and the nodes are loaded no less (the world's clock slipped 0.8-1.1 s in 5-8 slips
-against 0.3 s in 2). Without autogroup, niceness would shield the nodes from the load, so they run at normal priority.
+the rest of the worker's session (the other xdist workers' tests, and this test's own parameter reads). So there
+the busy and param-get processes run at nice 10. Measured (stop 54) with this file beside test_cluster.py and
+test_opencv46.py in three workers: the three files took 75 and 81 s (two runs) against 87 and 89 s (two runs)
+without the niceness, test_opencv46.py 29-32 s against 57-63 s; the nodes were loaded no less: the world's clock
+slipped 0.8 and 1.1 s (5 and 8 slips) against 0.3 s (2 slips) in the one run without it that printed it. Without
+autogroup, niceness would shield the nodes from the load, so they run at normal priority. The check reads
+/proc: in a container with a cgroup namespace of its own on cgroup v1, where /proc/self/cgroup says "/" for a
+cgroup that is not the host's root, it cannot tell, and the processes would be niced there too.
 """
 
 import subprocess
@@ -56,7 +60,9 @@ def load_prefix() -> list[str]:
         return []
     cpu = [path for _, controllers, path in cgroups if "cpu" in controllers.split(",")]
     unified = [path for number, controllers, path in cgroups if number == "0" and not controllers]
-    in_root = (cpu or unified or ["?"])[0] == "/"  # autogroup acts only in the root CPU cgroup
+    # autogroup acts only in the root CPU cgroup; a cgroup v2 namespace shows "/" for its own, which has cpu.weight
+    in_root = cpu[0] == "/" if cpu else bool(unified) and unified[0] == "/" and not Path(
+        "/sys/fs/cgroup/cpu.weight").exists()
     return ["nice", "-n", "10"] if grouped and in_root else []
 
 

@@ -74,10 +74,11 @@ def test_a_robot_that_hardly_turns_drives_on_to_a_goal_its_line_or_arc_nearly_pa
 
 def test_a_backing_leg_is_not_ended_by_the_test_that_began_it():
     """A three-point turn begins when the goal is out of reach (margin 1) and its backing leg ends when the goal is
-    back in reach with a margin of 1.2. The margin now also narrows the fine approach's reach, which lets a goal
-    the line nearly passes be driven on to: before, a goal 11 cm away along the calibrated body passed and failed
-    that reach by turns, and the robot switched between backing and driving every 0.4-2 s for 37 s, drifting 11 ->
-    42 cm away (docs/studies/navigation.md, "A backing leg ended by the test that began it")."""
+    back in reach with a margin of 1.2. The margin now also narrows each way of counting the goal in reach (here the
+    line's miss against the fine approach's reach, and a weak turner's tightest arc), so the robot keeps backing
+    until the goal is clearly in reach. Before, a goal 13 cm away along the calibrated body, its line's miss near
+    that reach, switched the robot between backing and driving every 0.4-2 s for 37 s, drifting 11 -> 42 cm away
+    (docs/studies/navigation.md, "A backing leg ended by the test that began it")."""
     controller = NavigationController(load_navigation_settings({}), AREA)
     reach_m = controller_module.BACK_UNLESS_MISS_WITHIN * controller_module.FINE_STOP_NEAR * \
         controller.settings.fine_distance_m
@@ -87,6 +88,13 @@ def test_a_backing_leg_is_not_ended_by_the_test_that_began_it():
         distance_m = miss_m / math.sin(error)
         assert controller._out_of_reach("inward_rolling", error, distance_m, 1.0) is begins, miss_m
         assert controller._out_of_reach("inward_rolling", error, distance_m, 1.2) is keeps_backing, miss_m
+    # a weak turner (2.5 deg per cycle: a 2.06 m radius): the goal 0.38 m away, 20 deg off; the line misses it by
+    # 13 cm, the tightest arc by 9.7 cm, between the reach (10.5 cm) and the reach / 1.2
+    weak = NavigationController(load_navigation_settings({}, turning_map=WEAK_MAP), AREA)
+    error, distance_m = math.radians(20.0), 0.38
+    assert reach_m / 1.2 < arc_miss_m(0.09 / math.radians(2.5), distance_m, error) < reach_m
+    assert weak._out_of_reach("inward_rolling", error, distance_m, 1.0) is False  # driven on: its arc passes near
+    assert weak._out_of_reach("inward_rolling", error, distance_m, 1.2) is True  # a backing leg goes on
 
 
 def one_way_inward(direction: str, turn_phase_rad):
