@@ -7,12 +7,13 @@ Before the fix the hardware node faulted (`sim_world silent for 0.20 s`) and the
 
 Where the kernel groups the CPU by session (autogroup: Debian's default), each node, started in a session of its
 own, meets the busy processes only through the pytest worker's session, which is saturated whether they are niced
-or not; their niceness, :func:`load_prefix`, then decides only how that session's CPU is split between them and
+or not; their niceness, :func:`load_prefix`, then decides mostly how that session's CPU is split between them and
 the rest of the worker's session (the other xdist workers' tests, and this test's own parameter reads). So there
 the busy and param-get processes run at nice 10. Measured (stop 54) with this file beside test_cluster.py and
 test_opencv46.py in three workers: the three files took 75 and 81 s (two runs) against 87 and 89 s (two runs)
 without the niceness, test_opencv46.py 29-32 s against 57-63 s; the nodes were loaded no less: the world's clock
-slipped 0.8 and 1.1 s (5 and 8 slips) against 0.3 s (2 slips) in the one run without it that printed it. Without
+slipped 0.8 and 1.1 s (5 and 8 slips) against 0.3 s (2 slips) in the one run without it that printed it (at nice
+19, 2.2 and 3.8 s in 14-17 slips, the world down to 0.26 of real time: too near a fault, so 10). Without
 autogroup, niceness would shield the nodes from the load, so they run at normal priority. The check reads
 /proc: in a container with a cgroup namespace of its own on cgroup v1, where /proc/self/cgroup says "/" for a
 cgroup that is not the host's root, it cannot tell, and the processes would be niced there too.
