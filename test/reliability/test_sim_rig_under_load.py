@@ -113,7 +113,8 @@ def test_the_launch_layout_keeps_moving_for_a_minute_beside_busy_processes_and_p
     windows_m = [_moved_m(truth, 20.0, end_s=start_s + k * 20.0) for k in (1, 2, 3)]
     hardware = [s for m in diagnostics for s in m.status if s.name.startswith("hardware_node")]
     values = diagnostic_values(hardware[-1])
-    print(f"{DURATION_S:g} s beside {BUSY_PROCESSES} busy processes{' (nice 10)' if nice else ''}, {reads} parameter "
+    niced = f" ({' '.join(nice)})" if nice else ""
+    print(f"{DURATION_S:g} s beside {BUSY_PROCESSES} busy processes{niced}, {reads} parameter "
           f"reads, {len(getters)} param-get processes: travel per 20 s {[round(m, 3) for m in windows_m]} m; "
           f"hardware node: {values['holding']!r} now, stale vents {values['stale_vents']}, stalls "
           f"{values['command_stalls']}, recoveries {values['recoveries']}; sim_world: "
