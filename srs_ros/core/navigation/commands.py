@@ -120,6 +120,10 @@ class NavigationProgress:
     inward_side: str = MODEL_INWARD_SIDE
     #: The fine approach's creep amplitude now (bar): ``fine_amplitude_bar``, raised if the creep was too weak.
     creep_amplitude_bar: float | None = None
+    #: What the navigator has learned of the robot's turning so far: per rolling direction, the turn rate
+    #: (deg per cycle, counter-clockwise positive) at each turn level of ``turn_levels_rad``, the turning map's
+    #: values corrected online from the camera.
+    turn_rates_deg_per_cycle: dict[str, list[float]] | None = None
 
     @property
     def level(self) -> str:
@@ -136,4 +140,6 @@ class NavigationProgress:
                 "heading_error_deg": f"{math.degrees(self.heading_error_rad):.1f}", "direction": self.direction,
                 "turn_phase_rad": f"{self.turn_phase_rad:.3f}", "elapsed_s": f"{self.elapsed_s:.1f}",
                 "inward_side": self.inward_side,
-                "creep_amplitude_bar": "" if self.creep_amplitude_bar is None else f"{self.creep_amplitude_bar:g}"}
+                "creep_amplitude_bar": "" if self.creep_amplitude_bar is None else f"{self.creep_amplitude_bar:g}",
+                **{f"turn_rates_deg_per_cycle {direction}": " ".join(f"{rate:+.1f}" for rate in rates)
+                   for direction, rates in (self.turn_rates_deg_per_cycle or {}).items()}}

@@ -473,4 +473,5 @@ class NavigationController(CruiseStopping, FineDriving, EdgeGuard):
                                   self._heading_error_rad if self.state.active else 0.0,
                                   self._command.direction or "", self._command.turn_phase_rad,
                                   float(now_s) - self._started_s, self._message, self.sides.inward_side,
-                                  self.fine.amplitude_bar(self.settings))
+                                  self.fine.amplitude_bar(self.settings),
+                                  {d: [round(float(r), 2) for r in self.turns.rates[d]] for d in DIRECTIONS})

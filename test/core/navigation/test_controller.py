@@ -199,6 +199,12 @@ def test_learns_the_turn_rates_it_measures():
     truth, guess = 0.7 * -40.0 * levels + 8.0, -40.0 * levels
     # every measured level moved at least half way from the map's guess to the truth (learning_rate 0.5)
     assert np.all(np.abs(learned - truth) <= 0.5 * np.abs(guess - truth) + 1.0), (learned, truth, guess)
+    progress = controller.progress(60.0)  # what was learned is published (topic and /diagnostics)
+    assert progress.turn_rates_deg_per_cycle == {d: pytest.approx(controller.turns.rates[d], abs=0.01)
+                                                 for d in DIRECTIONS}
+    for d in DIRECTIONS:
+        shown = [float(v) for v in progress.values()[f"turn_rates_deg_per_cycle {d}"].split()]
+        assert shown == pytest.approx(controller.turns.rates[d], abs=0.051)
 
 
 def test_rolls_the_direction_that_faces_the_goal():
