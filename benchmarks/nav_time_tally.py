@@ -7,7 +7,10 @@ guard, creep (the fine approach), turn on the spot and move along the body's axi
 message text, which names it (srs_ros/core/navigation/*.py, ``self._message``); a message none of the patterns
 matches is shown as "other: ..." so a renamed message is seen, not miscounted. Also shown: the part of each
 activity spent within ``--near-m`` of the goal (the end game) and the straight-line time at ``--speed-cm-s``, to
-set the sum against issue 20's target (a median of at most twice the straight-line time).
+set the sum against issue 20's target (a median of at most twice the straight-line time). Then, from stop 55's
+recordings on, what the navigator had learned of the robot's turning at the end of each goal (the progress's
+``turn_rates_deg_per_cycle``) and each direction's fastest turn either way: a turn the body has but the navigator
+unlearned shows there (docs/studies/navigation.md, "Turn rates unlearned by the body's swing").
 
 Run: python benchmarks/nav_time_tally.py DIR [DIR ...] [--near-m 0.35] [--speed-cm-s 9.3]
 """
@@ -60,6 +63,27 @@ def tally(folder: Path, near_m: float) -> tuple[Counter, Counter, list[float]]:
     return total, near, distances
 
 
+def learned_turns(folder: Path) -> list[tuple[str, dict[str, list[float]]]]:
+    """Per goal (its file's stem), the learned turn rates of its last progress message that carries them."""
+    found = []
+    for path in sorted(folder.glob("goal_*_progress.jsonl")):
+        rates = [row["turn_rates_deg_per_cycle"] for row in map(json.loads, path.read_text().splitlines())
+                 if row.get("turn_rates_deg_per_cycle")]
+        if rates:
+            found.append((path.stem.removesuffix("_progress"), rates[-1]))
+    return found
+
+
+def print_learned_turns(folder: Path) -> None:
+    found = learned_turns(folder)
+    if not found:
+        print("  (none recorded: the progress carries them since stop 55)")
+    for goal, rates in found:
+        line = "; ".join(f"{direction} {' '.join(f'{r:+.1f}' for r in values)} (fastest {max(values):+.1f} / "
+                         f"{min(values):+.1f})" for direction, values in rates.items())
+        print(f"  learned after {goal}: {line}")
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("folders", nargs="+", type=Path, help="folders written by bench_navigation_ros.py --record")
@@ -78,6 +102,8 @@ def main(argv: list[str] | None = None) -> int:
         for name, value in total.most_common():
             print(f"  {name:22s} {value:6.1f} s  {100.0 * value / max(seconds, math.ulp(1.0)):5.1f} %   "
                   f"within {args.near_m:g} m: {near[name]:6.1f} s")
+        print("  turn rates learned, deg per cycle at each turn level (fastest counter-clockwise / clockwise):")
+        print_learned_turns(folder)
     return 0
 
 
