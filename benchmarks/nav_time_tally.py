@@ -63,25 +63,32 @@ def tally(folder: Path, near_m: float) -> tuple[Counter, Counter, list[float]]:
     return total, near, distances
 
 
-def learned_turns(folder: Path) -> list[tuple[str, dict[str, list[float]]]]:
-    """Per goal (its file's stem), the learned turn rates of its last progress message that carries them."""
+def learned_turns(folder: Path) -> list[tuple[int, dict[str, list[float]]]]:
+    """Per recorded goal (numbered from 1), the turn rates of its last progress message that carries them."""
     found = []
-    for path in sorted(folder.glob("goal_*_progress.jsonl")):
-        rates = [row["turn_rates_deg_per_cycle"] for row in map(json.loads, path.read_text().splitlines())
-                 if row.get("turn_rates_deg_per_cycle")]
+    for number, path in enumerate(sorted(folder.glob("goal_*_progress.jsonl")), start=1):
+        rows = [json.loads(line) for line in path.read_text().splitlines() if line.strip()]
+        rates = [row["turn_rates_deg_per_cycle"] for row in rows if row.get("turn_rates_deg_per_cycle")]
         if rates:
-            found.append((path.stem.removesuffix("_progress"), rates[-1]))
+            found.append((number, rates[-1]))
     return found
 
 
+def describe_rates(direction: str, rates: list) -> str:
+    """One direction's rates (deg per cycle per turn level) and its fastest turn either way; unknown ones as '?'."""
+    known = [float(r) for r in rates if r is not None and math.isfinite(r)]
+    shown = " ".join("?" if r is None or not math.isfinite(r) else f"{r:+.1f}" for r in rates)
+    fastest = f"{max(known):+.1f} / {min(known):+.1f}" if known else "none known"
+    return f"{direction} {shown} (fastest {fastest})"
+
+
 def print_learned_turns(folder: Path) -> None:
+    """Print the turn rates learned at the end of each goal recorded in ``folder``."""
     found = learned_turns(folder)
     if not found:
         print("  (none recorded: the progress carries them since stop 55)")
-    for goal, rates in found:
-        line = "; ".join(f"{direction} {' '.join(f'{r:+.1f}' for r in values)} (fastest {max(values):+.1f} / "
-                         f"{min(values):+.1f})" for direction, values in rates.items())
-        print(f"  learned after {goal}: {line}")
+    for number, rates in found:
+        print(f"  learned after goal {number}: " + "; ".join(describe_rates(d, r) for d, r in rates.items()))
 
 
 def main(argv: list[str] | None = None) -> int:

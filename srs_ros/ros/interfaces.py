@@ -381,6 +381,8 @@ def progress_message(fields: Mapping[str, Any]) -> String:
             return None
         if isinstance(value, (list, tuple)):
             return [plain(v) for v in value]
+        if isinstance(value, Mapping):
+            return {key: plain(v) for key, v in value.items()}
         return value
 
     return String(data=json.dumps({key: plain(value) for key, value in fields.items()}, sort_keys=True))

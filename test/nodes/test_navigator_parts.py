@@ -34,13 +34,15 @@ def test_yaw_from_the_trackers_quaternion(yaw):
 
 
 def test_progress_is_one_json_object_with_plain_values_and_nan_as_null():
+    rates = {"inward_rolling": [7.0, math.nan], "outward_rolling": [-1.5, 0.25]}  # a NaN inside the learned rates
     progress = NavigationProgress(NavigationState.DRIVING, (0.4, -0.4), 1, 4, math.nan, math.radians(12.0),
-                                  "inward_rolling", 0.2, 3.5, "driving")
+                                  "inward_rolling", 0.2, 3.5, "driving", turn_rates_deg_per_cycle=rates)
     fields = progress_fields(progress, refused="", loop=True)
     msg = progress_message(fields)
-    data = json.loads(msg.data)
+    data = json.loads(msg.data, parse_constant=lambda name: pytest.fail(f"{name} is not JSON"))
     assert data["state"] == "driving" and data["goal_xy_m"] == [0.4, -0.4] and data["distance_to_go_m"] is None
     assert data["heading_error_deg"] == pytest.approx(12.0) and data["loop"] is True
+    assert data["turn_rates_deg_per_cycle"] == {"inward_rolling": [7.0, None], "outward_rolling": [-1.5, 0.25]}
     assert read_progress(msg) == data
 
 

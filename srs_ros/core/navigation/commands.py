@@ -6,7 +6,7 @@ import enum
 import math
 from dataclasses import dataclass
 
-from srs_ros.core.navigation.settings import MODEL_INWARD_SIDE
+from srs_ros.core.navigation.settings import DIRECTIONS, MODEL_INWARD_SIDE
 
 #: The gait whose cycle the navigator plays (forward: inward rolling, backward: outward rolling).
 GAIT = "inward_rolling"
@@ -141,5 +141,5 @@ class NavigationProgress:
                 "turn_phase_rad": f"{self.turn_phase_rad:.3f}", "elapsed_s": f"{self.elapsed_s:.1f}",
                 "inward_side": self.inward_side,
                 "creep_amplitude_bar": "" if self.creep_amplitude_bar is None else f"{self.creep_amplitude_bar:g}",
-                **{f"turn_rates_deg_per_cycle {direction}": " ".join(f"{rate:+.1f}" for rate in rates)
-                   for direction, rates in (self.turn_rates_deg_per_cycle or {}).items()}}
+                **{f"turn_rates_deg_per_cycle.{direction}": " ".join(f"{rate:+.1f}" for rate in rates)
+                   for direction, rates in (self.turn_rates_deg_per_cycle or dict.fromkeys(DIRECTIONS, ())).items()}}

@@ -203,7 +203,7 @@ def test_learns_the_turn_rates_it_measures():
     assert progress.turn_rates_deg_per_cycle == {d: pytest.approx(controller.turns.rates[d], abs=0.01)
                                                  for d in DIRECTIONS}
     for d in DIRECTIONS:
-        shown = [float(v) for v in progress.values()[f"turn_rates_deg_per_cycle {d}"].split()]
+        shown = [float(v) for v in progress.values()[f"turn_rates_deg_per_cycle.{d}"].split()]
         assert shown == pytest.approx(controller.turns.rates[d], abs=0.051)
 
 
