@@ -46,11 +46,16 @@ def activity(message: str) -> str:
     return f"other: {message[:50]}"
 
 
+def progress_rows(path: Path) -> list[dict]:
+    """The progress messages of one recorded goal (blank lines skipped)."""
+    return [json.loads(line) for line in path.read_text().splitlines() if line.strip()]
+
+
 def tally(folder: Path, near_m: float) -> tuple[Counter, Counter, list[float]]:
     """Seconds by activity (all, and within ``near_m`` of the goal) and each goal's start distance (m)."""
     total, near, distances = Counter(), Counter(), []
     for path in sorted(folder.glob("goal_*_progress.jsonl")):
-        rows = [json.loads(line) for line in path.read_text().splitlines() if line.strip()]
+        rows = progress_rows(path)
         if rows and rows[0]["distance_to_go_m"] is not None:  # None (NaN in JSON): no pose yet
             distances.append(float(rows[0]["distance_to_go_m"]))
         for row, following in zip(rows, rows[1:]):
@@ -67,8 +72,7 @@ def learned_turns(folder: Path) -> list[tuple[int, dict[str, list[float]]]]:
     """Per recorded goal (numbered from 1), the turn rates of its last progress message that carries them."""
     found = []
     for number, path in enumerate(sorted(folder.glob("goal_*_progress.jsonl")), start=1):
-        rows = [json.loads(line) for line in path.read_text().splitlines() if line.strip()]
-        rates = [row["turn_rates_deg_per_cycle"] for row in rows if row.get("turn_rates_deg_per_cycle")]
+        rates = [row["turn_rates_deg_per_cycle"] for row in progress_rows(path) if row.get("turn_rates_deg_per_cycle")]
         if rates:
             found.append((number, rates[-1]))
     return found
