@@ -51,6 +51,7 @@ from srs_ros.experiments.recording import BagRecorder
 from srs_ros.experiments.table import Cell, RunRecord
 from srs_ros.ros.interfaces import (
     ACTUATOR_STATE_TOPIC,
+    BUSY_RETRY_S,
     COMMANDED_PRESSURE_TOPIC,
     DIAGNOSTICS_TOPIC,
     FIT_BUSY_PREFIX,
@@ -81,10 +82,6 @@ VENTED_BAR = 0.01
 POSE_WINDOW_S = 0.5
 #: Spin period of the waits, s.
 SPIN_S = 0.02
-#: While trajectory_server is busy with another fit (its start-up fit, slow on a busy machine), ask again this
-#: often (s).
-BUSY_RETRY_S = 0.25
-
 
 def type_name(msg_class) -> str:
     """``package/msg/Name`` of a generated rclpy message class."""

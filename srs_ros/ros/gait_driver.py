@@ -22,7 +22,10 @@ So every pressure still goes through gait_player's ramps and the hardware node's
 arms, never touches the e-stop and never publishes a setpoint. Calls are asynchronous (a callback never
 blocks the node), one at a time in that order, the newest command wins; a stop goes out at once, even while
 another call is pending. A refused or unanswered call is retried after :data:`RETRY_S` and said in
-:attr:`GaitDriver.error` (the navigator publishes it).
+:attr:`GaitDriver.error` (the navigator publishes it). A ``~/regenerate`` answered "busy" (trajectory_server is
+still fitting, e.g. its start-up fit when the navigator starts with it) is no failure: it is asked again every
+:data:`~srs_ros.ros.interfaces.BUSY_RETRY_S`, and said as an error only once it has been busy for
+:data:`CALL_TIMEOUT_S`.
 """
 
 from __future__ import annotations
@@ -36,6 +39,8 @@ from rcl_interfaces.srv import SetParameters, SetParametersAtomically
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from std_srvs.srv import Trigger
+
+from srs_ros.ros.interfaces import BUSY_RETRY_S, FIT_BUSY_PREFIX
 
 #: Wait before a failed call is made again (s).
 RETRY_S = 1.0
@@ -76,6 +81,7 @@ class GaitDriver:
         self._stop_owed = False  # stop() called: a ~/stop is sent once no ~/start is in flight
         self._pending: dict[str, tuple[Any, float]] = {}  # what -> (future, sent at)
         self._retry_at = 0.0
+        self._busy_since: float | None = None  # the first "busy" answer of regenerate since its last success
         self.error = ""  # the last failure ('' once a call succeeds again)
         self.calls: dict[str, int] = {name: 0 for name in self._clients}  # calls made, by kind
 
@@ -224,9 +230,15 @@ class GaitDriver:
 
     def _on_regenerate(self, response) -> None:
         if not response.success:
+            now = self._clock()
+            busy = response.message.startswith(FIT_BUSY_PREFIX)
+            self._busy_since = (self._busy_since if self._busy_since is not None else now) if busy else None
+            if busy and now - self._busy_since < CALL_TIMEOUT_S:
+                self._retry_at = now + BUSY_RETRY_S  # another fit is running: asked again soon, not a failure
+                return
             self._failed("regenerate", f"trajectory_server could not regenerate: {response.message}")
             return
-        self._cycle_key, self.error = self._sent_key, ""
+        self._cycle_key, self.error, self._busy_since = self._sent_key, "", None
 
     def _on_set_player(self, response, values: dict[str, Any], key: tuple) -> None:
         refused = [f"{name} {value}: {result.reason}" for (name, value), result in zip(values.items(), response.results)

@@ -44,6 +44,9 @@ DDS_PROFILE_ENV = "FASTRTPS_DEFAULT_PROFILES_FILE"
 TRAJECTORY_TOPIC = "gait_trajectory"
 #: How trajectory_server's ``~/regenerate`` answers while another fit runs: a client may wait and call again.
 FIT_BUSY_PREFIX = "busy:"
+#: While trajectory_server is busy with another fit (its start-up fit, slow on a busy machine), a client asks again
+#: this often (s).
+BUSY_RETRY_S = 0.25
 
 
 SETPOINT_TOPIC = "joint_setpoints"

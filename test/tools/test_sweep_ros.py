@@ -22,9 +22,9 @@ from std_srvs.srv import Trigger
 
 from srs_ros.core.robot import config_dir
 from srs_ros.experiments.recording import bag_message_counts, bag_topic_types
-from srs_ros.experiments.ros_sweep import BUSY_RETRY_S, RosSweep, RosSweepOptions, RunAborted
+from srs_ros.experiments.ros_sweep import RosSweep, RosSweepOptions, RunAborted
 from srs_ros.experiments.table import TABLE_COLUMNS, read_table_csv
-from srs_ros.ros.interfaces import FIT_BUSY_PREFIX, POSE_TOPIC
+from srs_ros.ros.interfaces import BUSY_RETRY_S, FIT_BUSY_PREFIX, POSE_TOPIC
 
 SIM_RIG = str(config_dir() / "rigs" / "sim.yaml")
 
