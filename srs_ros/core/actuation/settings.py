@@ -28,7 +28,7 @@ from srs_ros.core.schema import Field, Table
 
 HARDWARE_SETTINGS = Table("hardware_node", (
     Field("rig_file", str, "", description="rig YAML (config/rigs/*.yaml); '' = the mock rig"),
-    Field("backend", str, "", description="backend overriding the rig's ('mock', 'can', 'daq'); '' = the rig's"),
+    Field("backend", str, "", description="backend overriding the rig's ('sim', 'mock', 'can', 'daq'); '' = the rig's"),
     Field("robot_description_file", str, "", description="robot YAML; '' = the package's config/robot.yaml"),
     Field("setpoint_timeout_s", float, 0.0, 0.0, 5.0,
           description="setpoints older than this vent to 0 bar (s); 0 = the rig's value"),

@@ -120,8 +120,9 @@ class DirectionMap:
     travel_m_per_cycle: np.ndarray
     #: Where the robot rests after a stop at each of :data:`STOP_PHASES` (rows), from where the stop was
     #: commanded: (along, across) its travel (m); shape (phases, 2) for every turn level, or
-    #: (turn levels, phases, 2), one block per ``turn_phase_rad`` (a turning body rolls on elsewhere: measured,
-    #: inward rolling rests 24 cm to the left of its travel at -0.5 rad, 16 cm to the right at +0.5 rad).
+    #: (turn levels, phases, 2), one block per ``turn_phase_rad`` (a turning body rolls on elsewhere: in
+    #: config/turning_map.yaml inward rolling rests 5-10 cm to the left of its travel at -0.5 rad, 9-18 cm to the
+    #: right at +0.5 rad).
     stop_offset_m: np.ndarray = dataclasses.field(
         default_factory=lambda: np.reshape(DEFAULT_STOP_OFFSET_M, (len(STOP_PHASES), 2)))
 
