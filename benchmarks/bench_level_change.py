@@ -7,10 +7,11 @@ measures, on the simulated robot through the gait player's logic (the cross-fade
 - **each level held** (``--steady-cycles`` from rest): its turn rate (deg per cycle, counter-clockwise positive),
   its travel (cm per cycle) and the angle from the body's yaw (the camera's tail -> head heading) to the direction
   it travels, over the cycles after the first two;
-- **each change of level** (from every level to every other, held ``--hold-cycles`` first, switched at each of
-  ``--phases`` of the cycle): the first cycle the navigator measures (from half a cycle to a cycle and a half after
-  the change) against the new level's steady rate, and the step of the travel heading beyond what the two rates
-  turned (the travel heading over the cycle before the change against that four cycles after it).
+- **each change of level** (from every level to every other, held ``--hold-cycles`` first, switched as the gait
+  player's phase passes each of ``--phases``; outward rolling plays the cycle backward): the first cycle the
+  navigator measures (from half a cycle to a cycle and a half after the change) against the rate the new level
+  turns at 3.5-5.5 cycles after the change, and the step of the travel heading beyond what the two rates turned
+  (the travel heading over the cycle before the change against that over the cycle 3.5-4.5 cycles after it).
 
 If the travel heading of each level sits at a fixed angle to the body's yaw, a change from level a to level b
 steps it by offset(b) - offset(a); the summary fits one heading per level to the steps (least squares, level 0
@@ -93,9 +94,10 @@ def steady(job) -> tuple:
 
 
 def change(job) -> tuple:
-    """A change ``a`` -> ``b`` at ``phase``: (first measured cycle - new steady rate, travel heading step), deg."""
+    """A change ``a`` -> ``b`` at gait ``phase``: (first measured cycle - the rate after, travel heading step), deg."""
     physics, direction, a, b, phase, hold_cycles, period_s = job
-    switch_s = (hold_cycles + phase) * period_s
+    backward = direction != DIRECTIONS[0]  # outward rolling: the phase runs down from 1
+    switch_s = (hold_cycles + ((1.0 - phase) % 1.0 if backward else phase)) * period_s
     rows = play(physics, direction, (a, b), switch_s, switch_s + (AFTER_CYCLES + 2.5) * period_s)
     before = turn_deg(rows, switch_s - 2.0 * period_s, switch_s, period_s)
     first = turn_deg(rows, switch_s + 0.5 * period_s, switch_s + 1.5 * period_s, period_s)
@@ -139,7 +141,7 @@ def report(physics: str, direction: str, levels, held: list, changes: dict, phas
               f"{math.degrees(wrap_rad(math.radians(offset - held[zero][2]))):+.0f} | {headings[i]:+.0f} |")
     by_phase = ", ".join(f"{p:g}: {np.sqrt(np.mean([runs[k][0] ** 2 for runs in changes.values()])):.1f}"
                          for k, p in enumerate(phases))
-    print(f"- first measured cycle after a change, against the new level's steady rate: rms "
+    print(f"- first measured cycle after a change, against the rate 3.5-5.5 cycles after it: rms "
           f"{np.sqrt(np.mean(firsts ** 2)):.1f} deg, largest {np.max(np.abs(firsts)):.1f} deg ({len(firsts)} "
           f"changes); rms by the phase of the change: {by_phase}")
     print(f"- travel heading steps: rms {np.sqrt(np.mean(np.square(list(steps.values())))):.1f} deg; the fitted "
@@ -152,7 +154,8 @@ def main() -> None:
     parser.add_argument("--physics", nargs="+", default=["default", "calibrated"],
                         choices=("default", "calibrated", "anisotropic"))
     parser.add_argument("--directions", nargs="+", default=list(DIRECTIONS), choices=DIRECTIONS)
-    parser.add_argument("--phases", type=float, nargs="+", default=[0.0, 0.5], help="gait phases of the change")
+    parser.add_argument("--phases", type=float, nargs="+", default=[0.0, 0.5],
+                        help="gait phases of the change (the gait player's phase, in [0, 1))")
     parser.add_argument("--steady-cycles", type=int, default=7)
     parser.add_argument("--hold-cycles", type=int, default=4)
     parser.add_argument("--workers", type=int, default=2)

@@ -83,6 +83,7 @@ POSE_WINDOW_S = 0.5
 #: Spin period of the waits, s.
 SPIN_S = 0.02
 
+
 def type_name(msg_class) -> str:
     """``package/msg/Name`` of a generated rclpy message class."""
     return f"{msg_class.__module__.split('.')[0]}/msg/{msg_class.__name__}"

@@ -23,9 +23,10 @@ arms, never touches the e-stop and never publishes a setpoint. Calls are asynchr
 blocks the node), one at a time in that order, the newest command wins; a stop goes out at once, even while
 another call is pending. A refused or unanswered call is retried after :data:`RETRY_S` and said in
 :attr:`GaitDriver.error` (the navigator publishes it). A ``~/regenerate`` answered "busy" (trajectory_server is
-still fitting, e.g. its start-up fit when the navigator starts with it) is no failure: it is asked again every
-:data:`~srs_ros.ros.interfaces.BUSY_RETRY_S`, and said as an error only once it has been busy for
-:data:`CALL_TIMEOUT_S`.
+still fitting, e.g. its start-up fit when the navigator starts with it) is no failure: the gait's parameters and
+``~/regenerate`` are sent again every :data:`~srs_ros.ros.interfaces.BUSY_RETRY_S`, and it is said as an error (and
+retried after :data:`RETRY_S`) only once the server has answered "busy" for :data:`CALL_TIMEOUT_S`. Busy answers
+more than :data:`BUSY_GAP_S` apart belong to separate periods (the driver stopped asking meanwhile).
 """
 
 from __future__ import annotations
@@ -46,6 +47,9 @@ from srs_ros.ros.interfaces import BUSY_RETRY_S, FIT_BUSY_PREFIX
 RETRY_S = 1.0
 #: A call without an answer for this long is given up (and retried), s.
 CALL_TIMEOUT_S = 5.0
+#: "Busy" answers of ``~/regenerate`` further apart than this start a new busy period (s): while the driver still
+#: wants a new cycle it asks again within RETRY_S (plus the calls' round trip), so two of those.
+BUSY_GAP_S = 2.0 * RETRY_S + BUSY_RETRY_S
 #: gait_player's parameters the driver sets, in the order of its player key.
 PLAYER_VALUES = ("frequency_hz", "reverse", "cycles", "stop_at_phase")
 #: gait_player's ``stop_at_phase`` for none pending.
@@ -81,7 +85,7 @@ class GaitDriver:
         self._stop_owed = False  # stop() called: a ~/stop is sent once no ~/start is in flight
         self._pending: dict[str, tuple[Any, float]] = {}  # what -> (future, sent at)
         self._retry_at = 0.0
-        self._busy_since: float | None = None  # the first "busy" answer of regenerate since its last success
+        self._busy = (math.nan, math.nan)  # regenerate's busy period: its first and its last "busy" answer (s)
         self.error = ""  # the last failure ('' once a call succeeds again)
         self.calls: dict[str, int] = {name: 0 for name in self._clients}  # calls made, by kind
 
@@ -231,14 +235,16 @@ class GaitDriver:
     def _on_regenerate(self, response) -> None:
         if not response.success:
             now = self._clock()
-            busy = response.message.startswith(FIT_BUSY_PREFIX)
-            self._busy_since = (self._busy_since if self._busy_since is not None else now) if busy else None
-            if busy and now - self._busy_since < CALL_TIMEOUT_S:
-                self._retry_at = now + BUSY_RETRY_S  # another fit is running: asked again soon, not a failure
-                return
+            if response.message.startswith(FIT_BUSY_PREFIX):
+                since, last = self._busy
+                since = since if now - last <= BUSY_GAP_S else now  # NaN (no period yet) compares False
+                self._busy = (since, now)
+                if now - since < CALL_TIMEOUT_S:
+                    self._retry_at = now + BUSY_RETRY_S  # another fit is running: asked again soon, not a failure
+                    return
             self._failed("regenerate", f"trajectory_server could not regenerate: {response.message}")
             return
-        self._cycle_key, self.error, self._busy_since = self._sent_key, "", None
+        self._cycle_key, self.error, self._busy = self._sent_key, "", (math.nan, math.nan)
 
     def _on_set_player(self, response, values: dict[str, Any], key: tuple) -> None:
         refused = [f"{name} {value}: {result.reason}" for (name, value), result in zip(values.items(), response.results)

@@ -4,15 +4,17 @@ What `ros2 param get` would read back after the driver's calls: the gait, its pa
 """
 
 import signal
+import time
 
+import numpy as np
 import pytest
 from sensor_msgs.msg import JointState
 from srs_testing import ros_args
 from std_srvs.srv import Trigger
 
 from srs_ros.core.navigation import GaitCommand
-from srs_ros.ros.gait_driver import GaitDriver
-from srs_ros.ros.interfaces import FIT_BUSY_PREFIX, SETPOINT_TOPIC, setpoint_qos
+from srs_ros.ros.gait_driver import CALL_TIMEOUT_S, RETRY_S, GaitDriver
+from srs_ros.ros.interfaces import BUSY_RETRY_S, FIT_BUSY_PREFIX, SETPOINT_TOPIC, setpoint_qos
 
 
 def drive_until_playing(ros_client, driver, command, timeout_s=30.0):
@@ -28,34 +30,63 @@ def drive_until_playing(ros_client, driver, command, timeout_s=30.0):
 @pytest.mark.slow(seconds=5)
 def test_a_trajectory_server_busy_with_another_fit_is_asked_again_soon_and_is_no_error(launch_node, ros_client):
     """The main job starts the navigator beside trajectory_server, whose start-up fit may still run when the first
-    gait command comes: its regenerate is answered "busy". That is asked again shortly, and is not an error (it was
-    published as "gait command not applied" and retried only a second later)."""
+    gait command comes: its regenerate is answered "busy". That is asked again within BUSY_RETRY_S, not RETRY_S, and
+    is not an error (it was published as "gait command not applied" and retried only a second later)."""
     launch_node("trajectory_server", ros_args({"samples": 256, "generate_on_start": False}))
     launch_node("gait_player", ros_args({"ramp_time_s": 0.2}))
     driver = GaitDriver(ros_client.node, "/trajectory_server", "/gait_player", keepalive_s=0.0)
     ros_client.spin_until(lambda: not driver.missing_services(), 30.0, "the gait services")
     regenerate = ros_client.client(Trigger, "trajectory_server/regenerate")
     ros_client.spin_until(regenerate.service_is_ready, 30.0, "trajectory_server/regenerate")
-    other_fit = regenerate.call_async(Trigger.Request())  # 256 samples: about a second
-    probe = regenerate.call_async(Trigger.Request())
-    ros_client.spin_until(probe.done, 10.0, "the probe's answer")
-    assert probe.result().message.startswith(FIT_BUSY_PREFIX), probe.result().message  # the other fit runs
-    errors = []
+    fits = [regenerate.call_async(Trigger.Request()) for _ in range(2)]  # 256 samples: about a second each
+    ros_client.spin_until(lambda: any(f.done() for f in fits), 10.0, "an answer")
+    answered = [f for f in fits if f.done()]
+    assert len(answered) == 1 and answered[0].result().message.startswith(FIT_BUSY_PREFIX), \
+        [f.result().message for f in answered]  # the other one fits meanwhile
+    other_fit = next(f for f in fits if f is not answered[0])
+    errors, regenerate_calls = [], []
 
     def applied():
         driver.pump()
         errors.append(driver.error)
+        if not regenerate_calls or regenerate_calls[-1][1] != driver.calls["regenerate"]:
+            regenerate_calls.append((time.monotonic(), driver.calls["regenerate"]))
         return driver.playing and not driver.busy and driver.error == ""
 
     driver.drive(GaitCommand("inward_rolling", 0.2, 4.0, 1.0))
     ros_client.spin_until(applied, 30.0, "the command applied after the other fit")
-    assert driver.calls["regenerate"] >= 2, driver.calls  # the first was answered busy
     assert other_fit.done() and other_fit.result().success
+    assert driver.calls["regenerate"] >= 2, driver.calls  # the first was answered busy
     assert [e for e in errors if e] == [], errors  # a busy answer was never said as a failure
+    gaps = np.diff([t for t, _ in regenerate_calls[1:]])  # between the calls, each after a busy answer
+    assert len(gaps) >= 1 and np.max(gaps) < RETRY_S, regenerate_calls  # asked again soon, not after RETRY_S
     assert ros_client.get_parameters("/trajectory_server", ["inward_rolling.turn_phase_rad"]) == {
         "inward_rolling.turn_phase_rad": 0.2}
     driver.stop(GaitCommand(None, 0.0, 4.0, 1.0))
     ros_client.spin_until(lambda: not driver.busy, 10.0, "the stop answered")
+
+
+def test_busy_answers_far_apart_are_separate_periods_and_one_that_lasts_is_said(ros_client):
+    """What the driver does with trajectory_server's answers (its answer handler, with the driver's clock set):
+    a busy period that lasts CALL_TIMEOUT_S is an error; one long after an earlier period starts afresh."""
+    now = [100.0]
+    driver = GaitDriver(ros_client.node, "/trajectory_server", "/gait_player", keepalive_s=0.0, clock=lambda: now[0])
+    busy = Trigger.Response(success=False, message=f"{FIT_BUSY_PREFIX} a fit of inward_rolling is running for 1 s")
+    driver._on_regenerate(busy)
+    assert driver.error == "" and driver._retry_at == pytest.approx(now[0] + BUSY_RETRY_S)
+    now[0] += 0.3
+    driver._on_regenerate(busy)
+    assert driver.error == ""
+    now[0] += 60.0  # the driver stopped asking (a stop, a cancel); a new goal meets a new fit
+    driver._on_regenerate(busy)
+    assert driver.error == "", "an old busy period was counted against a new one"
+    for _ in range(int(CALL_TIMEOUT_S / BUSY_RETRY_S) + 1):
+        now[0] += BUSY_RETRY_S
+        driver._on_regenerate(busy)
+    assert driver.error.startswith("regenerate: trajectory_server could not regenerate: busy")
+    assert driver._retry_at == pytest.approx(now[0] + RETRY_S)
+    driver._on_regenerate(Trigger.Response(success=True, message="published"))
+    assert driver.error == ""
 
 
 @pytest.mark.slow(seconds=6)
