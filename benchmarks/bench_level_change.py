@@ -26,42 +26,37 @@ from __future__ import annotations
 import argparse
 import math
 from concurrent.futures import ProcessPoolExecutor
+from functools import cache
 
 import numpy as np
 from bench_fine_gait import config_for
 
-from srs_ros.core.navigation.commands import GaitCommand
 from srs_ros.core.navigation.motion import wrap_rad
 from srs_ros.core.navigation.settings import DIRECTIONS, load_navigation_settings
 from srs_ros.core.rig import load_rig
 from srs_ros.core.robot import default_robot
-from srs_ros.sim.navigation import GaitDriver
-from srs_ros.sim.world import SimWorld
+from srs_ros.experiments.turning import play_cycle, rolling_cycle
 
 #: Cycles after a change before the travel heading is compared (the swing has passed by then).
 AFTER_CYCLES = 4.0
 
 
+@cache
+def cruise_cycle(level_rad: float):
+    """The navigator's rolling cycle at ``level_rad`` (its cruise amplitude and frequency), fitted once a process."""
+    settings = load_navigation_settings()
+    return rolling_cycle(settings.amplitude_bar, settings.cruise_frequency_hz, level_rad, default_robot())
+
+
 def play(physics: str, direction: str, levels, switch_s: float, end_s: float) -> np.ndarray:
-    """Rows (time_s, x_m, y_m, unwrapped yaw_rad) of the gait at ``levels[0]``, then ``levels[1]`` from ``switch_s``."""
-    robot, settings = default_robot(), load_navigation_settings()
-    world, driver = SimWorld(config_for(physics, robot), robot), GaitDriver(robot)
-    dt_s = 1.0 / load_rig(robot=robot).command_rate_hz
-    command = [GaitCommand(direction, float(level), settings.amplitude_bar, settings.cruise_frequency_hz)
-               for level in levels]
-    driver.apply(command[0])
-    rows, time_s, switched = [], 0.0, len(levels) == 1
-    while time_s < end_s:
-        if not switched and time_s >= switch_s - 1e-9:
-            driver.apply(command[1])
-            switched = True
-        world.command_pressures(driver.pressures_bar(dt_s))
-        time_s += dt_s
-        world.advance_to(time_s)
-        rows.append((time_s, *world.state(with_contacts=False).pose))
-    rows = np.array(rows)
-    rows[:, 3] = np.unwrap(rows[:, 3])
-    return rows
+    """Rows (time_s, x_m, y_m, unwrapped yaw_rad), every command step, of the gait at ``levels[0]``, then
+    ``levels[1]`` from ``switch_s`` (the player's cross-fade), as the navigator plays them (outward: backward)."""
+    robot = default_robot()
+    cycles = [cruise_cycle(float(level)) for level in levels]
+    backward = (lambda t: True) if direction != DIRECTIONS[0] else None
+    return play_cycle(cycles[0], end_s, config_for(physics, robot), robot, backward,
+                      sample_every_s=1.0 / load_rig(robot=robot).command_rate_hz,
+                      switch_to=(switch_s, cycles[1]) if len(cycles) > 1 else None)
 
 
 def turn_deg(rows: np.ndarray, t0_s: float, t1_s: float, period_s: float) -> float:

@@ -54,12 +54,12 @@ from srs_ros.ros.interfaces import (
     BUSY_RETRY_S,
     COMMANDED_PRESSURE_TOPIC,
     DIAGNOSTICS_TOPIC,
-    FIT_BUSY_PREFIX,
     GROUND_TRUTH_TOPIC,
     POSE_TOPIC,
     SETPOINT_TOPIC,
     TRAJECTORY_TOPIC,
     diagnostic_values,
+    fit_busy,
     latched_qos,
     setpoint_qos,
 )
@@ -345,7 +345,7 @@ class RosSweep:
             response = self.call("trajectory_server", "regenerate", timeout_s=self.options.fit_timeout_s)
             if response.success:
                 return
-            if not response.message.startswith(FIT_BUSY_PREFIX) or time.monotonic() >= deadline_s:
+            if not fit_busy(response.message) or time.monotonic() >= deadline_s:
                 raise RunAborted(f"trajectory_server/regenerate: {response.message}")
             self.spin_for(BUSY_RETRY_S)
 

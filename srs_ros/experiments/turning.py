@@ -56,11 +56,12 @@ class TurnMeasurement:
 
 def play_cycle(cycle: GaitCycle, duration_s: float, config: SimConfig, robot: RobotDescription,
                reverse_at_s: Callable[[float], bool] | None = None, sample_every_s: float = 0.05,
-               stop_at_s: float = math.inf) -> np.ndarray:
+               stop_at_s: float = math.inf, switch_to: tuple[float, GaitCycle] | None = None) -> np.ndarray:
     """Play ``cycle`` from rest with the gait player's soft start; rows ``(t, x_m, y_m, yaw_rad)`` every sample.
 
     ``reverse_at_s(t)`` says whether the cycle runs backward at ``t`` (default: never); at ``stop_at_s`` the
-    player ramps out.
+    player ramps out; ``switch_to`` ``(s, other)``: from ``s`` the player cross-fades to ``other``, as it takes a new
+    cycle from trajectory_server (a change of turn level).
     """
     world = SimWorld(config, robot)
     playback = GaitPlayback(max_length_m=robot.max_extension_m)
@@ -76,6 +77,9 @@ def play_cycle(cycle: GaitCycle, duration_s: float, config: SimConfig, robot: Ro
             playback.set_reverse(reverse_at_s(t))
         if t >= stop_at_s - 1e-9 and playback.state.value in ("starting", "running"):
             playback.stop()
+        if switch_to is not None and t >= switch_to[0] - 1e-9:
+            playback.load(switch_to[1].lengths_m, switch_to[1].frequency_hz)
+            switch_to = None
         world.advance_to(t)
         world.command_pressures(lengths_to_pressures_bar(playback.step(dt).positions_m, robot))
         if k % every == 0:

@@ -41,7 +41,7 @@ from rclpy.node import Node
 from rclpy.parameter import Parameter
 from std_srvs.srv import Trigger
 
-from srs_ros.ros.interfaces import BUSY_RETRY_S, FIT_BUSY_PREFIX
+from srs_ros.ros.interfaces import BUSY_RETRY_S, fit_busy
 
 #: Wait before a failed call is made again (s).
 RETRY_S = 1.0
@@ -235,7 +235,7 @@ class GaitDriver:
     def _on_regenerate(self, response) -> None:
         if not response.success:
             now = self._clock()
-            if response.message.startswith(FIT_BUSY_PREFIX):
+            if fit_busy(response.message):
                 since, last = self._busy
                 since = since if now - last <= BUSY_GAP_S else now  # NaN (no period yet) compares False
                 self._busy = (since, now)

@@ -49,6 +49,11 @@ FIT_BUSY_PREFIX = "busy:"
 BUSY_RETRY_S = 0.25
 
 
+def fit_busy(message: str) -> bool:
+    """True when a ``~/regenerate`` answer says trajectory_server is busy with another fit (:data:`FIT_BUSY_PREFIX`)."""
+    return message.startswith(FIT_BUSY_PREFIX)
+
+
 SETPOINT_TOPIC = "joint_setpoints"
 
 

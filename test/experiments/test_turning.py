@@ -5,7 +5,16 @@ import math
 import numpy as np
 
 from srs_ros.core.navigation.settings import DIRECTIONS, STOP_PHASES, turning_map_from_dict
-from srs_ros.experiments.turning import TurnMeasurement, cone_scales, measure_turn_phase, turning_map_yaml
+from srs_ros.core.robot import default_robot
+from srs_ros.experiments.turning import (
+    TurnMeasurement,
+    cone_scales,
+    measure_turn_phase,
+    play_cycle,
+    rolling_cycle,
+    turning_map_yaml,
+)
+from srs_ros.sim.config import load_sim_config
 
 
 def test_a_short_run_measures_turn_and_travel():
@@ -13,6 +22,18 @@ def test_a_short_run_measures_turn_and_travel():
     assert run.label == "inward_rolling" and run.value == 0.35
     assert math.isfinite(run.turn_deg_per_cycle) and 0.02 < run.travel_m_per_cycle < 0.2
     assert run.speed_m_s == run.travel_m_per_cycle
+
+
+def test_a_switch_to_another_cycle_changes_the_run_from_the_switch_on_only():
+    """bench_level_change.py's change of turn level: the player cross-fades to the other cycle at the switch."""
+    robot = default_robot()
+    config = load_sim_config(robot=robot)
+    straight, turning = (rolling_cycle(4.0, 1.0, level, robot) for level in (0.0, 0.35))
+    kept = play_cycle(straight, 3.0, config, robot, sample_every_s=0.1)
+    switched = play_cycle(straight, 3.0, config, robot, sample_every_s=0.1, switch_to=(1.5, turning))
+    before, after = kept[:, 0] < 1.5, kept[:, 0] > 2.5
+    np.testing.assert_array_equal(switched[before], kept[before])  # the same run until the switch
+    assert np.max(np.abs(switched[after, 1:3] - kept[after, 1:3])) > 0.005  # m: another gait after it
 
 
 def test_the_written_turn_map_reads_back():
