@@ -3,7 +3,7 @@ fixtures, and the markers: every test that uses a DDS fixture is marked ``ros`` 
 
 ``scripts/test.sh -m "not ros"`` runs what needs no DDS (core, sim, backends without a node, tools offline,
 lint, the OpenCV 4.6 run); ``-m "not ros and not slow"`` the fast core alone. ``slow`` sits on the tests
-measured at more than about 5 s on the 2-core machine (2 s for those without DDS; ``@pytest.mark.slow``
+measured at more than about 3 s on the 2-core machine (2 s for those without DDS; ``@pytest.mark.slow``
 beside each). The README's "Tests" section has the figures.
 """
 

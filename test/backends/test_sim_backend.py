@@ -126,6 +126,7 @@ def test_a_bus_thread_held_up_while_the_world_talks_is_a_pause_not_a_lost_world(
         assert backend.holding_reason() == ""
 
 
+@pytest.mark.slow(seconds=3)
 def test_a_bus_thread_deaf_longer_than_the_deaf_limit_is_a_lost_world(ros, monkeypatch):
     node, _ = ros
     monkeypatch.setattr(sim_backend, "BUS_DEAF_TIMEOUT_S", 1.0)

@@ -1,6 +1,7 @@
 """The main job: srs_bringup runs the whole system on the mock robot in one process; Ctrl-C vents."""
 
 import numpy as np
+import pytest
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 
@@ -8,6 +9,7 @@ from srs_ros.core.robot import default_robot
 from srs_ros.ros.interfaces import setpoint_qos
 
 
+@pytest.mark.slow(seconds=3)
 def test_bringup_streams_inward_rolling_at_4_bar_and_vents_on_ctrl_c(launch_node, ros_client):
     proc = launch_node("srs_bringup", ["--status-period-s", "0.5"])
     pressures = ros_client.subscribe(Float64MultiArray, "commanded_pressure_bar")
@@ -53,6 +55,7 @@ def test_bringup_stops_with_status_2_and_the_reason_when_the_hardware_cannot_sta
     assert "Traceback" not in output
 
 
+@pytest.mark.slow(seconds=4)
 def test_a_rig_with_real_regulators_holds_0_bar_until_the_operator_arms_it(launch_node, ros_client, tmp_path):
     rig = tmp_path / "can_virtual.yaml"  # a real CAN backend on python-can's in-process virtual bus
     rig.write_text("rig: {name: can_virtual, backend: can, command_rate_hz: 100.0, setpoint_timeout_s: 0.2,\n"

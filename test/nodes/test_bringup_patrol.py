@@ -5,6 +5,7 @@ node on the test client's context, the navigator's side played by the client ove
 
 import time
 
+import pytest
 from geometry_msgs.msg import PoseStamped
 from nav_msgs.msg import Path
 from std_msgs.msg import String
@@ -14,6 +15,7 @@ from srs_ros.nodes.bringup_nodes import Patrol
 from srs_ros.ros.interfaces import GOAL_PATH_TOPIC, NAVIGATION_PROGRESS_TOPIC, POSE_TOPIC, latched_qos, progress_message
 
 
+@pytest.mark.slow(seconds=10)
 def test_the_patrol_waits_for_a_tracked_robot_and_resumes_after_a_lost_pose_but_not_after_a_cancel(ros_client):
     patrol = Patrol(SIM_PATROL_XY_M, context=ros_client.context)
     patrol.RESUME_AFTER_S = 0.5

@@ -155,6 +155,7 @@ def values_of(status):
 
 
 @pytest.mark.timeout(120)
+@pytest.mark.slow(seconds=4)
 def test_tracker_node_says_when_the_robot_leaves_the_view_and_when_the_camera_falls_silent(tmp_path, launch_node,
                                                                                            ros_client):
     calibration = save_calibration(SCENE.camera.calibration(), tmp_path / "cal.yaml")

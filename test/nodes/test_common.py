@@ -128,6 +128,7 @@ def writable_doubles(client, node: str) -> dict[str, int]:
 
 
 @pytest.mark.ros
+@pytest.mark.slow(seconds=5)
 def test_every_writable_double_of_every_node_takes_an_integer_as_ros2_param_set_sends_it(launch_node, ros_client):
     procs = {node: launch_node(node, ros_args(params)) for node, (params, _) in NODES.items()}  # all at once
     ros_client.discover([(srv_type, f"{node}/{name}") for node in NODES for srv_type, name in (

@@ -166,6 +166,7 @@ def test_start_follows_the_trajectory_at_the_rate_and_stop_ramps_to_zero(player,
     assert proc.alive(), proc.output()
 
 
+@pytest.mark.slow(seconds=5)
 def test_live_changes_and_takeover_never_jump_and_bad_parameters_are_rejected(player, ros_client):
     proc, publisher, setpoints = player(autostart=True, blend_time_s=0.3)
     phases = ros_client.subscribe(JointState, GAIT_PHASE_TOPIC, setpoint_qos(depth=1000))

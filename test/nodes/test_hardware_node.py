@@ -31,6 +31,7 @@ from srs_testing.hardware_rig import (
 from srs_ros.core.robot import config_dir
 
 
+@pytest.mark.slow(seconds=3)
 def test_setpoints_become_clamped_pressures_and_volts_and_deactivate_vents(hardware):
     proc, rig = hardware(extra_args=["--params-file", str(config_dir() / "hardware_node.yaml")], own_process=True)
     rig.start()
@@ -263,6 +264,7 @@ def test_output_ramps_up_from_zero_at_activation_and_after_an_estop_reset(hardwa
         assert rig.client.trigger(f"{NODE}/reset").success
 
 
+@pytest.mark.slow(seconds=3)
 def test_the_backend_is_written_at_the_command_rate_whatever_the_setpoint_rate(hardware):
     proc, rig = hardware({"command_rate_hz": 100.0})
     rig.start()

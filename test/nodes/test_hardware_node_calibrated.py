@@ -5,6 +5,7 @@ commanded by its own characteristic, and the lag compensation switched live or r
 """
 
 import numpy as np
+import pytest
 from sensor_msgs.msg import JointState
 from srs_testing.hardware_rig import NAMES, NODE, setpoint
 
@@ -57,6 +58,7 @@ def test_a_calibrated_map_commands_each_muscle_by_its_own_characteristic(hardwar
     assert "calibrated map" in proc.output()
 
 
+@pytest.mark.slow(seconds=3)
 def test_lag_compensation_switches_live_leads_and_never_leaves_the_clamp(hardware, tmp_path):
     proc, rig = hardware({"ramp_time_s": 0.0, "pressure_map": "calibrated",
                           "calibration_file": calibration_file(tmp_path)}, group="calibrated_map")

@@ -67,6 +67,7 @@ def test_two_namespaced_robots_move_independently_and_nothing_of_them_is_on_the_
     assert services and [s for s in services if not s.startswith(("/snake1/", "/snake2/"))] == []
 
 
+@pytest.mark.slow(seconds=4)
 def test_with_use_sim_time_sim_world_publishes_clock_and_the_loop_follows_it(launch_node, ros_client):
     launch_node("srs_bringup", [*LIGHT, "--ros-args", "-p", "use_sim_time:=true", "-p", "camera_rate_hz:=0.0"])
     clock = ros_client.subscribe(Clock, "/clock")

@@ -16,6 +16,7 @@ import random
 import time
 
 import numpy as np
+import pytest
 from diagnostic_msgs.msg import DiagnosticArray
 from hypothesis import HealthCheck, Phase, example, given, settings
 from hypothesis import strategies as st
@@ -138,6 +139,7 @@ def good(now_ns: int) -> JointState:
     return msg
 
 
+@pytest.mark.slow(seconds=5)
 def test_hostile_setpoints_never_reach_the_backend_and_the_last_good_command_goes_on(launch_node, ros_client,
                                                                                     tmp_path):
     rig, record_path = recorded_rig(tmp_path)

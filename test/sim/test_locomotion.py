@@ -42,6 +42,7 @@ def test_at_1_bar_nothing_moves(gait):
 
 
 @pytest.mark.parametrize("frequency_hz", [0.5, 1.0])
+@pytest.mark.slow(seconds=3)
 def test_inward_rolling_at_4_bar_moves_faster_than_2_cm_s_toward_its_opening(frequency_hz):
     result, toward_opening_cm_s = run("inward_rolling", 4.0, frequency_hz)
     assert result.velocity.speed_cm_s > 2.0, result.summary()
@@ -49,6 +50,7 @@ def test_inward_rolling_at_4_bar_moves_faster_than_2_cm_s_toward_its_opening(fre
 
 
 @pytest.mark.parametrize("frequency_hz", [0.5, 1.0])
+@pytest.mark.slow(seconds=3)
 def test_outward_rolling_moves_the_opposite_way(frequency_hz):
     inward, inward_opening = run("inward_rolling", 4.0, frequency_hz)
     outward, outward_opening = run("outward_rolling", 4.0, frequency_hz)

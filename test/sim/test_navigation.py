@@ -76,9 +76,11 @@ def test_the_offline_driver_plays_outward_as_the_inward_cycle_backward():
     assert np.all(last == 0.0)
 
 
+@pytest.mark.slow(seconds=12)
 def test_on_the_anisotropic_floor_a_goal_off_the_line_is_reached_by_a_move_along_the_axis():
     """At rest, a goal 12 cm off the creeping line along the body's axis: the serpentine moves the body onto the line
-    (the floor's friction lets it, 3-4 cm per cycle), then it creeps to the goal. Real MuJoCo, about 3 s of CPU."""
+    (the floor's friction lets it, 3-4 cm per cycle), then it creeps to the goal (reached after 59 s of the 60 s
+    allowed). Real MuJoCo, about 9 s alone."""
     from srs_ros.sim.config import with_friction
     from srs_ros.sim.navigation import COLUMNS, DIRECTION_CODES
 

@@ -209,7 +209,6 @@ def test_a_tracker_still_starting_is_waited_for_and_a_missing_one_is_not(ros_dom
             sweep.close()
 
 
-@pytest.mark.slow(seconds=4)
 def test_a_trajectory_server_busy_with_another_fit_is_asked_again_and_another_refusal_ends_the_run(ros_domain,
                                                                                                    monkeypatch):
     """trajectory_server answers "busy" while its start-up fit runs (2.5 s under the suite's load made a sweep's first
