@@ -18,12 +18,14 @@ Run: python benchmarks/bench_navigation_ros.py [--goals 3] [--seed 20] [--fricti
 
 ``--record DIR`` keeps, per goal, what the client saw (``goal_NN.csv``: the tracked pose, the simulator's
 truth and the commanded pressures, time-stamped; ``goal_NN_progress.jsonl``: the navigator's progress) and
-at the end every process's log, to trace a goal that went wrong.
+at the end every process's log, to trace a goal that went wrong; ``run.json`` holds the run's options and the
+straight-line speed of its physics (read by ``nav_time_tally.py``).
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import os
 import statistics
 import tempfile
@@ -39,6 +41,8 @@ from srs_ros.sim.config import load_sim_config, to_dict, with_friction
 
 #: Longest a goal may take before it is cancelled (wall s).
 GOAL_TIMEOUT_S = 120.0
+#: In a ``--record`` folder: the run's options and the straight-line speed its time ratios are taken at.
+RUN_FILE = "run.json"
 
 
 @dataclass(frozen=True)
@@ -176,6 +180,9 @@ def main(argv=None) -> None:
         record_dir = Path(args.record) if args.record else None
         if record_dir is not None:
             record_dir.mkdir(parents=True, exist_ok=True)
+            (record_dir / RUN_FILE).write_text(json.dumps({  # what nav_time_tally.py sets the time against
+                "seed": args.seed, "goals": len(goals), "sim_config": args.sim_config, "friction": args.friction,
+                "turning_map": args.turning_map, "straight_speed_cm_s": round(100.0 * speed, 3)}) + "\n")
         for index, goal in enumerate(goals):
             outcomes.append(drive(system, goal, record_dir, index))
             print("  " + line(outcomes[-1]), flush=True)
