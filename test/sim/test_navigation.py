@@ -79,13 +79,17 @@ def test_the_offline_driver_plays_outward_as_the_inward_cycle_backward():
 @pytest.mark.slow(seconds=12)
 def test_on_the_anisotropic_floor_a_goal_off_the_line_is_reached_by_a_move_along_the_axis():
     """At rest, a goal 12 cm off the creeping line along the body's axis: the serpentine moves the body onto the line
-    (the floor's friction lets it, 3-4 cm per cycle), then it creeps to the goal (reached after 59 s of the 60 s
-    allowed). Real MuJoCo, about 9 s alone."""
+    (the floor's friction lets it, 3-4 cm per cycle), then it creeps to the goal. Real MuJoCo, about 9 s alone.
+
+    The goal is given the DDS runs' 120 s: it was reached after 19.6 s when the move was added (2214054), 32.9 s
+    with the 1.5 bar creep (180778e) and 58.9 s since the creep's stop ends once the robot is seen at rest (7719566;
+    the creep then judged on and off its line by turns): each rule was kept for the benchmark's sets of goals, not
+    for this one, and 60 s left this test a second from failing on the next such change."""
     from srs_ros.sim.config import with_friction
     from srs_ros.sim.navigation import COLUMNS, DIRECTION_CODES
 
     result = run_navigation([(-0.12, 0.25)], config=with_friction(load_sim_config(), "anisotropic"),
-                            goal_timeout_s=60.0)
+                            goal_timeout_s=120.0)
     (outcome,) = result.outcomes
     assert outcome.reached and outcome.final_error_m <= 0.05, outcome.summary()
     played = set(result.rows[:, COLUMNS.index("direction")].tolist())
