@@ -25,6 +25,7 @@ from std_msgs.msg import Float64MultiArray, String
 
 from srs_ros.core.errors import ConfigurationError, SrsError
 from srs_ros.core.gait.library import played_gait
+from srs_ros.core.gait.playback import describe_frequency
 from srs_ros.core.vision.view import ViewStatus
 from srs_ros.ros.interfaces import (
     COMMANDED_PRESSURE_TOPIC,
@@ -136,9 +137,9 @@ class StatusMonitor(Node):
         get = self._server.get_parameter
         playback = self._player.playback
         # The gait as played: the navigator plays inward rolling backward (outward rolling), at its own frequency.
-        played_hz = abs(playback.frequency_hz)  # 0 for a moment while a reversal ramps through it
+        frequency = describe_frequency(playback.frequency_hz, playback.target_frequency_hz)
         line = (f"[{now_s - self._start_s:6.1f} s] {played_gait(get('gait').value, playback.reverse)} "
-                f"{get('amplitude_bar').value:g} bar {played_hz:.3g} Hz | {playback.state.value} cycle "
+                f"{get('amplitude_bar').value:g} bar {frequency} | {playback.state.value} cycle "
                 f"{playback.cycles_done:7.2f} | "
                 f"setpoints {self._setpoints / span_s:5.0f} Hz | commands {self._commands / span_s:5.0f} Hz | "
                 f"largest {self._largest_bar:4.2f} bar | hardware {self._hardware.status.reason.value}")

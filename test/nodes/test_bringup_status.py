@@ -27,7 +27,8 @@ def stand_ins():
     values = {"gait": "inward_rolling", "amplitude_bar": 4.0, "frequency_hz": 1.0}
     server = SimpleNamespace(get_parameter=lambda name: SimpleNamespace(value=values[name]))
     player = SimpleNamespace(playback=SimpleNamespace(state=SimpleNamespace(value="running"), cycles_done=3.25,
-                                                      reverse=False, frequency_hz=1.0))
+                                                      reverse=False, frequency_hz=1.0,
+                                                      target_frequency_hz=1.0))
     hardware = SimpleNamespace(status=SimpleNamespace(reason=SimpleNamespace(value="commanding")))
     return player, server, hardware
 
@@ -133,8 +134,11 @@ def test_with_the_navigator_the_status_line_shows_its_state_goal_distance_to_go_
     try:
         assert "nav: no progress from the navigator yet" in monitor.status_line()
         assert "inward_rolling 4 bar 1 Hz | running" in monitor.status_line()
-        monitor._player.playback.reverse, monitor._player.playback.frequency_hz = True, -0.25  # the creep, backward
-        assert "outward_rolling 4 bar 0.25 Hz | running" in monitor.status_line()  # the gait as played, not as served
+        playback = monitor._player.playback
+        playback.reverse, playback.frequency_hz, playback.target_frequency_hz = True, 0.4, -0.25  # to the creep
+        assert "outward_rolling 4 bar 0.4 Hz, reversing (then 0.25 Hz) | running" in monitor.status_line()
+        playback.frequency_hz = -0.25  # the creep, backward: the gait as played, not as served
+        assert "outward_rolling 4 bar 0.25 Hz | running" in monitor.status_line()
         ros_client.spin_until(shown(progress(NavigationState.DRIVING, goal_index=5), "| nav driving"), 10.0,
                               "the navigator's progress on the line")
         line = monitor.status_line()

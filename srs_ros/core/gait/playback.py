@@ -287,6 +287,11 @@ class GaitPlayback:
         """Frequency currently played (moving to its target after a change; negative while reversed)."""
         return self._frequency.value
 
+    @property
+    def target_frequency_hz(self) -> float:
+        """The frequency :attr:`frequency_hz` is moving to (itself once settled; negative when reversed)."""
+        return self._frequency.target
+
     def _shape(self, phase: float) -> tuple[np.ndarray, np.ndarray]:
         """Blended cycle values and d/dphase at ``phase``."""
         values, slopes = self._cycle.values(phase), self._cycle.derivatives(phase)
@@ -416,3 +421,16 @@ def cycle_from_points(joint_names, times_s, positions_m, expected_names, max_len
         raise InvalidInputError(f"time_from_start: the period is {period_s:.6g} s ({1.0 / period_s:.6g} Hz); "
                                 f"expected a cycle frequency in [{low_hz:g}, {high_hz:g}] Hz.")
     return samples, 1.0 / period_s
+
+
+def describe_frequency(played_hz: float, target_hz: float) -> str:
+    """A played frequency as a status line shows it, from signed values as :attr:`GaitPlayback.frequency_hz`.
+
+    ``1 Hz`` once settled, ``0.37 Hz, ramping to 1 Hz`` after a change, ``0.37 Hz, reversing (then 1 Hz)`` while a
+    reversal ramps the signed frequency through 0 (the robot slows, stops and rolls back the other way).
+    """
+    if played_hz == target_hz:
+        return f"{abs(played_hz):.3g} Hz"
+    if played_hz * target_hz < 0.0:
+        return f"{abs(played_hz):.3g} Hz, reversing (then {abs(target_hz):.3g} Hz)"
+    return f"{abs(played_hz):.3g} Hz, ramping to {abs(target_hz):.3g} Hz"

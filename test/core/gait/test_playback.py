@@ -1,5 +1,7 @@
 """Playback of a gait cycle: ramps, live changes and takeover never make a setpoint jump."""
 
+import re
+
 import numpy as np
 import pytest
 
@@ -10,6 +12,7 @@ from srs_ros.core.gait.playback import (
     PlaybackState,
     SmoothTransition,
     cycle_from_points,
+    describe_frequency,
     smoothstep,
 )
 
@@ -307,3 +310,22 @@ def test_reverse_plays_the_cycle_backward_without_a_jump():
     phases = np.array([s.phase for s in backward])
     assert np.all(((phases[1:] - phases[:-1]) % 1.0) > 0.5)        # the phase runs backward
     assert backward[-1].cycles_done > forward[-1].cycles_done        # cycles played keep counting up
+
+
+def test_a_status_says_the_frequency_ramps_or_reverses_until_it_is_reached():
+    """The status line's frequency (srs_bringup): a reversal ramps the signed frequency through 0, shown as such."""
+    player = started(frequency_hz=1.0, ramp_time_s=0.4)
+    run(player, 1.0)
+    assert describe_frequency(player.frequency_hz, player.target_frequency_hz) == "1 Hz"
+    player.set_reverse(True)
+    run(player, 0.1)
+    text = describe_frequency(player.frequency_hz, player.target_frequency_hz)
+    assert player.frequency_hz > 0.0 and player.target_frequency_hz == -1.0
+    assert re.fullmatch(r"0\.\d+ Hz, reversing \(then 1 Hz\)", text), text
+    run(player, 0.5)
+    assert describe_frequency(player.frequency_hz, player.target_frequency_hz) == "1 Hz"
+    player.set_frequency_override(0.25)
+    run(player, 0.1)
+    assert re.fullmatch(r"0\.\d+ Hz, ramping to 0\.25 Hz", describe_frequency(
+        player.frequency_hz, player.target_frequency_hz))
+    assert describe_frequency(0.0, 1.0) == "0 Hz, ramping to 1 Hz"  # a start from rest is no reversal
