@@ -113,11 +113,16 @@ class RosSweepOptions:
 
 @dataclass
 class RigInfo:
-    """What discovery found: whether the rig drives real regulators and whether a simulated world runs."""
+    """What discovery found: whether the rig drives real regulators and whether a simulated world runs.
+
+    ``state`` is hardware_node's lifecycle state when it was read. A node not active yet has no rig to answer
+    for (its status says ``requires_arm: False`` until a rig is configured), so it counts as real regulators.
+    """
 
     requires_arm: bool
     simulated: bool
     rig: str
+    state: str = "active"
 
 
 class RosSweep:
@@ -267,12 +272,22 @@ class RosSweep:
         values = diagnostic_values(self._hardware[1])
         # The sim backend talks to a sim_world: wait for it as for the other nodes; elsewhere just look.
         simulated = self.has_service("sim_world", "reset", timeout if values.get("backend") == "sim" else 1.0)
-        # Anything but an explicit "False" counts as real air: the go is asked rather than assumed.
-        self.rig = RigInfo(requires_arm=values.get("requires_arm") != "False", simulated=simulated,
-                           rig=values.get("rig", "unknown"))
+        self.rig = self._rig_now(simulated)
         if not self.vent():  # a player already streaming (e.g. srs_bringup's autostart) stops: runs start at rest
             raise self._not_vented("gait_player ~/stop and hardware_node ~/disarm at the start")
         return self.rig
+
+    def _rig_now(self, simulated: bool) -> RigInfo:
+        """The rig as hardware_node's last status gives it.
+
+        Anything but an explicit "False" from an active node counts as real air: the go is asked rather than
+        assumed (an unconfigured node's "False" is no rig's answer, and the operator may configure it on a real rig
+        after the sweep started).
+        """
+        values = diagnostic_values(self._hardware[1]) if self._hardware is not None else {}
+        state = values.get("lifecycle_state", "active")
+        return RigInfo(requires_arm=values.get("requires_arm") != "False" or state != "active", simulated=simulated,
+                       rig=values.get("rig", "unknown"), state=state)
 
     def hardware_problem(self) -> str:
         """Why the hardware cannot run now ('' when it can): an ERROR (backend fault) or a latched e-stop."""
@@ -399,6 +414,8 @@ class RosSweep:
                 reset_s = time.monotonic()
                 self.trigger("sim_world", "reset")
                 self._wait_pose(reset_s, "after sim_world reset")
+            # Read again for every run: the node may have been configured (or reconfigured) on another rig since.
+            self.rig = self._rig_now(self.rig.simulated)
             if self.rig.requires_arm and (go is None or not go(cell)):
                 return RunRecord.failed(cell, "skipped: no go from the operator")
             self.trigger("hardware_node", "arm")  # also a simulated rig: the vent at discovery disarmed it

@@ -269,10 +269,13 @@ def _discover_rig(sweep, args: argparse.Namespace) -> None:
         rig = sweep.discover()
     except SweepStopped as exc:
         raise ConfigurationError(str(exc)) from None
-    print(f"{PROG}: rig {rig.rig!r}: " + ("real regulators: each run needs the operator's go"
-                                          + (" (--yes given)" if args.yes else "") if rig.requires_arm
-                                          else "no arm needed") + ("; simulated world" if rig.simulated else ""),
-          file=sys.stderr, flush=True)
+    go = "each run needs the operator's go" + (" (--yes given)" if args.yes else "")
+    if rig.state != "active":
+        what = f"hardware_node is {rig.state}, its rig not known yet: {go} (checked again before each run)"
+    else:
+        what = f"real regulators: {go}" if rig.requires_arm else "no arm needed"
+    print(f"{PROG}: rig {rig.rig!r}: {what}" + ("; simulated world" if rig.simulated else ""), file=sys.stderr,
+          flush=True)
 
 
 def _run_cells(sweep, grid: SweepGrid, bags: Path, args: argparse.Namespace,

@@ -3,9 +3,10 @@
 Each pulse commands one regulator (through the one clamp, never above the pressure limit) for
 ``--hold-s`` seconds, resending at the rig's command rate, then vents for ``--vent-s`` seconds. It prints
 the joint, the channel (CAN signal and frame, or NI physical channel) and the volts. Ctrl-C (or SIGTERM)
-vents every regulator at once and exits with 130.
+vents every regulator at once and exits with 130. A rig with real regulators (CAN, DAQ) needs the operator's go
+first, as ``srs_identify``: ``--yes``, or a typed yes at a terminal; without it nothing is sent (exit 2).
 
-Exit codes: 0 done, 1 hardware failure (or driver missing), 2 bad arguments or configuration, 130 interrupted.
+Exit codes: 0 done, 1 hardware failure (or driver missing), 2 bad arguments, configuration or no go, 130 interrupted.
 """
 
 from __future__ import annotations
@@ -26,6 +27,7 @@ from srs_ros.tools.rig_session import (
     EXIT_USAGE,
     backend_for,
     interrupts_on_sigterm,
+    operator_go,
     ros_context,
     run_vented,
     write_whole,
@@ -57,6 +59,8 @@ def build_parser() -> argparse.ArgumentParser:
                         help=f"seconds vented between pulses (default {DEFAULT_VENT_S})")
     parser.add_argument("--channels", nargs="+", metavar="JOINT",
                         help="regulators to pulse, by joint name (m1_pma1) or number 1..9 (default: all, in order)")
+    parser.add_argument("--yes", action="store_true", help="the operator's go for a rig with real regulators "
+                                                            "(robot clear, someone at the supply valve)")
     return parser
 
 
@@ -133,6 +137,11 @@ def main(argv: Sequence[str] | None = None) -> int:
         backend = backend_for(rig, args.backend)
     except (ConfigurationError, ValueError) as exc:
         print(f"srs_wiring_check: error: {exc}", file=sys.stderr, flush=True)
+        return EXIT_USAGE
+    refusal = operator_go(backend, f"{len(joints)} pulse(s) of {args.pressure_bar:g} bar, one regulator at a time",
+                          args.yes, "srs_wiring_check")
+    if refusal:
+        print(f"srs_wiring_check: refused: {refusal}", file=sys.stderr, flush=True)
         return EXIT_USAGE
 
     with interrupts_on_sigterm(), ros_context(backend):

@@ -129,13 +129,13 @@ def _interrupted_sweep(ros_env, out, interrupt, expected_code, extra=()):
     return output, read_table_csv(out / "table.csv")
 
 
-@pytest.mark.slow(seconds=15)
+@pytest.mark.slow(seconds=17)
 def test_on_a_rig_with_real_regulators_nothing_is_armed_without_the_operators_go(launch_node, ros_env, ros_client,
-                                                                                  tmp_path):
+                                                                                  tmp_path, monkeypatch):
     rig = tmp_path / "can_virtual.yaml"  # a real CAN backend on python-can's in-process virtual bus
     rig.write_text("rig: {name: can_virtual, backend: can, command_rate_hz: 100.0, setpoint_timeout_s: 0.2,\n"
                    "      backend_options: {interface: virtual, channel: srs_sweep_test}}\n")
-    launch_node("hardware_node", ros_args({"autostart": True, "rig_file": str(rig)}))
+    launch_node("hardware_node", ros_args({"autostart": False, "rig_file": str(rig)}))  # configured below
     launch_node("trajectory_server", ros_args({"samples": 16}))
     launch_node("gait_player", ros_args({"ramp_time_s": 0.5}))
     diagnostics = ros_client.subscribe(DiagnosticArray, "/diagnostics")
@@ -144,6 +144,23 @@ def test_on_a_rig_with_real_regulators_nothing_is_armed_without_the_operators_go
     def armed_seen():
         return [kv.value for m in diagnostics for s in m.status if s.name.startswith("hardware_node")
                 for kv in s.values if kv.key == "armed"]
+
+    # A sweep that found hardware_node unconfigured (its status says requires_arm False until a rig is configured)
+    # still asks the go once the operator has brought it up on the real rig (a safety review found it arming).
+    monkeypatch.setenv("ROS_DOMAIN_ID", ros_env["ROS_DOMAIN_ID"])
+    sweep, asked = RosSweep(), []
+    try:
+        found = sweep.discover()
+        assert (found.state, found.requires_arm) == ("unconfigured", True), found
+        assert ros_client.change_state("/hardware_node", "configure")
+        assert ros_client.change_state("/hardware_node", "activate")
+        assert sweep.spin_until(lambda: sweep._rig_now(False).state == "active", 10.0)
+        record = sweep.run(("inward_rolling", 2.0, 1.0), 1.0, tmp_path / "early_bag",
+                           go=lambda cell: asked.append(cell) or False)
+    finally:
+        sweep.close()
+    assert asked == [("inward_rolling", 2.0, 1.0)] and record.status == "failed: skipped: no go from the operator"
+    assert "True" not in armed_seen()
 
     def catch_up(what: str) -> None:
         """Take what was published while the sweep ran: until a diagnostics message from after it (1 Hz)."""

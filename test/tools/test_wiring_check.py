@@ -1,5 +1,6 @@
 """srs_wiring_check: pulses each regulator in turn, never above the limit, vents between pulses and on Ctrl-C."""
 
+import io
 import json
 import os
 import signal
@@ -83,7 +84,7 @@ def test_virtual_can_bus_sees_one_regulator_at_a_time(tmp_path, capsys):
     board = can.Bus(interface="virtual", channel=channel)
     try:
         code = main(["--rig", str(can_rig(tmp_path, channel)), "--pressure-bar", "4.0",
-                     "--hold-s", "0.05", "--vent-s", "0.03"])
+                     "--hold-s", "0.05", "--vent-s", "0.03", "--yes"])
         frames = []
         while (message := board.recv(timeout=0.0)) is not None:
             frames.append((message.arbitration_id, bytes(message.data)))
@@ -99,6 +100,23 @@ def test_virtual_can_bus_sees_one_regulator_at_a_time(tmp_path, capsys):
     assert collapse(writes) == expected  # vented before, between and after; never two at once
     assert max(max(w) for w in writes) == 4444  # 4 bar on an ITV3050, the limit: never above
     assert len(writes) >= 9 * 2 * 2  # each pulse and vent resent at the command rate
+
+
+def test_a_rig_with_real_regulators_needs_the_operators_go_and_without_it_nothing_is_sent(tmp_path, capsys,
+                                                                                          monkeypatch):
+    """As srs_identify: no --yes and no terminal to type yes at, the CAN rig is refused before the bus is opened."""
+    channel = f"srs_wiring_{uuid.uuid4().hex[:8]}"
+    board = can.Bus(interface="virtual", channel=channel)
+    monkeypatch.setattr(sys, "stdin", io.StringIO(""))  # no terminal: no typed yes
+    try:
+        code = main(["--rig", str(can_rig(tmp_path, channel)), "--hold-s", "0.05", "--vent-s", "0.03"])
+        received = board.recv(timeout=0.2)
+    finally:
+        board.shutdown()
+    err = capsys.readouterr().err
+    assert code == 2 and received is None, err
+    assert "refused: the can rig drives real regulators with real air: 9 pulse(s) of 1.5 bar" in err
+    assert "Pass --yes" in err
 
 
 def test_pressure_above_the_limit_is_refused_with_exit_code_2(capsys):
@@ -120,7 +138,7 @@ def test_bad_rig_or_channel_exits_2_naming_the_problem(tmp_path, capsys):
 
 
 def test_missing_driver_exits_1_with_the_hint(capsys):
-    assert main(["--rig", str(config_dir() / "rigs" / "daq.yaml"), "--hold-s", "0.05"]) == 1
+    assert main(["--rig", str(config_dir() / "rigs" / "daq.yaml"), "--hold-s", "0.05", "--yes"]) == 1
     assert "installdriver" in capsys.readouterr().err
 
 
@@ -182,7 +200,7 @@ sys.exit(code)
 def test_ctrl_c_vents_at_once_on_a_can_bus(tmp_path):
     channel = f"srs_wiring_{uuid.uuid4().hex[:8]}"
     record = tmp_path / "frames.json"
-    args = ["--rig", str(can_rig(tmp_path, channel, rate_hz=50.0)), "--hold-s", "30", "--vent-s", "0.05"]
+    args = ["--rig", str(can_rig(tmp_path, channel, rate_hz=50.0)), "--hold-s", "30", "--vent-s", "0.05", "--yes"]
     code, output, elapsed_s = _interrupt_during_first_pulse(
         [sys.executable, "-c", CAN_CHILD, channel, str(record), *args], env=dict(os.environ, PYTHONUNBUFFERED="1"))
     assert code == 130, output
