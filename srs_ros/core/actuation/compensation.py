@@ -139,13 +139,16 @@ class SetpointShaper:
         ``velocities_m_per_s`` (m/s) None: differenced from the previous setpoint (0 after a gap).
         """
         lengths = finite_array("lengths_m", lengths_m, (self.map.robot.joint_count,), "m")
-        previous, self._previous = self._previous, (float(now_s), lengths)
+        # Differenced as the map limits them: a huge but finite length (limited like any other) must not become an
+        # infinite rate that refuses it and the setpoint after it.
+        limited = np.clip(lengths, 0.0, self.map.limited_length_m)
+        previous, self._previous = self._previous, (float(now_s), limited)
         if not self._compensation:
             return self.map.pressures_bar(lengths)
         if velocities_m_per_s is None:
             velocities_m_per_s = np.zeros_like(lengths)
             if previous is not None and 0.0 < now_s - previous[0] <= MAX_DIFFERENCE_GAP_S:
-                velocities_m_per_s = (lengths - previous[1]) / (now_s - previous[0])
+                velocities_m_per_s = (limited - previous[1]) / (now_s - previous[0])
         pressure, cut = compensated_pressures_bar(self.map, self.dynamics, lengths, velocities_m_per_s)
         self.compensation_clamped += bool(np.any(cut))
         return pressure

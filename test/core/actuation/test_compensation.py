@@ -80,7 +80,8 @@ def test_never_outside_0_to_4_bar_or_non_finite_whatever_the_setpoint(lengths, v
 
 
 @settings(max_examples=100, deadline=None)
-@given(steps=st.lists(st.tuples(st.floats(-0.1, 0.2), st.floats(1e-6, 0.05)), min_size=2, max_size=20))
+@given(steps=st.lists(st.tuples(st.one_of(st.floats(-0.1, 0.2), finite_lengths), st.floats(1e-6, 0.05)), min_size=2,
+                      max_size=20))
 def test_steps_without_velocities_stay_in_the_clamp(steps):
     shaper = SetpointShaper(CALIBRATED, DYNAMICS, compensation=True)
     now_s = 0.0
@@ -88,6 +89,18 @@ def test_steps_without_velocities_stay_in_the_clamp(steps):
         now_s += dt_s
         pressure = shaper.pressures_bar(np.full(9, length_m), None, now_s)
         assert np.all(np.isfinite(pressure)) and np.all((pressure >= 0.0) & (pressure <= 4.0))
+
+
+def test_a_huge_finite_setpoint_without_velocities_is_limited_and_the_next_one_taken():
+    """A length of 1e308 m differenced 10 ms after 2 cm was an infinite rate: refused as an unexpected error, and the
+    setpoint after it refused too (a safety review). It is limited like any finite length instead."""
+    shaper = SetpointShaper(CALIBRATED, DYNAMICS, compensation=True)
+    shaper.pressures_bar(np.full(9, 0.02), None, 0.0)
+    assert np.all(shaper.pressures_bar(np.full(9, 1e308), None, 0.01) == 4.0)
+    after = shaper.pressures_bar(np.full(9, 0.03), None, 0.02)  # a fall from the limit: the lead vents
+    assert np.all((after >= 0.0) & (after < 4.0))
+    steady = shaper.pressures_bar(np.full(9, 0.03), None, 0.03)
+    assert steady == pytest.approx(CALIBRATED.pressures_bar(np.full(9, 0.03)))
 
 
 def test_non_finite_setpoints_are_refused_not_sent():
