@@ -46,6 +46,7 @@ from std_msgs.msg import Float64MultiArray
 from std_srvs.srv import Trigger
 from trajectory_msgs.msg import JointTrajectory
 
+from srs_ros.core.actuation.operator import REAL_ARM_PREFIX
 from srs_ros.core.errors import SrsError
 from srs_ros.experiments.recording import BagRecorder
 from srs_ros.experiments.table import Cell, RunRecord
@@ -418,8 +419,11 @@ class RosSweep:
             self.rig = self._rig_now(self.rig.simulated)
             if self.rig.requires_arm and (go is None or not go(cell)):
                 return RunRecord.failed(cell, "skipped: no go from the operator")
-            self.trigger("hardware_node", "arm")  # also a simulated rig: the vent at discovery disarmed it
+            answer = self.trigger("hardware_node", "arm")  # also a simulated rig: the vent at discovery disarmed it
             armed = True
+            if not self.rig.requires_arm and answer.startswith(REAL_ARM_PREFIX):  # switched since its last status
+                raise RunAborted("hardware_node turned out to drive real regulators and no go was asked: disarmed; "
+                                 "run the sweep again to be asked")
             self.recorder = BagRecorder(bag_path)
             if self._trajectory is not None:
                 self.recorder.write(self.node.resolve_topic_name(TRAJECTORY_TOPIC), type_name(JointTrajectory),

@@ -20,6 +20,8 @@ from srs_testing import RosClient, ros_args, script_path
 from std_msgs.msg import Float64MultiArray
 from std_srvs.srv import Trigger
 
+from srs_ros.core.actuation.operator import arm as operator_arm
+from srs_ros.core.actuation.safety import CommandGate
 from srs_ros.core.robot import config_dir
 from srs_ros.experiments.recording import bag_message_counts, bag_topic_types
 from srs_ros.experiments.ros_sweep import RosSweep, RosSweepOptions, RunAborted
@@ -256,3 +258,54 @@ def test_a_trajectory_server_busy_with_another_fit_is_asked_again_and_another_re
             stop.set()
             spinner.join()
             sweep.close()
+
+
+@pytest.mark.slow(seconds=5)
+def test_a_rig_that_answers_the_arm_as_a_real_one_without_a_go_is_disarmed_and_the_run_fails(launch_node, ros_domain,
+                                                                                             monkeypatch, tmp_path):
+    """The go is decided from hardware_node's last status (1 Hz): a node reconfigured on a real rig since then answers
+    ~/arm as one. The sweep, which asked no go, disarms at once and fails the run. The stand-in hardware node (in this
+    process, over DDS) says in its status that it needs no arm and answers ~/arm as a real rig does."""
+    launch_node("trajectory_server", ros_args({"samples": 16}))
+    launch_node("gait_player", ros_args({"ramp_time_s": 0.5}))
+    monkeypatch.setenv("ROS_DOMAIN_ID", str(ros_domain))
+    calls, stop = [], threading.Event()
+    with RosClient(ros_domain, "rig_stand_in") as rig:
+        def service(name, message):
+            def answer(_request, response):
+                calls.append(name)
+                response.success, response.message = True, message
+                return response
+            return rig.node.create_service(Trigger, f"/hardware_node/{name}", answer)
+
+        service("arm", operator_arm_message())
+        service("disarm", "disarmed: venting to 0 bar until ~/arm.")
+        status = DiagnosticStatus(name="hardware_node: actuators", level=DiagnosticStatus.OK, values=[
+            KeyValue(key="lifecycle_state", value="active"), KeyValue(key="requires_arm", value="False"),
+            KeyValue(key="backend", value="mock"), KeyValue(key="rig", value="mock")])
+        diagnostics = rig.node.create_publisher(DiagnosticArray, "/diagnostics", 10)
+        commanded = rig.node.create_publisher(Float64MultiArray, "commanded_pressure_bar", 10)
+        rig.node.create_timer(0.1, lambda: (diagnostics.publish(DiagnosticArray(status=[status])),
+                                            commanded.publish(Float64MultiArray(data=[0.0] * 9))))
+        spinner = threading.Thread(target=lambda: [rig.executor.spin_once(timeout_sec=0.05)
+                                                   for _ in iter(stop.is_set, True)])
+        spinner.start()
+        sweep = RosSweep()
+        try:
+            assert sweep.discover().requires_arm is False
+            record = sweep.run(("inward_rolling", 2.0, 1.0), 1.0, tmp_path / "bag",
+                               go=lambda cell: pytest.fail("no go is asked of a rig that says it needs no arm"))
+        finally:
+            sweep.close()
+            stop.set()
+            spinner.join()
+    assert record.status.startswith("failed: hardware_node turned out to drive real regulators"), record.status
+    assert calls[-2:] == ["arm", "disarm"]  # disarmed right after the arm's answer
+
+
+def operator_arm_message() -> str:
+    """What hardware_node's ~/arm answers on a rig with real regulators (the node's own code, on a CAN rig's gate)."""
+    gate = CommandGate(joint_count=9, setpoint_timeout_s=0.2)
+    gate.configure(9, 0.2, 1.0, requires_arm=True)
+    gate.set_active(True)
+    return operator_arm(gate, "can").message

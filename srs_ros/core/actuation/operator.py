@@ -27,6 +27,10 @@ class Answer:
     warning: str = ""
 
 
+#: How ``~/arm`` answers on a rig with real regulators (a client that asked no go can tell it was one after all).
+REAL_ARM_PREFIX = "ARMED by the operator"
+
+
 def arm(gate: CommandGate, backend: str) -> Answer:
     """The operator's go for the ``backend`` rig (refused while e-stopped or inactive, with what to do)."""
     had_go = gate.has_go
@@ -37,7 +41,7 @@ def arm(gate: CommandGate, backend: str) -> Answer:
         return Answer(True, f"armed (the {backend} rig is simulated and needs no arm)." if had_go else
                       f"armed again after ~/disarm: the simulated {backend} rig commands fresh setpoints, ramping up "
                       f"from 0 bar over {gate.ramp_time_s:g} s.")
-    message = (f"ARMED by the operator: the {backend} rig now commands fresh setpoints, ramping up from 0 bar over "
+    message = (f"{REAL_ARM_PREFIX}: the {backend} rig now commands fresh setpoints, ramping up from 0 bar over "
                f"{gate.ramp_time_s:g} s; ~/emergency_stop or ~/disarm vents.")
     return Answer(True, message, warning=message)
 
