@@ -73,8 +73,7 @@ from srs_ros.nodes.gait_player import GaitPlayer
 from srs_ros.nodes.hardware_node import HardwareNode, release_and_report
 from srs_ros.nodes.navigator import Navigator
 from srs_ros.nodes.trajectory_server import TrajectoryServer
-from srs_ros.ros.parameters import guard_parameter_services
-from srs_ros.ros.process import CleanExit, init_ros, spin_until_shutdown
+from srs_ros.ros.process import CleanExit, guard_services, init_ros, spin_until_shutdown
 
 #: The main job's patrol on the sim rig (m, floor frame): a rectangle well inside the simulated camera's view
 #: (2.9 m x 2.3 m around the origin, where the robot starts), kept view_margin_m inside its edge.
@@ -266,7 +265,7 @@ class System:
                                                else (tracker.status_name, tracker.hardware_id),
                                                navigating=_navigating(args)))
         for node in self.nodes:
-            guard_parameter_services(node)
+            guard_services(node)
 
     def _create_world(self, args: argparse.Namespace) -> None:
         """The simulated robot, the camera tracker on its images and (``--video``) the recorder.

@@ -37,6 +37,34 @@ def steady_timer(node: Node, period_s: float, callback: Callable[[], None], call
     return node.create_timer(period_s, callback, callback_group, clock=Clock(clock_type=ClockType.STEADY_TIME))
 
 
+def guard_services(node: Node) -> None:
+    """Malformed or untimely requests to a node's standard services are refusals, never the end of the node.
+
+    The parameter services as :func:`guard_parameter_services` says. A lifecycle node's ``~/change_state`` with a
+    transition id that is not valid in the current state (what launch_ros's ``ChangeState`` event and ``ros2
+    service call`` send: an id, no label) makes rclpy's state machine raise, which ended the hardware node (and
+    srs_bringup with it) where rclcpp answers ``success: false``; a label is already checked by rclpy. Guarded, the
+    request is answered ``success: false`` and the node stays in its state.
+    """
+    guard_parameter_services(node)
+    for service in node.services:
+        if service.srv_name.endswith("/change_state"):
+            service.callback = _refusing_invalid_transitions(node, service.callback)
+
+
+def _refusing_invalid_transitions(node: Node, callback):
+    def guarded(request, response):
+        try:
+            return callback(request, response)
+        except _rclpy.RCLError as exc:  # raised before any transition callback ran: the state is unchanged
+            node.get_logger().warning(f"~/change_state refused transition id {request.transition.id} "
+                                      f"{request.transition.label!r}: {str(exc).strip()}; "
+                                      "`ros2 lifecycle list` shows the transitions available now")
+            response.success = False
+            return response
+    return guarded
+
+
 def request_realtime_priority(priority: int, logger) -> bool:
     """Put every thread of this process (and those it starts later) on SCHED_FIFO at ``priority`` (1-98).
 
@@ -147,7 +175,7 @@ def run_node(node_factory: Callable[[], Node], args: list[str] | None = None, ex
     try:
         with outcome:
             node = node_factory()
-            guard_parameter_services(node)
+            guard_services(node)
             executor.add_node(node)
             outcome.started = True
             spin_until_shutdown(executor)

@@ -149,6 +149,22 @@ def test_emergency_stop_latches_until_reset(hardware):
     assert "not latched" in rig.client.trigger(f"{NODE}/reset").message
 
 
+def test_a_transition_not_valid_now_is_refused_and_the_node_keeps_commanding(hardware):
+    """A transition by id alone (launch_ros's ChangeState event, `ros2 service call .../change_state`), not valid in
+    the current state: refused, as rclcpp refuses it. rclpy's state machine raised, and the node vented and exited."""
+    proc, rig = hardware()
+    rig.start()
+    good = setpoint(LENGTHS_M)
+    rig.stream(good, until=lambda: rig.commanded(PRESSURES_BAR), what="commands while active")
+    assert not rig.client.change_state(NODE, "configure")  # id 1 from active
+    assert not rig.client.change_state(NODE, "cleanup")  # id 2 from active
+    assert rig.client.lifecycle_state(NODE) == "active" and proc.alive(), proc.output()[-2000:]
+    count = len(rig.pressure)
+    rig.stream(good, until=lambda: len(rig.pressure) > count + 5, what="commands after the refusals")
+    assert np.allclose(rig.pressure[-1].data, PRESSURES_BAR)
+    assert "~/change_state refused transition id 1" in proc.output()
+
+
 def test_pressure_limit_is_read_only_and_can_be_lowered_at_start_up(hardware):
     proc, rig = hardware({"autostart": True, "max_pressure_bar": 2.0}, own_process=True)
     rig.client.spin_until(lambda: rig.client.lifecycle_state(NODE) == "active", what="autostart to active")
