@@ -58,6 +58,7 @@ from srs_ros.ros.interfaces import (
     GROUND_TRUTH_TOPIC,
     POSE_TOPIC,
     SETPOINT_TOPIC,
+    STATUS_NODE_KEY,
     TRAJECTORY_TOPIC,
     diagnostic_values,
     fit_busy,
@@ -75,8 +76,8 @@ RECORDED_TOPICS = (
     (DIAGNOSTICS_TOPIC, DiagnosticArray, 100),
     (GROUND_TRUTH_TOPIC, PoseStamped, 100),
 )
-#: The hardware node's status on /diagnostics starts with this.
-HARDWARE_STATUS_PREFIX = "hardware_node"
+#: The hardware node a sweep drives (in its namespace); its /diagnostics status says so (STATUS_NODE_KEY).
+HARDWARE_NODE = "hardware_node"
 #: Commanded pressures at or below this (bar) count as vented.
 VENTED_BAR = 0.01
 #: Poses averaged (median) at each end of a run, s.
@@ -179,13 +180,21 @@ class RosSweep:
                 self._poses.append((now, pose.position.x, pose.position.y, yaw))
             elif msg_class is DiagnosticArray:
                 for status in deserialize_message(data, DiagnosticArray).status:
-                    if status.name.startswith(HARDWARE_STATUS_PREFIX):
+                    if self._is_our_hardware(status):
                         self._hardware = (now, status)
             elif msg_class is Float64MultiArray:
                 values = deserialize_message(data, Float64MultiArray).data
                 self._commanded = (now, max(values, default=0.0))
 
         return receive
+
+    def _is_our_hardware(self, status: DiagnosticStatus) -> bool:
+        """Whether ``status`` is the status of the hardware node this sweep drives.
+
+        /diagnostics is shared by every robot on the domain: another namespace's hardware_node (its requires_arm,
+        its state) must not be taken for ours.
+        """
+        return diagnostic_values(status).get(STATUS_NODE_KEY) == f"{self._prefix}/{HARDWARE_NODE}"
 
     def install_interrupt_handler(self) -> None:
         """SIGINT/SIGTERM set :attr:`interrupted`; the waits raise ``KeyboardInterrupt`` between two spins.
@@ -268,7 +277,7 @@ class RosSweep:
                 raise SweepStopped(f"no service {self._prefix}/{node}/{name} after {timeout:g} s: start the rig's "
                                    "nodes first (e.g. srs_bringup, or ros2 launch srs_ros srs.launch.py)")
         if not self.spin_until(lambda: self._hardware is not None, timeout):
-            raise SweepStopped(f"no '{HARDWARE_STATUS_PREFIX}' status on /diagnostics after {timeout:g} s: is "
+            raise SweepStopped(f"no status of {self._prefix}/{HARDWARE_NODE} on /diagnostics after {timeout:g} s: is "
                                "hardware_node running?")
         values = diagnostic_values(self._hardware[1])
         # The sim backend talks to a sim_world: wait for it as for the other nodes; elsewhere just look.

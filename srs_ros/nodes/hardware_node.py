@@ -91,6 +91,7 @@ from srs_ros.ros.interfaces import (
     COMMANDED_PRESSURE_TOPIC,
     DIAGNOSTICS_TOPIC,
     SETPOINT_TOPIC,
+    STATUS_NODE_KEY,
     diagnostic_array,
     diagnostic_status,
     joint_state,
@@ -437,7 +438,10 @@ class HardwareNode(LifecycleNode):
         """The status report on /diagnostics (1 Hz, in every state, and at once on a backend fault)."""
         setup = self._setup()
         report = self.status.report(time.monotonic(), setup, self.gate, self.shaper)
-        status = diagnostic_status(f"{NODE_NAME}: actuators", setup.rig, report.level, report.message, report.values)
+        # Named as the node runs (`__node` remap) and keyed by its full name, so that clients driving one robot of
+        # several (e.g. `srs_sweep --namespace snake1`) read its own status from the shared /diagnostics.
+        status = diagnostic_status(f"{self.get_name()}: actuators", setup.rig, report.level, report.message,
+                                   {**report.values, STATUS_NODE_KEY: self.get_fully_qualified_name()})
         self.diagnostics_publisher.publish(diagnostic_array([status], self.get_clock().now().to_msg()))
 
     def _setup(self) -> NodeSetup:

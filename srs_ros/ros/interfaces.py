@@ -270,6 +270,9 @@ def seconds_to_stamp(seconds: float) -> Time:
 # ------------------------------------------------------------------------------------------
 _LEVELS = {"OK": DiagnosticStatus.OK, "WARN": DiagnosticStatus.WARN, "ERROR": DiagnosticStatus.ERROR,
            "STALE": DiagnosticStatus.STALE}
+#: The key of a status's value that gives the fully qualified name of the node reporting it (hardware_node's):
+#: /diagnostics is shared by every robot on a domain, whatever namespace each runs in.
+STATUS_NODE_KEY = "node"
 
 
 def diagnostic_status(name: str, hardware_id: str, level: str, message: str,

@@ -26,7 +26,7 @@ from srs_ros.core.robot import config_dir
 from srs_ros.experiments.recording import bag_message_counts, bag_topic_types
 from srs_ros.experiments.ros_sweep import RosSweep, RosSweepOptions, RunAborted
 from srs_ros.experiments.table import TABLE_COLUMNS, read_table_csv
-from srs_ros.ros.interfaces import BUSY_RETRY_S, FIT_BUSY_PREFIX, POSE_TOPIC
+from srs_ros.ros.interfaces import BUSY_RETRY_S, FIT_BUSY_PREFIX, POSE_TOPIC, STATUS_NODE_KEY, diagnostic_values
 
 SIM_RIG = str(config_dir() / "rigs" / "sim.yaml")
 
@@ -204,7 +204,8 @@ def test_a_tracker_still_starting_is_waited_for_and_a_missing_one_is_not(ros_dom
     stop = threading.Event()
     with RosClient(ros_domain, "rig_stand_in") as rig:
         status = DiagnosticStatus(name="hardware_node: actuators", level=DiagnosticStatus.OK,
-                                  values=[KeyValue(key="lifecycle_state", value="active")])
+                                  values=[KeyValue(key="lifecycle_state", value="active"),
+                                          KeyValue(key=STATUS_NODE_KEY, value="/hardware_node")])
         diagnostics = rig.node.create_publisher(DiagnosticArray, "/diagnostics", 10)
         rig.node.create_timer(0.2, lambda: diagnostics.publish(DiagnosticArray(status=[status])))
         spinner = threading.Thread(target=lambda: [rig.executor.spin_once(timeout_sec=0.05)
@@ -282,7 +283,8 @@ def test_a_rig_that_answers_the_arm_as_a_real_one_without_a_go_is_disarmed_and_t
         service("disarm", "disarmed: venting to 0 bar until ~/arm.")
         status = DiagnosticStatus(name="hardware_node: actuators", level=DiagnosticStatus.OK, values=[
             KeyValue(key="lifecycle_state", value="active"), KeyValue(key="requires_arm", value="False"),
-            KeyValue(key="backend", value="mock"), KeyValue(key="rig", value="mock")])
+            KeyValue(key="backend", value="mock"), KeyValue(key="rig", value="mock"),
+            KeyValue(key=STATUS_NODE_KEY, value="/hardware_node")])
         diagnostics = rig.node.create_publisher(DiagnosticArray, "/diagnostics", 10)
         commanded = rig.node.create_publisher(Float64MultiArray, "commanded_pressure_bar", 10)
         rig.node.create_timer(0.1, lambda: (diagnostics.publish(DiagnosticArray(status=[status])),
@@ -309,3 +311,30 @@ def operator_arm_message() -> str:
     gate.configure(9, 0.2, 1.0, requires_arm=True)
     gate.set_active(True)
     return operator_arm(gate, "can").message
+
+
+@pytest.mark.slow(seconds=5)
+def test_a_sweep_in_a_namespace_reads_its_own_robots_hardware_status_not_anothers(launch_node, ros_domain, ros_client,
+                                                                                  monkeypatch):
+    """Two robots on one domain share /diagnostics: `srs_sweep --namespace snake1` must read snake1's hardware_node
+    (not configured yet: the go will be asked), never snake2's (active, a rig that needs no arm). Before stop 57 it
+    took any hardware_node status, whichever came last (a helper's review of the ROS interfaces)."""
+    launch_node("hardware_node", ros_args({"autostart": False}, {"__ns": "/snake1"}))
+    launch_node("hardware_node", ros_args({"autostart": True}, {"__ns": "/snake2"}))
+    statuses = ros_client.subscribe(DiagnosticArray, "/diagnostics")
+    monkeypatch.setenv("ROS_DOMAIN_ID", str(ros_domain))
+    sweep = RosSweep(RosSweepOptions(namespace="snake1"))
+    states = []
+
+    def both_robots_seen_for_2_s() -> bool:  # the sweep's reading, sampled while both robots report (1 Hz each)
+        states.append(sweep._rig_now(False))
+        sweep.spin_for(0.05)
+        nodes = {diagnostic_values(s).get(STATUS_NODE_KEY) for m in statuses[-6:] for s in m.status}
+        return {"/snake1/hardware_node", "/snake2/hardware_node"} <= nodes and len(states) > 40
+
+    try:
+        assert sweep.spin_until(lambda: sweep._hardware is not None, 10.0)
+        ros_client.spin_until(both_robots_seen_for_2_s, 15.0, "both robots' statuses")
+    finally:
+        sweep.close()
+    assert {(rig.state, rig.requires_arm) for rig in states} == {("unconfigured", True)}, states[-5:]
