@@ -59,7 +59,7 @@ from srs_ros.ros.interfaces import (
     stamp_to_seconds,
 )
 from srs_ros.ros.parameters import ParameterSpec, declare_parameters
-from srs_ros.ros.process import run_node
+from srs_ros.ros.process import run_node, steady_timer
 
 #: The tracker's status on /diagnostics is named "<node name>: marker tracking".
 STATUS_NAME_SUFFIX = "marker tracking"
@@ -174,7 +174,9 @@ class CameraTrackerNode(Node):
             self._open_source(self.source, float(p["source_rate_hz"]), bool(p["loop"]))
         else:
             self.create_subscription(Image, IMAGE_TOPIC, self.on_image, qos_profile_sensor_data)
-        self.create_timer(float(p["diagnostics_period_s"]), self.publish_diagnostics)
+        # On the steady clock, as every node's status: with use_sim_time a ROS-clock timer stops with /clock, and
+        # a simulator that stalls or dies is exactly when "camera silent" must still be said.
+        steady_timer(self, float(p["diagnostics_period_s"]), self.publish_diagnostics)
         self.get_logger().info(
             f"tracking {self.tracker.describe_markers()} from {where}; calibration {self.calibration.source} "
             f"(reprojection rms {self.calibration.rms_error_mm:.2f} mm), frame '{self.frame_id}'"

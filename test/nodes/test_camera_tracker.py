@@ -154,6 +154,19 @@ def values_of(status):
     return diagnostic_values(status)
 
 
+def test_with_sim_time_and_no_clock_a_silent_camera_is_still_said(tmp_path, launch_node, ros_client):
+    """`use_sim_time:=true` with /clock stopped (a simulator stalled or dead): the status still comes, on the steady
+    clock, and says the camera is silent. Its timer was on the ROS clock and published nothing (a helper's review)."""
+    calibration = save_calibration(SCENE.camera.calibration(), tmp_path / "cal.yaml")
+    launch_node("camera_tracker", ros_args({"calibration_file": str(calibration), "diagnostics_period_s": 0.2,
+                                            "image_timeout_s": 0.5, "use_sim_time": True}))
+    diagnostics = ros_client.subscribe(DiagnosticArray, "/diagnostics")
+    ros_client.spin_until(lambda: any(s.level == DiagnosticStatus.ERROR for s in statuses(diagnostics)), 10.0,
+                          "camera_tracker's ERROR without /clock")
+    error = [s for s in statuses(diagnostics) if s.level == DiagnosticStatus.ERROR][-1]
+    assert values_of(error)["view_state"] == "camera_silent" and "(camera silent)" in error.message, error.message
+
+
 @pytest.mark.timeout(120)
 @pytest.mark.slow(seconds=4)
 def test_tracker_node_says_when_the_robot_leaves_the_view_and_when_the_camera_falls_silent(tmp_path, launch_node,
