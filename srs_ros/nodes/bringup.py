@@ -73,6 +73,7 @@ from srs_ros.nodes.gait_player import GaitPlayer
 from srs_ros.nodes.hardware_node import HardwareNode, release_and_report
 from srs_ros.nodes.navigator import Navigator
 from srs_ros.nodes.trajectory_server import TrajectoryServer
+from srs_ros.ros.parameters import params_file_key
 from srs_ros.ros.process import CleanExit, guard_services, init_ros, spin_until_shutdown
 
 #: The main job's patrol on the sim rig (m, floor frame): a rectangle well inside the simulated camera's view
@@ -154,7 +155,7 @@ def _params_file(args: argparse.Namespace, ros_args: list[str]) -> str:
     params = {node: {k: v for k, v in values.items() if k not in given} for node, values in params.items()}
     with tempfile.NamedTemporaryFile("w", prefix="srs_bringup_", suffix=".yaml", delete=False) as stream:
         # "/**/name": the node in whatever namespace the process is given (``-r __ns:=/snake1``).
-        yaml.safe_dump({f"/**/{name}": {"ros__parameters": values} for name, values in params.items()}, stream)
+        yaml.safe_dump({params_file_key(name): {"ros__parameters": values} for name, values in params.items()}, stream)
         return stream.name
 
 

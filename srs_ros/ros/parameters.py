@@ -139,6 +139,15 @@ def integers_as_doubles(names: frozenset[str], params: list[Parameter]) -> list[
             if p.name in names and p.type_ == Parameter.Type.INTEGER else p for p in params]
 
 
+def params_file_key(node: str) -> str:
+    """The key of ``node``'s block in a params file: ``/**/node``, so it applies in any namespace.
+
+    A bare ``node:`` key means ``/node`` only; under ``ros2 launch ... namespace:=snake1`` (or ``-r __ns:=/snake1``)
+    such a block is silently not applied.
+    """
+    return f"/**/{node}"
+
+
 def check_parameters(specs: dict[str, ParameterSpec], params: Sequence,
                      extra_check: Callable[[str, Any], str] | None = None) -> SetParametersResult:
     """A set-parameters callback body: reject the whole set with a reason if any value is bad."""

@@ -22,7 +22,7 @@ from pathlib import Path
 import yaml
 
 from srs_ros.core.robot import config_dir
-from srs_ros.ros.parameters import ParameterSpec
+from srs_ros.ros.parameters import ParameterSpec, params_file_key
 
 #: What each generated file says above its parameters (how the node reads them), by node.
 HEADERS = {
@@ -97,7 +97,7 @@ def config_text(node: str) -> str:
              "# and tested equal to them: change a default or a range in the spec, then run the generator; do not",
              "# edit this file. A lab's own values go in a params file of its own, passed after this one.",
              *(f"# {line}" for line in HEADERS[node]),
-             f"{node}:", "  ros__parameters:"]
+             f"{params_file_key(node)}:", "  ros__parameters:"]
     entries = [f"{spec.name}: {yaml_value(spec.default)}" for spec in specs]
     width = max(len(entry) for entry in entries) + 2
     lines += [f"    {entry.ljust(width)}# {comment(spec)}" for entry, spec in zip(entries, specs)]

@@ -6,6 +6,7 @@ import pytest
 import yaml
 
 from srs_ros.core.robot import config_dir
+from srs_ros.ros.parameters import params_file_key
 from srs_ros.tools.node_config import NODES, config_text, main, node_specs
 
 
@@ -18,7 +19,7 @@ def test_the_shipped_params_file_is_the_one_generated_from_the_specs(node):
 
 @pytest.mark.parametrize("node", NODES)
 def test_the_file_holds_every_declared_parameter_at_its_default_with_its_type(node):
-    values = yaml.safe_load((config_dir() / f"{node}.yaml").read_text())[node]["ros__parameters"]
+    values = yaml.safe_load((config_dir() / f"{node}.yaml").read_text())[params_file_key(node)]["ros__parameters"]
     specs = node_specs(node)
     assert values == {spec.name: spec.default for spec in specs}
     assert all(type(values[spec.name]) is type(spec.default) for spec in specs)  # 4.0 stays a double for ROS
@@ -40,3 +41,15 @@ def test_check_names_a_drifted_file_and_the_generator_mends_it(tmp_path, capsys)
     assert str(drifted) in capsys.readouterr().err
     assert main(["--config-dir", str(tmp_path)]) == 0
     assert drifted.read_text() == config_text("gait_player")
+
+
+def test_a_block_keyed_as_the_shipped_files_are_applies_to_the_node_in_a_namespace(launch_node, ros_client, tmp_path):
+    """`ros2 launch ... namespace:=snake1` runs /snake1/gait_player: a bare `gait_player:` block (the shipped files'
+    key until stop 57) means /gait_player only and was silently not applied there (a helper's review)."""
+    path = config_dir() / "gait_player.yaml"
+    changed = tmp_path / "gait_player.yaml"
+    changed.write_text(path.read_text().replace("rate_hz: 200.0", "rate_hz: 123.0"))
+    launch_node("gait_player", ["--ros-args", "-r", "__ns:=/snake1", "--params-file", str(changed)])
+    ros_client.spin_until(lambda: "/snake1/gait_player/get_parameters" in dict(
+        ros_client.node.get_service_names_and_types()), 15.0, "/snake1/gait_player")
+    assert ros_client.get_parameters("/snake1/gait_player", ["rate_hz"]) == {"rate_hz": 123.0}
