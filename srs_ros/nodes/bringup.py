@@ -74,7 +74,7 @@ from srs_ros.nodes.hardware_node import HardwareNode, release_and_report
 from srs_ros.nodes.navigator import Navigator
 from srs_ros.nodes.trajectory_server import TrajectoryServer
 from srs_ros.ros.parameters import params_file_key
-from srs_ros.ros.process import CleanExit, guard_services, init_ros, spin_until_shutdown
+from srs_ros.ros.process import SHUTDOWN, CleanExit, guard_services, init_ros, spin_until_shutdown
 
 #: The main job's patrol on the sim rig (m, floor frame): a rectangle well inside the simulated camera's view
 #: (2.9 m x 2.3 m around the origin, where the robot starts), kept view_margin_m inside its edge.
@@ -177,6 +177,7 @@ def main(argv: list[str] | None = None) -> int:
             spin_until_shutdown(system.realtime, args.duration_s)
     finally:
         system.stop(outcome)
+        SHUTDOWN.ignore_from_now()
     return outcome.exit_code
 
 

@@ -123,9 +123,13 @@ class ShutdownSignals:
     A terminal's Ctrl-C reaches every process of the group and ``ros2 launch`` sends its own SIGINT a
     few ms later, so each node gets two. rclpy's own handlers (which raise ``KeyboardInterrupt``
     anywhere, also inside the vent) are not installed (:func:`init_ros`); this handler only sets a
-    flag that the spin loop polls and then ignores both signals for the rest of the process (also
-    during interpreter exit, where Python would otherwise restore the default action and die by the
-    signal). SIGKILL still ends a process that hangs.
+    flag that the spin loop polls; later signals find it set and change nothing. Once the node is cleaned
+    up, :meth:`ignore_from_now` ignores both signals for the rest of the process (interpreter exit, where
+    Python would otherwise restore the default action and die by the signal). Not earlier: a signal that
+    arrived while the first one's handler waited to run (the main thread inside a timed ``spin_once``) would
+    find its disposition changed to "ignore" and Python would print "Signal 15 ignored due to race
+    condition" with a traceback (SIGINT then SIGTERM 5 ms apart, a helper's review). SIGKILL still ends a
+    process that hangs.
     """
 
     def __init__(self) -> None:
@@ -138,6 +142,10 @@ class ShutdownSignals:
 
     def _handle(self, signum: int, _frame) -> None:
         self.requested = self.requested or signal.Signals(signum).name
+
+    @staticmethod
+    def ignore_from_now() -> None:
+        """Ignore SIGINT and SIGTERM for the rest of the process (after the clean-up, before interpreter exit)."""
         for sig in (signal.SIGINT, signal.SIGTERM):
             signal.signal(sig, signal.SIG_IGN)
 
@@ -186,6 +194,7 @@ def run_node(node_factory: Callable[[], Node], args: list[str] | None = None, ex
         if node is not None:
             node.destroy_node()
         rclpy.try_shutdown()
+        SHUTDOWN.ignore_from_now()
     return outcome.exit_code
 
 
