@@ -229,6 +229,9 @@ def read_yaml(path: str | Path) -> Any:
             return yaml.safe_load(stream)
     except FileNotFoundError:
         raise ConfigurationError(f"{path}: no such file.") from None
+    except UnicodeDecodeError as exc:
+        raise ConfigurationError(f"{path}: not UTF-8 text (byte {exc.object[exc.start:exc.start + 1]!r} at offset "
+                                 f"{exc.start}); expected a YAML file: save it as UTF-8.") from None
     except (OSError, yaml.YAMLError) as exc:
         raise ConfigurationError(f"{path}: cannot be read as YAML ({exc}).") from exc
 

@@ -75,6 +75,9 @@ def test_missing_section_and_missing_file(tmp_path):
     (tmp_path / "broken.yaml").write_text("robot: [unclosed")
     with pytest.raises(ConfigurationError, match="cannot be read as YAML"):
         load_robot(tmp_path / "broken.yaml")
+    (tmp_path / "latin1.yaml").write_bytes("robot:\n  name: Gr\xf6\xdfe\n".encode("latin-1"))  # was a bare traceback
+    with pytest.raises(ConfigurationError, match=r"latin1.yaml: not UTF-8 text \(byte b'\\xf6' at offset 17\)"):
+        load_robot(tmp_path / "latin1.yaml")
 
 
 def test_regulator_that_cannot_reach_the_limit_is_rejected():
