@@ -34,9 +34,11 @@ import numpy as np
 
 from srs_ros.core.errors import ConfigurationError, SrsError
 from srs_ros.core.robot import config_dir, read_yaml
+from srs_ros.core.schema import REQUIRED, Field, Table, refusal
 from srs_ros.core.vision import aruco
 from srs_ros.core.vision.camera_calibration import (
     DEFAULT_CALIBRATION_FILE,
+    DEFAULT_FRAME_ID,
     CameraCalibration,
     calibration_from_pairs,
     load_intrinsics,
@@ -57,20 +59,42 @@ def marker_corners_floor_m(x_m: float, y_m: float, yaw_rad: float, size_m: float
     return local @ np.array([[c, s], [-s, c]]) + np.array([x_m, y_m])
 
 
+#: The floor layout of ``--markers`` (the top level of its YAML), checked by the package's schema.
+LAYOUT_TABLE = Table("", (
+    Field("markers", list, REQUIRED, item=dict, expected_text="a non-empty list of {id, x_m, y_m, yaw_rad} mappings"),
+    Field("marker_size_m", float, None, 0.0, 1.0, unit="m", above_minimum=True,
+          description="the markers' side (then all four corners count, else only centres)"),
+    Field("aruco_dictionary", str, DEFAULT_ARUCO_DICTIONARY, nonempty=True, description="the markers' dictionary"),
+), "the floor layout of the markers")
+#: One marker of the layout: its id and where its centre lies on the floor.
+MARKER_TABLE = Table("markers[]", (
+    Field("id", int, REQUIRED, 0, 1023, description="the marker's ArUco id"),
+    Field("x_m", float, REQUIRED, -100.0, 100.0, unit="m", description="the marker's centre on the floor"),
+    Field("y_m", float, REQUIRED, -100.0, 100.0, unit="m", description="the marker's centre on the floor"),
+    Field("yaw_rad", float, 0.0, -2.0 * math.pi, 2.0 * math.pi, unit="rad",
+          description="0: the marker's top edge faces floor +Y"),
+), "a marker {id, x_m, y_m, yaw_rad}")
+
+
+def read_layout(layout: Any, source: str) -> tuple[dict[int, tuple[float, float, float]], float | None, str]:
+    """The checked layout: {id: (x_m, y_m, yaw_rad)}, the marker size (m, or None) and the dictionary's name."""
+    values = LAYOUT_TABLE.read(layout, source)
+    if not values["markers"]:
+        raise refusal(source, "markers", [], LAYOUT_TABLE["markers"].expected)
+    known: dict[int, tuple[float, float, float]] = {}
+    for index, entry in enumerate(values["markers"]):
+        marker = MARKER_TABLE.at(f"markers[{index}]").read(entry, source)
+        if marker["id"] in known:
+            raise refusal(source, f"markers[{index}].id", marker["id"], "an id not given to another marker")
+        known[marker["id"]] = (marker["x_m"], marker["y_m"], marker["yaw_rad"])
+    return known, values["marker_size_m"], values["aruco_dictionary"]
+
+
 def pairs_from_marker_image(image: np.ndarray, layout: Mapping[str, Any], source: str = "<layout>"
                             ) -> tuple[np.ndarray, np.ndarray, list[int]]:
     """Point pairs (image_px, floor_m) from ArUco markers laid at known floor positions; also the ids not found."""
-    markers = layout.get("markers") if isinstance(layout, Mapping) else None
-    if not isinstance(markers, list) or not markers:
-        raise ConfigurationError(f"{source}: expected a 'markers:' list of {{id, x_m, y_m, yaw_rad}} mappings.")
-    size_m = layout.get("marker_size_m")
-    try:
-        known = {int(m["id"]): (float(m["x_m"]), float(m["y_m"]), float(m.get("yaw_rad", 0.0))) for m in markers}
-    except (KeyError, TypeError, ValueError) as exc:
-        raise ConfigurationError(
-            f"{source}: each marker needs id, x_m, y_m numbers (and optional yaw_rad) ({exc!r})."
-        ) from exc
-    detector = aruco.MarkerDetector(str(layout.get("aruco_dictionary", DEFAULT_ARUCO_DICTIONARY)),
+    known, size_m, dictionary = read_layout(layout, source)
+    detector = aruco.MarkerDetector(dictionary,
                                     aruco.detector_parameters(cornerRefinementMethod=cv2.aruco.CORNER_REFINE_SUBPIX))
     gray = image if image.ndim == 2 else cv2.cvtColor(image, cv2.COLOR_BGR2GRAY)
     corners, ids = detector.detect(gray)
@@ -81,7 +105,7 @@ def pairs_from_marker_image(image: np.ndarray, layout: Mapping[str, Any], source
             continue
         if size_m:
             image_px.append(found[marker_id])
-            floor_m.append(marker_corners_floor_m(x, y, yaw, float(size_m)))
+            floor_m.append(marker_corners_floor_m(x, y, yaw, size_m))
         else:
             image_px.append(quad_centre(found[marker_id])[None])
             floor_m.append(np.array([[x, y]]))
@@ -110,11 +134,14 @@ def main(argv: list[str] | None = None) -> int:
     group.add_argument("--image", help="image of ArUco markers laid on the floor (needs --markers)")
     parser.add_argument("--markers", help="YAML layout of the floor markers (with --image)")
     parser.add_argument("--image-size", type=int, nargs=2, metavar=("W", "H"), help="image size, px (with --pairs)")
-    parser.add_argument("--frame-id", default="floor", help="frame of the floor coordinates (default floor)")
+    parser.add_argument("--frame-id", default=DEFAULT_FRAME_ID,
+                        help=f"frame of the floor coordinates (default {DEFAULT_FRAME_ID})")
     parser.add_argument("--out", help=f"output YAML (default config/{DEFAULT_CALIBRATION_FILE})")
     parser.add_argument("--intrinsics", help="camera intrinsics YAML (K, D; ROS camera_calibration format)")
     parser.add_argument("--max-rms-mm", type=float, help="exit with status 1 if the rms error is above this, mm")
     args = parser.parse_args(argv)
+    if args.max_rms_mm is not None and not (math.isfinite(args.max_rms_mm) and args.max_rms_mm > 0.0):
+        parser.error(f"--max-rms-mm {args.max_rms_mm}: expected a finite error above 0 mm")
     try:
         missing: list[int] = []
         if args.pairs:
@@ -143,8 +170,12 @@ def main(argv: list[str] | None = None) -> int:
         print(f"rms error {calibration.rms_error_mm:.3f} mm is above --max-rms-mm {args.max_rms_mm}: not saved, "
               f"{out} is unchanged; re-measure the points or re-take the image.", file=sys.stderr)
         return 1
-    save_calibration(calibration, out, f"srs_calibrate_camera from {source}\n"
-                                       "homography_image_to_floor maps pixels (u, v, 1) to floor metres (x, y, 1).")
+    try:
+        save_calibration(calibration, out, f"srs_calibrate_camera from {source}\n"
+                                           "homography_image_to_floor maps pixels (u, v, 1) to floor metres (x, y, 1).")
+    except (ConfigurationError, OSError) as exc:
+        print(f"srs_calibrate_camera: not saved, {out} is unchanged: {exc}", file=sys.stderr)
+        return 2
     print(f"saved {out}")
     return 0
 

@@ -2,6 +2,7 @@
 
 import cv2
 import numpy as np
+import pytest
 import yaml
 
 from srs_ros.core.vision.camera_calibration import apply_homography, load_calibration
@@ -57,6 +58,44 @@ def test_calibration_from_csv_pairs_and_threshold(tmp_path, capsys):
     # Without the threshold the same fit is saved, with its error.
     assert calibrate_camera.main(["--pairs", str(tmp_path / "pairs.csv"), "--out", str(out)]) == 0
     assert load_calibration(out).rms_error_mm > 0.5
+
+
+@pytest.mark.parametrize(("change", "message"), [
+    (lambda layout: layout["markers"][1].update(id=10), "markers[1].id is 10; expected an id not given to another"),
+    (lambda layout: layout.update(marker_sise_m=layout.pop("marker_size_m")), "marker_sise_m is not a known key"),
+    (lambda layout: layout.update(marker_size_m=-0.08), "marker_size_m is -0.08; expected a number in (0, 1] (m)"),
+    (lambda layout: layout["markers"][0].update(id=10.7), "markers[0].id is 10.7; expected an integer"),
+    (lambda layout: layout["markers"][0].update(x_m=float("nan")), "markers[0].x_m is nan"),
+])
+def test_a_bad_marker_layout_is_refused_by_the_schema_and_nothing_is_written(tmp_path, capsys, change, message):
+    """The layout had checks of its own: a negative size, a misspelled key or a duplicate id were saved as a
+    calibration 111-351 mm off (a helper's config review)."""
+    cv2.imwrite(str(tmp_path / "floor.png"), SyntheticScene().render_floor_markers(LAYOUT, 0.08))
+    layout = {"marker_size_m": 0.08, "markers": [{"id": i, "x_m": x, "y_m": y, "yaw_rad": yaw}
+                                                 for i, x, y, yaw in LAYOUT]}
+    change(layout)
+    (tmp_path / "layout.yaml").write_text(yaml.safe_dump(layout))
+    code = calibrate_camera.main(["--image", str(tmp_path / "floor.png"), "--markers", str(tmp_path / "layout.yaml"),
+                                  "--out", str(tmp_path / "cal.yaml")])
+    assert code == 2 and message in capsys.readouterr().err
+    assert not (tmp_path / "cal.yaml").exists()
+
+
+def test_a_calibration_its_loader_would_refuse_is_not_written_over_a_good_one(tmp_path, capsys):
+    scene = SyntheticScene()
+    floor = np.array([[-0.4, -0.3], [0.4, -0.3], [0.4, 0.3], [-0.4, 0.3]])
+    pixels = apply_homography(scene.camera.homography_floor_to_image, floor)
+    rows = "\n".join(f"{u},{v},{x},{y}" for (u, v), (x, y) in zip(pixels, floor))
+    (tmp_path / "pairs.csv").write_text("u_px,v_px,x_m,y_m\n" + rows + "\n")
+    out = tmp_path / "cal.yaml"
+    out.write_text("camera_calibration: {homography_image_to_floor: [[1, 0, 0], [0, 1, 0], [0, 0, 1]]}\n")
+    before = out.read_text()
+    code = calibrate_camera.main(["--pairs", str(tmp_path / "pairs.csv"), "--image-size", "0", "0", "--out", str(out)])
+    assert code == 2 and "image_size_px is [0, 0]; expected a list of 2 integers" in capsys.readouterr().err
+    assert out.read_text() == before  # it was saved, and srs_track and camera_tracker could not load it
+    with pytest.raises(SystemExit):
+        calibrate_camera.main(["--pairs", str(tmp_path / "pairs.csv"), "--max-rms-mm", "nan", "--out", str(out)])
+    assert "--max-rms-mm nan: expected a finite error above 0 mm" in capsys.readouterr().err
 
 
 def test_too_few_pairs_is_refused(tmp_path, capsys):

@@ -148,8 +148,11 @@ POINT_PAIR_TABLE = Table(f"{CALIBRATION_KEY}.point_pairs", (
 ), description="a mapping with u_px, v_px, x_m, y_m")
 
 #: The ``camera_calibration:`` section of a calibration file (``config/camera_calibration.yaml``).
+#: The floor frame a calibration maps pixels into unless told otherwise (the frame every pose of the package is in).
+DEFAULT_FRAME_ID = "floor"
+
 CALIBRATION_TABLE = Table(CALIBRATION_KEY, (
-    Field("frame_id", str, "floor", nonempty=True, description="the floor frame the poses are given in"),
+    Field("frame_id", str, DEFAULT_FRAME_ID, nonempty=True, description="the floor frame the poses are given in"),
     Field("homography_image_to_floor", object, None, expected_text="a finite, invertible 3 x 3 list of rows"),
     Field("point_pairs", list, None, item=dict, expected_text="a list of {u_px, v_px, x_m, y_m} mappings"),
     Field("image_size_px", list, None, 1, 100_000, unit="px", item=int, length=2, description="[width, height]"),
@@ -293,7 +296,7 @@ class CameraCalibration:
     image_px: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
     floor_m: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
     image_size_px: tuple[int, int] | None = None
-    frame_id: str = "floor"
+    frame_id: str = DEFAULT_FRAME_ID
     source: str = field(default="<memory>", compare=False)
     intrinsics: CameraIntrinsics | None = field(default=None, compare=False)
 
@@ -337,7 +340,8 @@ class CameraCalibration:
 
 
 def calibration_from_pairs(image_px: Any, floor_m: Any, image_size_px: tuple[int, int] | None = None,
-                           frame_id: str = "floor", intrinsics: CameraIntrinsics | None = None) -> CameraCalibration:
+                           frame_id: str = DEFAULT_FRAME_ID, intrinsics: CameraIntrinsics | None = None
+                           ) -> CameraCalibration:
     """Fit a :class:`CameraCalibration` from n >= 4 (pixel, floor metre) pairs (pixels undistorted first)."""
     image_px = _points("image_px", image_px).reshape(-1, 2)
     floor_m = _points("floor_m", floor_m).reshape(-1, 2)
@@ -420,11 +424,18 @@ def calibration_to_dict(calibration: CameraCalibration) -> dict[str, Any]:
 
 
 def save_calibration(calibration: CameraCalibration, path: str | Path, comment: str = "") -> Path:
-    """Write the calibration YAML to ``path`` (folders created); returns the path."""
+    """Write the calibration YAML to ``path`` (folders created); returns the path.
+
+    The mapping is first read back through the schema (:func:`calibration_from_dict`): a calibration the loader would
+    refuse (an image size of 0, an empty frame) is a :class:`ConfigurationError` and nothing is written, so a file
+    that srs_track, camera_tracker and the navigator cannot load never replaces a good one.
+    """
     path = Path(path)
+    data = calibration_to_dict(calibration)
+    calibration_from_dict(data, source=f"the calibration to be written to {path}")
     path.parent.mkdir(parents=True, exist_ok=True)
     header = "".join(f"# {line}\n" for line in comment.splitlines()) if comment else ""
-    text = yaml.safe_dump(calibration_to_dict(calibration), sort_keys=False, default_flow_style=None)
+    text = yaml.safe_dump(data, sort_keys=False, default_flow_style=None)
     path.write_text(header + text, encoding="utf-8")
     return path
 
