@@ -26,7 +26,6 @@ import argparse
 import math
 import sys
 from collections.abc import Mapping
-from pathlib import Path
 from typing import Any
 
 import cv2
@@ -46,6 +45,7 @@ from srs_ros.core.vision.camera_calibration import (
     save_calibration,
 )
 from srs_ros.core.vision.tracking import DEFAULT_ARUCO_DICTIONARY, quad_centre
+from srs_ros.tools.output import prepare_output_file
 
 
 def marker_corners_floor_m(x_m: float, y_m: float, yaw_rad: float, size_m: float) -> np.ndarray:
@@ -143,6 +143,7 @@ def main(argv: list[str] | None = None) -> int:
     if args.max_rms_mm is not None and not (math.isfinite(args.max_rms_mm) and args.max_rms_mm > 0.0):
         parser.error(f"--max-rms-mm {args.max_rms_mm}: expected a finite error above 0 mm")
     try:
+        out = prepare_output_file(args.out or config_dir() / DEFAULT_CALIBRATION_FILE, "--out")
         missing: list[int] = []
         if args.pairs:
             image_px, floor_m = read_point_pairs(args.pairs)
@@ -165,7 +166,6 @@ def main(argv: list[str] | None = None) -> int:
     if missing:
         print(f"warning: markers not found in the image: {missing}", file=sys.stderr)
     print(report(calibration))
-    out = Path(args.out) if args.out else config_dir() / DEFAULT_CALIBRATION_FILE
     if args.max_rms_mm is not None and calibration.rms_error_mm > args.max_rms_mm:
         print(f"rms error {calibration.rms_error_mm:.3f} mm is above --max-rms-mm {args.max_rms_mm}: not saved, "
               f"{out} is unchanged; re-measure the points or re-take the image.", file=sys.stderr)

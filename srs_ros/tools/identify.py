@@ -51,6 +51,7 @@ from srs_ros.core.actuation.paused_runs import run_plan_through_pauses
 from srs_ros.core.errors import ConfigurationError, FitError, HardwareError
 from srs_ros.core.rig import RigConfig, default_rig_path, load_rig
 from srs_ros.core.robot import RobotDescription, load_robot
+from srs_ros.tools.output import prepare_output_file
 from srs_ros.tools.rig_session import (
     EXIT_HARDWARE,
     EXIT_OK,
@@ -251,7 +252,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         rig = load_rig(args.rig, robot)
         _check_arguments(parser, args, rig.robot)
         joints = select_joints(args.channels, rig.robot.joint_names)
-        out = Path(args.out or f"{rig.name}_calibration.yaml")
+        out = prepare_output_file(args.out or f"{rig.name}_calibration.yaml", "--out")  # before any air
         table = read_length_table(args.length_table, rig.robot) if args.length_table else None
         backend = backend_for(rig, args.backend)
         refusal = _refusal(backend, static, dynamics, table is not None)

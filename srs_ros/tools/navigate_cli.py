@@ -26,6 +26,7 @@ from srs_ros.core.navigation.commands import NavigationState
 from srs_ros.core.navigation.settings import NAVIGATION_TABLE, load_navigation_settings
 from srs_ros.sim.config import load_sim_config, with_friction
 from srs_ros.sim.navigation import COLUMNS, DEFAULT_GOAL_TIMEOUT_S, DIRECTION_CODES, STATE_CODES, run_navigation
+from srs_ros.tools.output import prepare_output_file
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -148,6 +149,8 @@ def main(argv: list[str] | None = None) -> int:
         parser.error(f"--timeout-s {args.timeout_s}: expected a number of seconds > 0")
     video = None
     try:
+        for path, flag in ((args.out, "--out"), (args.plot, "--plot"), (args.video, "--video")):
+            prepare_output_file(path, flag)  # before the run, not after it
         settings = _settings(args.setting)
         config = load_sim_config(args.sim_config)
         if args.friction:

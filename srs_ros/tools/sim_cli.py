@@ -22,6 +22,7 @@ from srs_ros.core.gait.library import list_gaits
 from srs_ros.sim.camera import OverheadCamera
 from srs_ros.sim.config import load_sim_config, with_friction
 from srs_ros.sim.experiment import DEFAULT_RECORD_RATE_HZ, run_experiment
+from srs_ros.tools.output import prepare_output_file
 from srs_ros.tools.track_cli import plot_track, write_track_csv
 
 #: Runs longer than this (simulated seconds) print their progress.
@@ -80,6 +81,8 @@ def main(argv: list[str] | None = None) -> int:
         parser.error(f"--gait {args.gait!r}: expected one of {', '.join(sorted(list_gaits()))}")
     sink = None
     try:
+        for path, flag in ((args.out, "--out"), (args.plot, "--plot"), (args.video, "--video")):
+            prepare_output_file(path, flag)  # before the run, not after it
         config = load_sim_config(args.sim_config)
         if args.friction:
             config = with_friction(config, args.friction)

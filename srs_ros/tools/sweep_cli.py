@@ -28,7 +28,6 @@ import math
 import os
 import signal
 import sys
-import tempfile
 import time
 from collections.abc import Sequence
 from pathlib import Path
@@ -60,6 +59,7 @@ from srs_ros.experiments.table import (
     write_table_csv,
 )
 from srs_ros.sim.config import SimConfig, load_sim_config, with_friction
+from srs_ros.tools.output import prepare_output
 
 PROG = "srs_sweep"
 #: Run time of the calibration's search runs by default (s): long enough for several cycles at 0.25 Hz.
@@ -121,19 +121,6 @@ def build_parser() -> argparse.ArgumentParser:
     cal.add_argument("--max-evaluations", type=int, default=DEFAULT_MAX_EVALUATIONS,
                      help=f"largest number of cost evaluations (default {DEFAULT_MAX_EVALUATIONS})")
     return parser
-
-
-def prepare_output(path: str) -> Path:
-    """The output folder, created and proven writable; :class:`ConfigurationError` otherwise."""
-    out = Path(path)
-    try:
-        out.mkdir(parents=True, exist_ok=True)
-        with tempfile.NamedTemporaryFile(dir=out, prefix=".srs_sweep_probe_"):
-            pass
-    except OSError as exc:
-        raise ConfigurationError(f"--out {path}: cannot write there ({exc.strerror or exc}); choose a writable "
-                                 "folder.") from None
-    return out
 
 
 def _sim_config(args: argparse.Namespace) -> SimConfig:

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import argparse
 import csv
+import math
 import sys
 from pathlib import Path
 
@@ -18,6 +19,7 @@ import numpy as np
 from srs_ros.core.errors import ConfigurationError, InvalidInputError, SrsError
 from srs_ros.core.vision.camera_calibration import load_calibration
 from srs_ros.core.vision.tracking import DETECTORS, TRACKER_TABLE, Tracker, TrackerConfig, traveling_velocity
+from srs_ros.tools.output import prepare_output_file
 
 
 def track_video(video: str | Path, tracker: Tracker, fps: float | None = None) -> tuple[np.ndarray, int]:
@@ -108,7 +110,13 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--end-window", type=float, default=0.0,
                         help="average the position over this many seconds at each end of the run (default 0)")
     args = parser.parse_args(argv)
+    if not (math.isfinite(args.end_window) and args.end_window >= 0.0):
+        parser.error(f"--end-window {args.end_window}: expected seconds >= 0")
+    if args.fps is not None and not (math.isfinite(args.fps) and args.fps > 0.0):
+        parser.error(f"--fps {args.fps}: expected a frame rate above 0 Hz")
     try:
+        for path, flag in ((args.out, "--out"), (args.plot, "--plot")):
+            prepare_output_file(path, flag)  # before the video is tracked, not after it
         config = TrackerConfig.from_dict({"detector": args.detector, "aruco_dictionary": args.dictionary,
                                           "tail_marker_id": args.tail_id, "head_marker_id": args.head_id,
                                           "position_ratio": args.position_ratio}, "srs_track")

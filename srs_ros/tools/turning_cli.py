@@ -27,6 +27,7 @@ from srs_ros.core.errors import SrsError
 from srs_ros.core.navigation.settings import DIRECTIONS, NAVIGATION_TABLE, STOP_PHASES
 from srs_ros.experiments import turning
 from srs_ros.sim.config import load_sim_config, with_friction
+from srs_ros.tools.output import prepare_output_file
 
 #: The sidewinding settings measured by ``--sidewinding``: the default amplitude of its horizontal wave and half of
 #: it, each way (a negative value is the gait's mirror image).
@@ -112,6 +113,7 @@ def main(argv: list[str] | None = None) -> int:
     """Console entry point."""
     args = _parser().parse_args(argv)
     try:
+        prepare_output_file(args.write_map, "--write-map")  # before the runs, not after them
         config = load_sim_config(args.sim_config)
         if args.friction:
             config = with_friction(config, args.friction)
@@ -171,7 +173,6 @@ def _print_map(config, args) -> None:
     if args.write_map:
         text = turning.turning_map_yaml(rows, stops, args.amplitude_bar, args.frequency_hz,
                                         f"{Path(config.source).name}, {config.contact.describe()}")
-        args.write_map.parent.mkdir(parents=True, exist_ok=True)
         args.write_map.write_text(text, encoding="utf-8")
         print(f"wrote {args.write_map}")
 

@@ -1,0 +1,43 @@
+"""Where a tool writes: output folders and files checked before the work.
+
+So a long run (or real air) is not lost to a path that cannot be written at the end.
+"""
+
+from __future__ import annotations
+
+import tempfile
+from pathlib import Path
+
+from srs_ros.core.errors import ConfigurationError
+
+
+def prepare_output(path: str | Path, flag: str = "--out") -> Path:
+    """The output folder, created and proven writable; :class:`ConfigurationError` otherwise."""
+    out = Path(path)
+    _writable_folder(out, flag, path)
+    return out
+
+
+def prepare_output_file(path: str | Path | None, flag: str) -> Path | None:
+    """An output file's path (None passes through), its folder created and proven writable, before any work.
+
+    :class:`ConfigurationError` names the option and the reason: a folder where a file is expected, or a folder
+    that cannot be written (``/proc``, a read-only mount, no permission).
+    """
+    if path is None:
+        return None
+    out = Path(path)
+    if out.is_dir():
+        raise ConfigurationError(f"{flag} {path}: is a folder; expected a file path in it (e.g. {out / 'run.csv'}).")
+    _writable_folder(out.parent, flag, path)
+    return out
+
+
+def _writable_folder(folder: Path, flag: str, given: str | Path) -> None:
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+        with tempfile.NamedTemporaryFile(dir=folder, prefix=".srs_probe_"):
+            pass
+    except OSError as exc:
+        raise ConfigurationError(f"{flag} {given}: cannot write there ({exc.strerror or exc}); choose a writable "
+                                 "folder.") from None
