@@ -266,6 +266,8 @@ class Navigator(Node):
         if refusal:
             self._refusal = refusal
             self.get_logger().warning(f"{what} refused: {refusal}")
+        elif decision.unchanged:  # the goal driven to, sent again (`ros2 topic pub` at 1 Hz): nothing restarts
+            self._refusal = ""
         else:
             self._refusal, self._path, self._loop = "", points, loop
             self._track.restart()

@@ -147,13 +147,23 @@ def test_a_goal_outside_the_cameras_view_is_refused_with_the_reason_and_nothing_
 def test_a_silent_tracker_is_a_lost_pose_the_gait_stops_and_vents_and_waits_for_a_new_goal(robot):
     robot.set_navigator(pose_timeout_s=1.0)  # the default
     start = robot.at_rest_at_start()
-    robot.goal(*(start + [0.0, 0.6]))
+    goal = start + [0.0, 0.6]
+    robot.goal(*goal)
     robot.wait_state({"driving"}, 10.0, "driving")
     robot.wait(lambda: robot.commanding(2.0), 10.0, "the gait commanded")
     os.killpg(robot.tracker.process.pid, signal.SIGSTOP)  # the tracker hangs: no pose any more
     stopped_s = time.monotonic()
+    sent_s = [stopped_s]
+
+    def lost_while_the_goal_is_sent_again() -> bool:  # as `ros2 topic pub -r 4 goal_pose ...`: it hid the loss
+        if time.monotonic() - sent_s[-1] >= 0.25:
+            robot.goal(*goal)
+            sent_s.append(time.monotonic())
+        return robot.state()["state"] == "pose_lost"
+
     try:
-        lost = robot.wait_state({"pose_lost"}, 5.0, "state pose_lost")
+        robot.wait(lost_while_the_goal_is_sent_again, 5.0, "state pose_lost while the goal is sent again")
+        lost = robot.state()
         lost_s = time.monotonic() - stopped_s
         robot.wait(robot.vented, 5.0, "every muscle vented after the pose was lost")
         vent_s = time.monotonic() - stopped_s

@@ -97,10 +97,11 @@ class GaitCommand:
 
 @dataclass(frozen=True)
 class GoalDecision:
-    """The answer to a goal: accepted, or refused with the reason."""
+    """The answer to a goal: accepted, or refused with the reason; ``unchanged``: the goal already driven to."""
 
     accepted: bool
     reason: str
+    unchanged: bool = False
 
 
 @dataclass(frozen=True)

@@ -155,7 +155,13 @@ class NavigationController(CruiseStopping, FineDriving, EdgeGuard):
                 "" if math.isfinite(x) and math.isfinite(y) else f"goal ({x}, {y}) is not a finite floor position (m)")
             if reason:
                 return self._refuse(reason if len(points) == 1 else f"waypoint {i + 1} of {len(points)}: {reason}")
-        self._goals, self._index, self._backing_from, self._fresh_goal = points * max(1, int(rounds)), 0, None, True
+        goals = points * max(1, int(rounds))
+        if self.state.active and goals == self._goals and self._waypoint_count == len(points):
+            # The same goal again (`ros2 topic pub` re-sends it every second): nothing restarts, the pose and
+            # progress timeouts least of all: re-sending kept a robot whose tracker had died driving blind.
+            return GoalDecision(True, self._message, unchanged=True)
+        resume = not self.state.active
+        self._goals, self._index, self._backing_from, self._fresh_goal = goals, 0, None, True
         self._waypoint_count = len(points)
         self._new_three_point_row()
         self._edge_until_s = -math.inf
@@ -163,7 +169,8 @@ class NavigationController(CruiseStopping, FineDriving, EdgeGuard):
         self.shuffle.forget_move()
         self.state, self._started_s = NavigationState.DRIVING, float(now_s)
         self._best = (math.inf, float(now_s))
-        self._last_pose_s = max(self._last_pose_s, float(now_s))
+        if resume:  # a goal from rest gets pose_timeout_s for its first pose; a replaced goal does not extend it
+            self._last_pose_s = max(self._last_pose_s, float(now_s))
         self._message = self._driving_message()
         return GoalDecision(True, self._message)
 

@@ -319,6 +319,26 @@ def test_a_lost_pose_stops_after_the_timeout_and_says_so():
     assert "no pose from the camera for 1.1 s" in progress.message and "last seen at" in progress.message
 
 
+def test_a_goal_sent_again_and_again_does_not_hide_a_lost_pose():
+    """`ros2 topic pub` re-sends its goal every second: each one reset the pose timeout, and a robot whose tracker
+    had died drove on blind for as long as the goals came (a helper's review). The same goal again changes nothing;
+    another goal replaces it but does not extend the timeout either."""
+    for second_goal in ((0.0, 0.7), (0.1, 0.6)):
+        controller, roller = NavigationController(settings(), AREA), Roller()
+        controller.set_goal(0.0, 0.7, 0.0)
+        drive(controller, roller, 2.9, lost_after_s=2.0)   # the last pose at 1.97 s
+        for now_s in (2.1, 2.4, 2.7, 2.95):
+            decision = controller.set_goal(*second_goal, now_s)
+            assert decision.accepted and decision.unchanged == (second_goal == (0.0, 0.7) or now_s > 2.1)
+            controller.tick(now_s)
+        assert controller.tick(3.05).moving is False, second_goal
+        assert controller.progress(3.05).state is NavigationState.POSE_LOST
+    # From rest (after the loss) a goal is taken and waits pose_timeout_s for its first pose, as before.
+    assert controller.set_goal(0.0, 0.7, 3.1).accepted and controller.state is NavigationState.DRIVING
+    assert controller.tick(4.0).moving is False and controller.state is NavigationState.DRIVING
+    assert controller.tick(4.2).moving is False and controller.state is NavigationState.POSE_LOST
+
+
 def test_progress_reports_distance_and_heading_error():
     controller = NavigationController(settings(), AREA)
     controller.set_goal(0.3, 0.4, 0.0)
