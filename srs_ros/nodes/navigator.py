@@ -260,7 +260,9 @@ class Navigator(Node):
     def _take_goal(self, points: list[tuple[float, float]], refusal: str, what: str) -> None:
         now = time.monotonic()
         loop = len(points) > 1 and bool(self._param("loop_path"))
-        if not refusal:
+        if refusal:
+            self._nav.refuse(refusal)  # the progress and /diagnostics say this refusal, not an older one
+        else:
             decision = self._nav.set_path(points, now, rounds=LOOP_ROUNDS if loop else 1)
             refusal = "" if decision.accepted else decision.reason
         if refusal:

@@ -139,6 +139,8 @@ def test_a_goal_outside_the_cameras_view_is_refused_with_the_reason_and_nothing_
     robot.wait(lambda: "not a finite floor position" in robot.state()["refused"], 5.0, "a NaN goal refused")
     robot.goal(0.1, 0.1, frame_id="map")
     robot.wait(lambda: "frame 'map'" in robot.state()["refused"], 5.0, "a goal in another frame refused")
+    # ... and the status says so, not the NaN goal's refusal before it (a helper's review)
+    assert "goal refused: the goal is in frame 'map'" in robot.state()["message"], robot.state()
     robot.client.spin_for(1.0)
     assert all(max(m.data) == 0.0 for m in robot.pressures[-20:])
     assert "refused" in robot.navigator.output()

@@ -189,6 +189,10 @@ class NavigationController(CruiseStopping, FineDriving, EdgeGuard):
     def _driving_message(self) -> str:
         return "driving to {} at ({:.3f}, {:.3f}) m".format(self._which_goal(), *self.goal)
 
+    def refuse(self, reason: str) -> GoalDecision:
+        """A goal refused before it reached the controller (its frame, say): said as any refusal, the goal kept."""
+        return self._refuse(reason)
+
     def _refuse(self, reason: str) -> GoalDecision:
         self._message = f"goal refused: {reason}" + (f"; still {self._message}" if self.state.active else "")
         return GoalDecision(False, reason)
