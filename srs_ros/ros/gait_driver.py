@@ -267,6 +267,8 @@ class GaitDriver:
             return
         self._stop_owed = False
         self._playing = "start" in self._pending  # a start sent after this stop (a new goal) is in flight
+        if not self._playing:  # stopped as wanted: an earlier failure (a start never answered) is over
+            self.error = ""
 
     def _failed(self, what: str, reason: str) -> None:
         self.error = f"{what}: {reason}"

@@ -108,6 +108,16 @@ def test_a_move_along_the_axis_plays_the_straight_serpentine_backward_and_rollin
     ros_client.spin_until(lambda: not driver.busy, 10.0, "the stop answered")
 
 
+def test_a_stop_answered_after_a_failed_start_ends_the_error(ros_client):
+    """A cancel while gait_player hung: its start was given up after CALL_TIMEOUT_S, then the player answered the
+    stop. The error stayed on /diagnostics (ERROR, idle) until some later call succeeded (a helper's review)."""
+    driver = GaitDriver(ros_client.node, "/trajectory_server", "/gait_player", keepalive_s=0.0)
+    driver._failed("start", f"no answer for {CALL_TIMEOUT_S:g} s")
+    assert driver.error.startswith("start: no answer")
+    driver._on_stop(Trigger.Response(success=True, message="stopped"))
+    assert driver.error == "" and not driver.playing
+
+
 @pytest.mark.slow(seconds=8)
 def test_a_stop_waits_for_a_start_in_flight_so_the_player_ends_stopped(launch_node, ros_client):
     """The dead man's handle sends ~/start every quarter of keepalive_s; ~/start and ~/stop are two services with no
