@@ -85,9 +85,12 @@ class FineDriving:
             if self.history.window(FINE_REST_WINDOW_S)[0, 0] > pose.time_s - 0.8 * FINE_REST_WINDOW_S:
                 self._message = "a goal near the robot: watching whether it is at rest"
                 return True  # too few poses yet to tell (a new goal given while the robot rests)
-            if self.history.at_rest(FINE_REST_WINDOW_S) and self._fine_from_rest(pose, distance) and fine.pivot_sense:
-                self._pivot(pose)
-                return True
+            if self.history.at_rest(FINE_REST_WINDOW_S) and self._fine_from_rest(pose, distance):
+                if not self.state.active:  # reached where it lay
+                    return True
+                if fine.pivot_sense:
+                    self._pivot(pose)
+                    return True
         if not fine.active or settings.fine_distance_m <= 0.0:
             fine.leave()
             return False
@@ -159,9 +162,14 @@ class FineDriving:
     def _fine_from_rest(self, pose: Pose2D, distance: float) -> bool:
         """At rest near the last goal: creep when it lies on the line, else move onto the line along the body's axis.
 
-        The move along the axis where the floor lets it, else a turn on the spot toward the line if it can.
+        The move along the axis where the floor lets it, else a turn on the spot toward the line if it can. A goal
+        given within ``goal_tolerance_m`` of the resting robot is reached where it lies: creeping to it moved the
+        robot off it (a helper's review).
         """
-        if self._on_the_line(pose, distance):
+        if distance <= self.settings.goal_tolerance_m:
+            self._finish(NavigationState.REACHED, f"goal reached: resting {distance:.3f} m from it (tolerance "
+                         f"{self.settings.goal_tolerance_m:g} m), where the robot already lay")
+        elif self._on_the_line(pose, distance):
             self.fine.start(pose.time_s)
             self._message = f"at rest {distance:.3f} m from the goal, on its line: creeping to it"
         elif self._move_along_axis(pose, distance):

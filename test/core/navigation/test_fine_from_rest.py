@@ -201,3 +201,19 @@ def test_a_creep_stop_still_drifting_waits_the_whole_settle_s():
     _, waits = stop_waits(DriftingRoller(drift_m_s=0.01), GOALS[0])  # 3 mm per 0.3 s: over the 2 mm of "at rest"
     creeps = [wait for creep, wait in waits if creep]
     assert creeps and all(wait >= settle_s - LANDING_S - FRAME_S for wait in creeps), waits
+
+
+@pytest.mark.parametrize("offset_m", [0.0, 0.02, 0.045])
+def test_a_goal_given_within_the_tolerance_of_the_resting_robot_is_reached_where_it_lies(offset_m):
+    """It crept to a goal 0-2 cm from the resting robot, moving it off the goal (a helper's review)."""
+    settings = load_navigation_settings({}, turning_map=MAP)
+    controller, roller = NavigationController(settings, AREA), AmplitudeRoller()
+    controller.set_goal(roller.x + offset_m, roller.y, now_s=0.0)
+    now, moved = 0.0, False
+    while now < 3.0 and controller.state.active:
+        controller.update_gait_phase(roller.phase)
+        controller.update_pose(roller.pose(now))
+        moved |= controller.tick(now).moving
+        now += FRAME_S
+    assert controller.state is NavigationState.REACHED and not moved, controller.progress(now).message
+    assert "where the robot already lay" in controller.progress(now).message
