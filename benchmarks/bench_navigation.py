@@ -33,6 +33,7 @@ from pathlib import Path
 import numpy as np
 
 from srs_ros.core.navigation import load_navigation_settings
+from srs_ros.core.schema import parse_assignments
 from srs_ros.experiments.turning import measure_turn_phase
 from srs_ros.sim.config import load_sim_config
 from srs_ros.sim.navigation import Latency, random_goals, run_navigation
@@ -92,15 +93,7 @@ def main() -> None:
     args = parser.parse_args()
     if not args.goal_timeout_s > 0.0:
         parser.error(f"--goal-timeout-s {args.goal_timeout_s:g}: expected a time over 0 s, e.g. 60 or 120")
-    overrides = {}
-    for item in args.set:
-        name, _, value = item.partition("=")
-        overrides[name] = {"true": True, "false": False}.get(value.lower(), value)
-        try:
-            overrides[name] = float(overrides[name]) if isinstance(overrides[name], str) else overrides[name]
-        except ValueError:
-            pass  # a text setting (turning_map_file)
-    settings = load_navigation_settings(overrides)
+    settings = load_navigation_settings(parse_assignments(args.set, "--set", "stop_cycle_ahead=false"))
     base = load_sim_config(args.sim_config)
     for friction in args.friction or ("isotropic", "anisotropic"):
         config = base.replace("contact", friction=friction)

@@ -24,10 +24,10 @@ import time
 from dataclasses import dataclass
 
 import numpy as np
-import yaml
 
 from srs_ros.core.errors import ConfigurationError
 from srs_ros.core.robot import config_dir
+from srs_ros.core.schema import parse_assignments
 from srs_ros.experiments.cluster import add_runner_arguments, runner_from_args
 from srs_ros.experiments.fidelity import fidelity_figures
 from srs_ros.experiments.sweep import SweepGrid
@@ -57,13 +57,11 @@ def configured(path: str | None, changes: list[str]) -> SimConfig:
     config = load_sim_config(path)
     if not changes:
         return config
-    values = {}
-    for change in changes:
-        name, equals, value = change.partition("=")
-        if not equals or name.count(".") != 1:
-            raise ConfigurationError(f"--set {change!r}: expected SECTION.KEY=VALUE, e.g. "
+    values = parse_assignments(changes, "--set", "muscles.pressure_time_constant_s=0.3")
+    for name in values:
+        if name.count(".") != 1:
+            raise ConfigurationError(f"--set {name}: expected SECTION.KEY=VALUE, e.g. "
                                      "muscles.pressure_time_constant_s=0.3 (the sections of config/sim.yaml's sim:).")
-        values[name] = yaml.safe_load(value)
     try:
         return Variant(" ".join(changes), values, "command line").config(config)
     except KeyError as exc:

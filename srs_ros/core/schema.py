@@ -33,6 +33,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+import yaml
 
 from srs_ros.core.errors import ConfigurationError
 
@@ -350,6 +351,27 @@ class Table:
             else:
                 values[f.name] = f.default if f.default is None else f.check(f.default, where, key, error)
         return values
+
+
+def parse_assignments(items: Iterable[str], flag: str, example: str) -> dict[str, Any]:
+    """``NAME=VALUE`` command-line items as {name: value}, each value read as YAML.
+
+    As ``ros2 param set`` reads it: ``3`` an integer, ``0.5`` a number, ``true``, ``[0.1, 0.2]``, else text; the
+    schema then checks each value. :class:`ConfigurationError` names ``flag`` for an item without ``=`` or a value
+    YAML cannot read (``example``: what a good item looks like).
+    """
+    values: dict[str, Any] = {}
+    for item in items:
+        name, equals, text = item.partition("=")
+        if not equals or not name:
+            raise ConfigurationError(f"{flag} {item!r}: expected NAME=VALUE, e.g. {flag} {example}")
+        try:
+            values[name] = yaml.safe_load(text) if text.strip() else text
+        except yaml.YAMLError as exc:
+            raise ConfigurationError(f"{flag} {item!r}: the value cannot be read ({str(exc).splitlines()[0]}); "
+                                     f"expected a number, true/false, a [list] or text, e.g. {flag} {example}") \
+                from None
+    return values
 
 
 def read_csv_rows(path: str | Path, table: Table, error: type[Exception] = ConfigurationError

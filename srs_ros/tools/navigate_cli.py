@@ -24,6 +24,7 @@ import numpy as np
 from srs_ros.core.errors import SrsError
 from srs_ros.core.navigation.commands import NavigationState
 from srs_ros.core.navigation.settings import NAVIGATION_TABLE, load_navigation_settings
+from srs_ros.core.schema import parse_assignments
 from srs_ros.sim.config import load_sim_config, with_friction
 from srs_ros.sim.navigation import COLUMNS, DEFAULT_GOAL_TIMEOUT_S, DIRECTION_CODES, STATE_CODES, run_navigation
 from srs_ros.tools.output import prepare_output_file
@@ -48,15 +49,7 @@ def _parser() -> argparse.ArgumentParser:
 
 
 def _settings(items: list[str]):
-    values = {}
-    for item in items:
-        name, sep, text = item.partition("=")
-        if not sep:
-            raise ValueError(f"--setting {item!r}: expected NAME=VALUE, e.g. --setting goal_tolerance_m=0.03")
-        try:
-            values[name] = float(text) if name != "turning_map_file" else text
-        except ValueError:
-            raise ValueError(f"--setting {item!r}: the value must be a number") from None
+    values = parse_assignments(items, "--setting", "goal_tolerance_m=0.03")
     return load_navigation_settings(values, where="srs_navigate --setting")
 
 
