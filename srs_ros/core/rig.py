@@ -13,7 +13,7 @@ from pathlib import Path
 from typing import Any
 
 from srs_ros.core.robot import RobotDescription, config_dir, default_robot, read_yaml, robot_from_dict
-from srs_ros.core.schema import Field, Table, refusal, section
+from srs_ros.core.schema import Field, Table, document, refusal
 
 #: Allowed ranges of the rig's rates (inclusive).
 COMMAND_RATE_RANGE_HZ = (1.0, 1000.0)
@@ -69,7 +69,7 @@ RIG_TABLE = Table("rig", (
 def rig_from_dict(data: Mapping[str, Any], robot: RobotDescription | None = None, source: str = "<dict>") -> RigConfig:
     """Validate a parsed rig file; the rig's ``regulator_model`` (if given) replaces the robot's."""
     robot = robot or default_robot()
-    rig = RIG_TABLE.read(section(data, "rig", source, what=RIG_TABLE.description), source)
+    rig = RIG_TABLE.read(document(data, "rig", source, what=RIG_TABLE.description, sections=RIG_TABLE.names), source)
     if rig["regulator_model"] is not None:
         robot = _with_regulator(robot, rig["regulator_model"], source)
     return RigConfig(name=rig["name"], backend=rig["backend"], robot=robot, command_rate_hz=rig["command_rate_hz"],

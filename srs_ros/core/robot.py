@@ -17,7 +17,7 @@ import numpy as np
 import yaml
 
 from srs_ros.core.errors import ConfigurationError
-from srs_ros.core.schema import Field, Table, refusal, section
+from srs_ros.core.schema import Field, Table, check_known, refusal, section
 
 #: Absolute ceiling of any commanded pressure, whatever a config file says (docs/conventions.md).
 ABSOLUTE_MAX_PRESSURE_BAR = 4.0
@@ -95,6 +95,9 @@ class RobotDescription:
 
 
 #: The ``robot:`` section of a robot file: geometry and mass.
+#: The top-level sections of a robot description (robot.yaml); any other top-level key is refused.
+ROBOT_SECTIONS = ("robot", "actuation", "regulator_models")
+
 ROBOT_TABLE = Table("robot", (
     Field("name", str, description="name of the robot"),
     Field("module_count", int, minimum=1, unit="modules", description="soft modules in series, tail first"),
@@ -137,6 +140,8 @@ def robot_from_dict(data: Mapping[str, Any], source: str = "<dict>") -> RobotDes
     Raises :class:`ConfigurationError` naming the file, the key, the value found and the value expected
     (:mod:`srs_ros.core.schema`).
     """
+    if isinstance(data, Mapping):  # a key at the top instead of under its section would be silently ignored
+        check_known(data, ROBOT_SECTIONS, source)
     robot = _geometry(data, source)
     act = _actuation(data, source)
     regulator = _regulator(data, act, source)
@@ -176,6 +181,8 @@ def _regulator(data: Mapping[str, Any], act: Mapping[str, Any], source: str) -> 
     if name not in models:
         raise refusal(source, ACTUATION_TABLE.key("regulator_model"), name,
                       f"one of {sorted(models)} (the keys of regulator_models)")
+    for other in models:  # every model is checked, not only the one chosen now: a rig may choose another
+        REGULATOR_TABLE.at(f"regulator_models.{other}").read(models[other], source)
     table = REGULATOR_TABLE.at(f"regulator_models.{name}")
     model = table.read(models[name], source)
     limit_bar = act["max_pressure_bar"]

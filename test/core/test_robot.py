@@ -85,3 +85,29 @@ def test_regulator_that_cannot_reach_the_limit_is_rejected():
     data["actuation"]["regulator_model"] = "ITV3010"
     with pytest.raises(ConfigurationError, match="full_scale_pressure_bar"):
         robot_from_dict(data)
+
+
+def test_a_key_at_the_top_instead_of_in_its_section_is_refused_not_ignored(tmp_path):
+    """robot.yaml, a rig file and a camera calibration read their sections and ignored any other top-level key: a
+    `max_pressure_bar: 2` at the top, or a rig's `backend_options:` with a NaN left unindented, had no effect and
+    said nothing (a helper's config review). Every regulator model is checked, not only the one chosen now."""
+    from srs_ros.core.rig import rig_from_dict
+    from srs_ros.core.vision.camera_calibration import calibration_from_dict
+
+    data = _data()
+    data["max_pressure_bar"] = 2.0
+    with pytest.raises(ConfigurationError, match="max_pressure_bar is not a known key"):
+        robot_from_dict(data)
+    data = _data()
+    data["regulator_models"]["spare"] = dict(data["regulator_models"][data["actuation"]["regulator_model"]],
+                                             supply_margin_bar=math.nan)
+    with pytest.raises(ConfigurationError, match=r"regulator_models.spare.supply_margin_bar is nan"):
+        robot_from_dict(data)
+    rig = {"rig": {"name": "r", "backend": "mock", "command_rate_hz": 200.0, "setpoint_timeout_s": 0.2},
+           "backend_options": {"pressure_time_constant_s": math.nan}}
+    with pytest.raises(ConfigurationError, match="'backend_options' belongs to the rig block: indent it under rig:"):
+        rig_from_dict(rig)
+    calibration = {"camera_calibration": {"homography_image_to_floor": [[1, 0, 0], [0, 1, 0], [0, 0, 1]]},
+                   "intrinsics": {"k": [500, 0, 320, 0, 500, 240, 0, 0, 1], "d": [0, 0, 0, 0, 0]}}
+    with pytest.raises(ConfigurationError, match="'intrinsics' belongs to the camera_calibration block"):
+        calibration_from_dict(calibration)

@@ -26,7 +26,7 @@ import yaml
 
 from srs_ros.core.errors import ConfigurationError, InvalidInputError
 from srs_ros.core.robot import config_dir, read_yaml
-from srs_ros.core.schema import REQUIRED, Field, Table, missing, read_csv_rows, refusal, section
+from srs_ros.core.schema import REQUIRED, Field, Table, document, missing, read_csv_rows, refusal
 
 #: Top-level key of the calibration YAML.
 CALIBRATION_KEY = "camera_calibration"
@@ -355,8 +355,8 @@ def calibration_from_dict(data: Any, source: str = "<dict>") -> CameraCalibratio
     Checked by the schema (:data:`CALIBRATION_TABLE`, :data:`POINT_PAIR_TABLE`, :data:`INTRINSICS_TABLE`): a
     refusal names the file, the key, the value and what is expected.
     """
-    values = CALIBRATION_TABLE.read(section(data, CALIBRATION_KEY, source, what=CALIBRATION_TABLE.description),
-                                    source)
+    values = CALIBRATION_TABLE.read(document(data, CALIBRATION_KEY, source, what=CALIBRATION_TABLE.description,
+                                             sections=CALIBRATION_TABLE.names), source)
     pairs = [POINT_PAIR_TABLE.at(f"{POINT_PAIR_TABLE.path}[{i}]").read(pair, source)
              for i, pair in enumerate(values["point_pairs"] or ())]
     image_px, floor_m = _pair_arrays(pairs)
