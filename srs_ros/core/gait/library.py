@@ -187,7 +187,51 @@ def list_gaits(path: str | Path | None = None) -> dict[str, GaitSpec]:
             name=name, description=" ".join(values["description"].split()),
             parameters=tuple(_parameter_from_yaml(name, key, value, where)
                              for key, value in (values["parameters"] or {}).items()))
+    if where not in _SHAPES_CHECKED:
+        for spec in specs.values():
+            _check_shape_reads(spec, where)
+        _SHAPES_CHECKED.add(where)
     return specs
+
+
+#: The gaits files whose parameter blocks were checked against what the shape functions read (once per process).
+_SHAPES_CHECKED: set[str] = set()
+#: Parameters of a gait's block that the cycle generator reads (srs_ros.core.gait.trajectory), not its shape.
+GENERATOR_PARAMETERS = frozenset({"poor_fit_mm"})
+
+
+class _ReadRecorder(dict):
+    """A gait's parameters that remember which ones a shape function read."""
+
+    def __init__(self, values: Mapping[str, Any]):
+        super().__init__(values)
+        self.read: set[str] = set()
+
+    def __getitem__(self, key: str) -> Any:
+        self.read.add(key)
+        return super().__getitem__(key)
+
+
+def _check_shape_reads(spec: GaitSpec, where: str) -> None:
+    """The YAML block declares exactly what the shape function reads (and :data:`GENERATOR_PARAMETERS`).
+
+    A misspelled parameter (``a_radx``) was a KeyError at the first cycle, and an unread one a setting with no
+    effect. The shape is run once, on two phases.
+    """
+    from srs_ros.core.robot import default_robot  # the shape needs a body; any valid one shows what it reads
+
+    params, robot = _ReadRecorder(spec.defaults), default_robot()
+    key = f"gaits.{spec.name}.parameters"
+    try:
+        _SHAPES[spec.name](np.array([0.0, 0.5]), np.linspace(0.0, robot.module_count * robot.unactuated_length_m, 3),
+                           params, robot)
+    except KeyError as exc:
+        raise ConfigurationError(f"{where}: {key} has no {exc.args[0]!r}, which the {spec.name} shape reads; "
+                                 f"declared: {sorted(params)} (a misspelled name?)") from None
+    unread = sorted(set(params) - params.read - GENERATOR_PARAMETERS)
+    if unread:
+        raise ConfigurationError(f"{where}: {key}.{unread[0]} is not read by the {spec.name} shape (a misspelled "
+                                 f"name?); it reads {sorted(params.read)}")
 
 
 def gait_spec(name: str) -> GaitSpec:

@@ -1,11 +1,14 @@
 """Gait shapes: the serpenoid's geometry, the rolling arc's radius and plane per phase, outward = reversed inward."""
 
 import math
+import re
 
 import numpy as np
 import pytest
+import yaml
 
-from srs_ros.core.errors import InvalidInputError
+from srs_ros.core.errors import ConfigurationError, InvalidInputError
+from srs_ros.core.gait import library
 from srs_ros.core.gait.library import curve_length_m, gait_curves, gait_spec, list_gaits, rolling_arc_lengths
 from srs_ros.core.kinematics import backbone_points
 from srs_ros.core.robot import default_robot
@@ -125,3 +128,19 @@ def test_a_rolling_cycle_played_backward_is_the_other_rolling_gait():
     assert played_gait("outward_rolling", True) == "inward_rolling"
     assert played_gait("inward_rolling", False) == "inward_rolling"
     assert played_gait("serpentine", True) == "serpentine (played backward)"
+
+
+@pytest.mark.parametrize(("change", "message"), [
+    (lambda p: p.update(a_radx=p.pop("a_rad")), "gaits.serpentine.parameters has no 'a_rad', which the serpentine "
+                                                "shape reads"),
+    (lambda p: p.update(a_deg=dict(p["a_rad"])), "gaits.serpentine.parameters.a_deg is not read by the serpentine "
+                                                 "shape"),
+])
+def test_a_gait_block_must_declare_what_its_shape_reads(tmp_path, change, message):
+    """A misspelled parameter passed the schema and was a KeyError at the first cycle (a helper's config review)."""
+    data = yaml.safe_load(library.gaits_config_path().read_text())
+    change(data["gaits"]["serpentine"]["parameters"])
+    path = tmp_path / "gaits.yaml"
+    path.write_text(yaml.safe_dump(data))
+    with pytest.raises(ConfigurationError, match=re.escape(message)):
+        library.list_gaits(path)
