@@ -45,7 +45,7 @@ from srs_ros.core.robot import RobotDescription, config_dir, default_robot
 from srs_ros.core.schema import Field, refusal
 from srs_ros.experiments.table import Cell, MeasuredTable, RunRecord, cell_key, paper_table
 from srs_ros.sim.config import SimConfig
-from srs_ros.sim.experiment import run_experiment
+from srs_ros.sim.experiment import MAX_RUN_S, run_experiment
 
 #: Shapes fitted per gait cycle (the trajectory server's default).
 CYCLE_SAMPLES = SAMPLES_FIELD.default
@@ -97,7 +97,8 @@ class SweepGrid:
 
 
 #: The run time of one cell.
-DURATION_FIELD = Field("duration_s", float, minimum=0.0, above_minimum=True, unit="s", description="run time")
+DURATION_FIELD = Field("duration_s", float, minimum=0.0, maximum=MAX_RUN_S, above_minimum=True, unit="s",
+                       description="run time")
 
 
 # ------------------------------------------------------------------------------------------

@@ -19,9 +19,10 @@ import cv2
 
 from srs_ros.core.errors import SrsError
 from srs_ros.core.gait.library import list_gaits
+from srs_ros.experiments.table import paper_table
 from srs_ros.sim.camera import OverheadCamera
 from srs_ros.sim.config import load_sim_config, with_friction
-from srs_ros.sim.experiment import DEFAULT_RECORD_RATE_HZ, run_experiment
+from srs_ros.sim.experiment import DEFAULT_RECORD_RATE_HZ, MAX_RUN_S, run_experiment
 from srs_ros.tools.output import prepare_output_file
 from srs_ros.tools.track_cli import plot_track, write_track_csv
 
@@ -44,7 +45,9 @@ def _parser() -> argparse.ArgumentParser:
     parser.add_argument("--gait", required=True, help=f"gait name ({', '.join(sorted(list_gaits()))})")
     parser.add_argument("--amplitude-bar", type=_positive, required=True, help="pressure amplitude A, bar (1-4)")
     parser.add_argument("--frequency-hz", type=_positive, required=True, help="cycle frequency f, Hz")
-    parser.add_argument("--duration-s", type=_positive, default=15.0, help="run time, s (default 15, as the paper)")
+    paper_s = paper_table().duration_s  # one source: the paper's run time, as srs_sweep's default
+    parser.add_argument("--duration-s", type=_positive, default=paper_s,
+                        help=f"run time, s (default {paper_s:g}, as the paper; at most {MAX_RUN_S:g})")
     parser.add_argument("--out", required=True, help="output CSV of the track (time_s,x_m,y_m,yaw_rad)")
     parser.add_argument("--plot", help="also save the path plot (PNG)")
     parser.add_argument("--video", help="also save the overhead camera's view (MJPG .avi)")

@@ -74,7 +74,8 @@ def test_a_signed_lab_table_loads(tmp_path):
     (["serpentine"], [], [0.5], 15, r"amplitudes is \[\]; expected at least one value"),
     (["serpentine"], [2], [], 15, r"frequencies is \[\]; expected at least one value"),
     ([], [2], [0.5], 15, r"gaits is \[\]; expected at least one value"),
-    (["serpentine"], [2], [0.5], 0, r"duration_s is 0; expected a number > 0 \(s\)"),
+    (["serpentine"], [2], [0.5], 0, r"duration_s is 0; expected a number in \(0, 3600\] \(s\)"),
+    (["serpentine"], [2], [0.5], 1e12, r"duration_s is 1000000000000.0; expected a number in \(0, 3600\]"),  # OOM
 ])
 def test_a_bad_grid_is_refused_with_the_reason(gaits, amplitudes, frequencies, duration, expected):
     with pytest.raises(InvalidInputError, match=expected):

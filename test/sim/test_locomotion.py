@@ -3,6 +3,8 @@
 Velocities are Table I's: displacement of the tracked reference point over the run time, 15 s runs.
 """
 
+import re
+
 import numpy as np
 import pytest
 
@@ -102,3 +104,14 @@ def test_a_run_is_deterministic():
     second = run_experiment("inward_rolling", 3.0, 1.0, 2.0)
     np.testing.assert_array_equal(first.track, second.track)
     assert np.ptp(first.track[:, 1:3], axis=0).max() > 0.01  # it moved, so equality means something
+
+
+@pytest.mark.parametrize(("duration_s", "message"), [
+    (0.0, "duration_s: expected a number > 0, got 0.0"), (float("nan"), "duration_s: expected a number > 0"),
+    (1e12, "duration_s: 1e+12 s is longer than a run may be (3600 s"),  # it asked for petabytes (a helper's review)
+])
+def test_a_run_time_that_is_not_a_time_or_too_long_is_refused_before_the_world_is_made(duration_s, message):
+    from srs_ros.core.errors import InvalidInputError
+
+    with pytest.raises(InvalidInputError, match=re.escape(message)):
+        run_experiment("inward_rolling", 3.0, 1.0, duration_s)

@@ -40,6 +40,10 @@ def gait_field(gait_names: Iterable[str]) -> Field:
                  description="gait to fit")
 
 
+#: Most samples per cycle a local caller may ask for (srs_trajectory, the library): 1e8 ended in a MemoryError.
+MAX_LOCAL_SAMPLES = 100_000
+
+
 def any_samples() -> Field:
-    """:data:`SAMPLES_FIELD` without its top (the library fits as many as a local caller asks for)."""
-    return dataclasses.replace(SAMPLES_FIELD, maximum=None)
+    """:data:`SAMPLES_FIELD` with the local top (:data:`MAX_LOCAL_SAMPLES`), above what a remote request may ask."""
+    return dataclasses.replace(SAMPLES_FIELD, maximum=MAX_LOCAL_SAMPLES)
