@@ -49,7 +49,7 @@ from trajectory_msgs.msg import JointTrajectory
 from srs_ros.core.actuation.operator import REAL_ARM_PREFIX
 from srs_ros.core.errors import SrsError
 from srs_ros.experiments.recording import BagRecorder
-from srs_ros.experiments.table import Cell, RunRecord
+from srs_ros.experiments.table import ROS_SETTLE_S, Cell, RunRecord
 from srs_ros.ros.interfaces import (
     ACTUATOR_STATE_TOPIC,
     BUSY_RETRY_S,
@@ -103,7 +103,7 @@ class SweepStopped(SrsError):
 class RosSweepOptions:
     """How runs are driven: timeouts (s), the settle time after the vent and the nodes' namespace."""
 
-    settle_s: float = 2.0
+    settle_s: float = ROS_SETTLE_S
     vent_timeout_s: float = 15.0
     pose_timeout_s: float = 5.0  # at rest, before and after a run: a tracker on a busy machine pauses for 2 s
     discovery_timeout_s: float = 20.0

@@ -31,6 +31,9 @@ from srs_ros.core.gait.request import FREQUENCY_FIELD, amplitude_field, gait_fie
 from srs_ros.core.robot import RobotDescription, config_dir, default_robot, read_yaml
 from srs_ros.core.schema import Field, Table, document, refusal
 
+#: After a run over ROS is vented, the wait before its end pose is taken (s): the body settles (srs_sweep --ros).
+ROS_SETTLE_S = 2.0
+
 #: The paper's Table I in ``config/``.
 PAPER_TABLE_FILE = "paper_table1.yaml"
 #: Columns of a measured table's rows.

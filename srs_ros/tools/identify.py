@@ -29,6 +29,7 @@ import numpy as np
 
 from srs_ros.backends import BACKENDS, ActuatorBackend
 from srs_ros.core.actuation.identification import (
+    DEFAULT_MAX_DELAY_S,
     CommandPlan,
     Identification,
     Measurement,
@@ -145,8 +146,8 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--length-table", metavar="CSV",
                         help="measured lengths for a rig that cannot measure them: CSV joint,pressure_bar,length_m "
                              "(a ruler at held pressures); the static characteristic is fitted from it")
-    parser.add_argument("--max-delay-s", type=float, default=0.5,
-                        help="largest transport delay searched, s (default 0.5)")
+    parser.add_argument("--max-delay-s", type=float, default=DEFAULT_MAX_DELAY_S,
+                        help=f"largest transport delay searched, s (default {DEFAULT_MAX_DELAY_S:g})")
     parser.add_argument("--startup-timeout-s", type=float, default=20.0,
                         help="how long to wait for the rig's first read-back, s (default 20; sim_world builds first)")
     parser.add_argument("--yes", action="store_true", help="the operator's go for a rig with real regulators")

@@ -50,6 +50,7 @@ from srs_ros.experiments.cluster import add_runner_arguments, runner_from_args
 from srs_ros.experiments.plots import plot_paths, plot_table
 from srs_ros.experiments.sweep import OfflineRunner, SweepGrid
 from srs_ros.experiments.table import (
+    ROS_SETTLE_S,
     MeasuredTable,
     RunRecord,
     format_table,
@@ -105,7 +106,8 @@ def build_parser() -> argparse.ArgumentParser:
                                                         "regulators (default: ask before each run)")
     ros.add_argument("--on-failure", choices=("continue", "stop"), default="continue",
                      help="after a failed run: go on with the next (default) or stop the sweep")
-    ros.add_argument("--settle-s", type=_number, default=2.0, help="wait after the vent before the end pose, s")
+    ros.add_argument("--settle-s", type=_number, default=ROS_SETTLE_S,
+                     help=f"wait after the vent before the end pose, s (default {ROS_SETTLE_S:g})")
     ros.add_argument("--namespace", default="", help="namespace of the rig's nodes (e.g. snake1)")
     ros.add_argument("--no-sim-reset", action="store_true",
                      help="on the simulated rig, do not put the robot back at its start before each run")

@@ -33,6 +33,9 @@ from srs_ros.core.errors import ConfigurationError, FitError
 from srs_ros.core.robot import RobotDescription
 from srs_ros.core.schema import Field, Table, read_csv_rows
 
+#: Largest transport delay the dynamics fit searches by default (s): several times the line lags modelled (0.08-0.2 s).
+DEFAULT_MAX_DELAY_S = 0.5
+
 #: Share of a step's hold at its end over which it counts as settled (averaged for the static fit).
 SETTLED_SHARE = 0.25
 #: Lengths below this share of the largest measured one are "not extending" (noise floor of the fit).
@@ -320,7 +323,7 @@ def _lag_response(inputs: np.ndarray, step_s: float, time_constant_s: float) -> 
     return lfilter([0.0, 1.0 - keep], [1.0, -keep], inputs)
 
 
-def fit_line_dynamics(command_s, command_bar, sample_s, pressure_bar, max_delay_s: float = 0.5,
+def fit_line_dynamics(command_s, command_bar, sample_s, pressure_bar, max_delay_s: float = DEFAULT_MAX_DELAY_S,
                       where: str = "muscle") -> DynamicsFit:
     """Fit ``d`` and ``tau`` so that the delayed first-order lag of the sent commands matches the read-back.
 
@@ -377,7 +380,7 @@ class Identification:
 def identify(robot: RobotDescription, joints: Sequence[int], recording: Recording | None = None,
              plan: CommandPlan | None = None, static: bool = True, dynamics: bool = True,
              length_table: Mapping[str, tuple[np.ndarray, np.ndarray]] | None = None,
-             max_delay_s: float = 0.5) -> Identification:
+             max_delay_s: float = DEFAULT_MAX_DELAY_S) -> Identification:
     """Identify ``joints``: their static characteristic and/or their line's dynamics.
 
     The static characteristic comes from ``length_table`` if given, else from the settled steps of
