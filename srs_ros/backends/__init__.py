@@ -20,13 +20,21 @@ BACKENDS: dict[str, str] = {
 
 
 def create_backend(name: str, robot: RobotDescription | None = None,
-                   options: Mapping[str, Any] | None = None) -> ActuatorBackend:
-    """Instantiate the backend called ``name`` (not yet opened)."""
+                   options: Mapping[str, Any] | None = None, source: str = "") -> ActuatorBackend:
+    """Instantiate the backend called ``name`` (not yet opened).
+
+    ``source``: the rig file its options came from, named in a refusal of them.
+    """
     if name not in BACKENDS:
         raise ConfigurationError(f"backend: unknown backend {name!r}; expected one of {sorted(BACKENDS)}.")
     module_name, class_name = BACKENDS[name].split(":")
     backend_class = getattr(importlib.import_module(module_name), class_name)
-    return backend_class(robot=robot, options=options)
+    try:
+        return backend_class(robot=robot, options=options)
+    except ConfigurationError as exc:
+        if not source:
+            raise
+        raise ConfigurationError(f"{source}: {exc}") from None
 
 
 __all__ = ["ActuatorBackend", "ActuatorState", "BACKENDS", "create_backend"]

@@ -26,7 +26,8 @@ EXIT_OK, EXIT_HARDWARE, EXIT_USAGE, EXIT_INTERRUPTED = 0, 1, 2, 130
 def backend_for(rig: RigConfig, name: str | None = None) -> ActuatorBackend:
     """The rig's backend (not opened), or the backend ``name`` (its rig options apply only to the rig's own)."""
     name = name or rig.backend
-    return create_backend(name, rig.robot, rig.backend_options if name == rig.backend else {})
+    own = name == rig.backend
+    return create_backend(name, rig.robot, rig.backend_options if own else {}, rig.source if own else "")
 
 
 @contextlib.contextmanager

@@ -132,7 +132,7 @@ def test_bad_rig_or_channel_exits_2_naming_the_problem(tmp_path, capsys):
     rig.write_text("rig: {name: x, backend: can, command_rate_hz: 100, setpoint_timeout_s: 0.2,"
                    " backend_options: {interface: virtual, channels: [1, 2]}}\n")
     assert main(["--rig", str(rig)]) == 2
-    assert "can backend_options: channels is [1, 2]; expected 9 distinct" in capsys.readouterr().err
+    assert f"{rig}: can backend_options: channels is [1, 2]; expected 9 distinct" in capsys.readouterr().err
     assert main(["--rig", str(config_dir() / "rigs" / "mock.yaml"), "--channels", "m9_pma9"]) == 2
     assert "m9_pma9" in capsys.readouterr().err
 
