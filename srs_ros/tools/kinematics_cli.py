@@ -12,7 +12,7 @@ import sys
 import numpy as np
 
 from srs_ros.core.actuation.pressure import pressures_to_lengths_m
-from srs_ros.core.errors import SrsError
+from srs_ros.core.errors import InvalidInputError, SrsError
 from srs_ros.core.kinematics import backbone_points, lengths_to_bend
 from srs_ros.core.robot import load_robot
 
@@ -26,14 +26,26 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _checked(flag: str, values: list[float], top: float, unit: str, robot) -> np.ndarray:
+    """``values`` as an array of one per actuator within [0, top]; InvalidInputError naming ``flag`` otherwise."""
+    array = np.asarray(values, dtype=float)
+    if array.shape != (robot.joint_count,) or not np.all(np.isfinite(array)) or np.any((array < 0) | (array > top)):
+        raise InvalidInputError(f"{flag} {' '.join(f'{v:g}' for v in values)}: expected {robot.joint_count} values "
+                                f"in [0, {top:g}] {unit}, one per actuator in {', '.join(robot.joint_names)} order.")
+    return array
+
+
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     try:
         robot = load_robot(args.robot)
         if args.pressures_bar is not None:
-            q = pressures_to_lengths_m(args.pressures_bar, robot)
+            pressures = _checked("--pressures-bar", args.pressures_bar, robot.max_pressure_bar, "bar", robot)
+            q = pressures_to_lengths_m(pressures, robot)
+        elif args.lengths_m is not None:
+            q = _checked("--lengths-m", args.lengths_m, robot.max_extension_m, "m", robot)
         else:
-            q = np.asarray(args.lengths_m if args.lengths_m is not None else np.zeros(robot.joint_count))
+            q = np.zeros(robot.joint_count)
         points = backbone_points(q, robot=robot)
         bend, plane, arc = lengths_to_bend(np.reshape(q, (robot.module_count, robot.actuators_per_module)), robot)
     except SrsError as exc:
