@@ -16,12 +16,13 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
+import yaml
 
 from srs_ros.core.actuation.pressure import lengths_to_pressures_bar
 from srs_ros.core.gait.playback import GaitPlayback
 from srs_ros.core.gait.trajectory import GaitCycle, generate_cycle
 from srs_ros.core.navigation.commands import GaitCommand
-from srs_ros.core.navigation.settings import STOP_PHASES
+from srs_ros.core.navigation.settings import STOP_PHASES, turning_map_from_dict
 from srs_ros.core.rig import load_rig
 from srs_ros.core.robot import RobotDescription, default_robot
 from srs_ros.sim.config import SimConfig, load_sim_config
@@ -259,7 +260,9 @@ def turning_map_yaml(rows: dict[str, list[TurnMeasurement]], stops: dict[str, np
                   f"    turn_rate_deg_per_cycle: {[round(v, 1) for v in turn]}",
                   f"    travel_m_per_cycle: {[round(v, 4) for v in travel]}",
                   f"    stop_offset_m: {[round(float(v), 4) for v in np.ravel(stops[direction])]}"]
-    return "\n".join(lines) + "\n"
+    text = "\n".join(lines) + "\n"
+    turning_map_from_dict(yaml.safe_load(text), source="the turn map to be written")  # never write what cannot be read
+    return text
 
 
 def table_markdown(runs: Sequence[TurnMeasurement], value_name: str) -> str:

@@ -3,7 +3,10 @@
 import math
 
 import numpy as np
+import pytest
+import yaml
 
+from srs_ros.core.errors import ConfigurationError
 from srs_ros.core.navigation.settings import DIRECTIONS, STOP_PHASES, turning_map_from_dict
 from srs_ros.core.robot import default_robot
 from srs_ros.experiments.turning import (
@@ -40,11 +43,12 @@ def test_the_written_turn_map_reads_back():
     runs = {d: [TurnMeasurement(d, 4.0, 1.0, v, yaw, 10.0 * v + yaw, 1.0, 0.1) for v in (-0.2, 0.2)
                 for yaw in (0.0, 2.0)] for d in DIRECTIONS}
     stops = {d: np.full((len(STOP_PHASES), 2), 0.1) for d in DIRECTIONS}
-    import yaml
-
     mapped = turning_map_from_dict(yaml.safe_load(turning_map_yaml(runs, stops, 4.0, 1.0, "test")), "written")
     np.testing.assert_allclose(mapped["inward_rolling"].turn_rate_deg_per_cycle, [-1.0, 3.0])
     np.testing.assert_allclose(mapped["outward_rolling"].stop_offset_m, 0.1)
+    stops["inward_rolling"][0, 0] = np.nan  # a stop never measured: refused, not written as the text 'nan'
+    with pytest.raises(ConfigurationError, match="the turn map to be written: turning_map.inward_rolling.stop_off"):
+        turning_map_yaml(runs, stops, 4.0, 1.0, "test")
 
 
 def test_cone_scales_grow_toward_the_head_and_peak_at_one():
