@@ -27,6 +27,15 @@ def test_stamps_keep_their_spacing_on_the_steady_clock_and_a_jump_of_the_stamp_c
     assert clock.steady_s(0.0, 6000.5) == 6000.5  # unstamped: its arrival
 
 
+def test_one_stamp_from_the_future_does_not_move_the_times_of_the_poses_after_it():
+    clock = StampClock()
+    for i in range(60):  # 30 Hz frames delivered 30 ms late
+        clock.steady_s(100.0 + i / 30, 5000.0 + i / 30 + 0.03)
+    clock.steady_s(100.0 + 60 / 30 + 0.7, 5000.0 + 60 / 30 + 0.03)  # one frame stamped 0.7 s ahead
+    later = [clock.steady_s(100.0 + i / 30, 5000.0 + i / 30 + 0.03) for i in range(61, 120)]
+    assert later == pytest.approx([5000.0 + i / 30 + 0.03 for i in range(61, 120)])  # it shifted them 0.7 s back
+
+
 @pytest.mark.parametrize("yaw", [0.0, 1.0, -2.5, math.pi - 1e-6])
 def test_yaw_from_the_trackers_quaternion(yaw):
     x, y, z, w = yaw_to_quaternion(yaw)
