@@ -63,3 +63,21 @@ def test_unreadable_video_is_an_error_not_an_empty_track(tmp_path, capsys):
     code = track_cli.main([str(tmp_path / "absent.avi"), "--out", str(tmp_path / "t.csv")])
     assert code == 2
     assert "cannot open it as a video" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize(("option", "value", "message"), [
+    ("--end-window", "nan", "--end-window nan: expected seconds >= 0"),
+    ("--end-window", "-1", "--end-window -1.0: expected seconds >= 0"),
+    ("--fps", "-5", "--fps -5.0: expected a frame rate above 0 Hz"),
+])
+def test_a_window_or_frame_rate_that_is_not_one_is_refused(tmp_path, capsys, option, value, message):
+    """`--end-window nan` printed a velocity of nan / nan cm/s with exit 0; `--fps -5` said the file had no frame
+    rate (a helper's config review)."""
+    with pytest.raises(SystemExit) as stop:
+        track_cli.main([str(tmp_path / "run.avi"), "--out", str(tmp_path / "t.csv"), option, value])
+    assert stop.value.code == 2 and message in capsys.readouterr().err
+
+
+def test_an_out_path_that_is_a_folder_is_refused_before_the_video_is_tracked(tmp_path, capsys):
+    assert track_cli.main([str(tmp_path / "absent.avi"), "--out", str(tmp_path)]) == 2
+    assert "is a folder; expected a file path in it" in capsys.readouterr().err  # not the video's error
