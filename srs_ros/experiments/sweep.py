@@ -342,12 +342,17 @@ class _Batch:
         self.runner, self.cells, self.job, self.on_result = runner, cells, job, on_result
         self.records: list[RunRecord | None] = [None] * len(cells)
         self.pending: dict[Future, tuple[int, int, Executor]] = {}  # future -> cell index, attempt, executor
+        #: Runs lost when a local pool broke with others in it, to run again one at a time (cell index, attempt).
+        self.suspects: list[tuple[int, int]] = []
+        self._alone: Future | None = None  # the suspect running alone in a fresh pool
 
     def run(self) -> list[RunRecord]:
         try:
             for index in range(len(self.cells)):
                 self._submit(index, 0)
-            while self.pending:
+            while self.pending or self.suspects:
+                if self.suspects and not self.pending:
+                    self._submit(*self.suspects.pop(0), alone=True)
                 done, _ = wait(self.pending, return_when=FIRST_COMPLETED)
                 for future in done:
                     self._finished(future, *self.pending.pop(future))
@@ -356,9 +361,10 @@ class _Batch:
                 future.cancel()
         return self.records
 
-    def _submit(self, index: int, attempt: int) -> None:
+    def _submit(self, index: int, attempt: int, alone: bool = False) -> None:
         future, executor = self.runner.submit(self.cells[index], self.job, attempt)
         self.pending[future] = (index, attempt, executor)
+        self._alone = future if alone else self._alone
 
     def _finished(self, future: Future, index: int, attempt: int, executor: Executor) -> None:
         try:
@@ -366,21 +372,35 @@ class _Batch:
         except Exception as exc:  # noqa: BLE001 - anything but a lost worker is raised again
             if not _lost_with_worker(exc):
                 raise
-            record = self._lost(index, attempt, executor, exc)
+            record = self._lost(index, attempt, executor, exc, alone=future is self._alone)
         if record is not None:
             self.records[index] = record
             if self.on_result is not None:
                 self.on_result(record)
 
-    def _lost(self, index: int, attempt: int, executor: Executor, error: Exception) -> RunRecord | None:
-        """A run lost with its worker: submitted again (None) or, after :data:`MAX_RESUBMITS`, a failed record."""
+    def _lost(self, index: int, attempt: int, executor: Executor, error: Exception, alone: bool = False
+              ) -> RunRecord | None:
+        """A run lost with its worker: submitted again (None) or, after :data:`MAX_RESUBMITS`, a failed record.
+
+        A local pool that breaks fails every run in it, and which one broke it is not known: those runs are not
+        charged an attempt but run again one at a time, each alone in a fresh pool, where a run that breaks it is
+        the one. (Charging them all failed healthy runs queued beside a run that kills its worker every time.)
+        """
         if isinstance(error, BrokenExecutor):
             self.runner._drop_pool(executor)
+            if not alone:
+                self.suspects.append((index, attempt))
+                self.runner.log(f"{cell_name(self.cells[index])}: its worker pool broke ({error_line(error)}); "
+                                "run again alone to tell which run breaks it")
+                return None
         name, reason = cell_name(self.cells[index]), error_line(error)
         if attempt >= MAX_RESUBMITS:
             self.runner.log(f"{name}: lost with its worker {attempt + 1} times ({reason}); given up: a failed run")
             return RunRecord.failed(self.cells[index], f"lost with its worker {attempt + 1} times (last: {reason})")
-        self._submit(index, attempt + 1)
+        if alone:
+            self.suspects.insert(0, (index, attempt + 1))  # alone again, before the other suspects
+        else:
+            self._submit(index, attempt + 1)
         what = "it was cancelled" if isinstance(error, CancelledError) else "its worker was lost"
         self.runner.log(f"{name}: {what} ({reason}); submitted again (attempt {attempt + 2} of {MAX_RESUBMITS + 1})")
         return None
