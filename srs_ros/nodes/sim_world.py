@@ -30,6 +30,7 @@ import time
 
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import PoseStamped
+from rcl_interfaces.msg import SetParametersResult
 from rclpy.experimental import EventsExecutor
 from rclpy.node import Node
 from rosgraph_msgs.msg import Clock
@@ -38,7 +39,7 @@ from std_srvs.srv import Trigger
 from visualization_msgs.msg import MarkerArray
 
 from srs_ros.core.actuation.pressure import clamp_pressures_bar, pressures_to_lengths_m
-from srs_ros.core.errors import InvalidInputError, SrsError
+from srs_ros.core.errors import ConfigurationError, InvalidInputError, SrsError
 from srs_ros.core.kinematics import backbone_points
 from srs_ros.core.robot import load_robot
 from srs_ros.core.vision.tracking import yaw_to_quaternion
@@ -53,6 +54,7 @@ from srs_ros.ros.interfaces import (
     SIM_BOARD_TIMEOUT_S,
     SIM_COMMAND_TOPIC,
     SIM_MONITOR_TOPIC,
+    STATUS_NODE_KEY,
     array_to_image_msg,
     bus_qos,
     diagnostic_array,
@@ -70,6 +72,8 @@ from srs_ros.sim.world import SimWorld
 NODE_NAME = "sim_world"
 LOG_THROTTLE_S = 1.0
 
+#: The slowest camera or markers rate (per second) other than 0 (off).
+MIN_OUTPUT_RATE_HZ = 0.1
 PARAMETERS = (
     ParameterSpec("sim_config_file", "", "simulation YAML; '' = the package's config/sim.yaml", read_only=True),
     ParameterSpec("robot_description_file", "", "robot YAML; '' = the package's config/robot.yaml", read_only=True),
@@ -104,6 +108,10 @@ class SimWorldNode(Node):
         super().__init__(NODE_NAME, **kwargs)
         self._specs = declare_parameters(self, PARAMETERS)
         p = {name: self.get_parameter(name).value for name in self._specs}
+        for name in ("camera_rate_hz", "markers_rate_hz"):  # 0 = off; a tiny rate overflowed its timer's period
+            if 0.0 < p[name] < MIN_OUTPUT_RATE_HZ:
+                raise ConfigurationError(f"{name} {p[name]:g}: expected 0 (off) or at least {MIN_OUTPUT_RATE_HZ:g} "
+                                         "per second")
         request_realtime_priority(p["realtime_priority"], self.get_logger())  # before the stepping thread starts
         self.robot = load_robot(p["robot_description_file"] or None)
         self.config = load_sim_config(p["sim_config_file"] or None, robot=self.robot)
@@ -148,6 +156,7 @@ class SimWorldNode(Node):
         # With use_sim_time the world is the clock, as Gazebo is: every node follows its time on /clock.
         use_sim_time = self.get_parameter("use_sim_time").value
         self._clock_pub = self.create_publisher(Clock, CLOCK_TOPIC, 10) if use_sim_time else None
+        self.add_on_set_parameters_callback(self._on_set_parameters)
         self.create_subscription(JointState, SIM_COMMAND_TOPIC, self._on_command, bus_qos())
         self.create_service(Trigger, "~/reset", self._on_reset)
         steady_timer(self, 1.0 / p["pose_rate_hz"], self._publish_pose)
@@ -157,6 +166,19 @@ class SimWorldNode(Node):
             steady_timer(self, 1.0 / p["camera_rate_hz"], self._publish_image)
         steady_timer(self, 1.0, self._publish_diagnostics)
         steady_timer(self, RECEIVER_BEHIND_S / 5.0, self._executor_runs)
+
+    def _on_set_parameters(self, params) -> SetParametersResult:
+        """Refuse a change of use_sim_time: it is read at start-up.
+
+        Switched on live, sim_world's own clock waited for a /clock that nobody published and every stamp was 0 (a
+        helper's review). Its other parameters are read-only.
+        """
+        for param in params:
+            if param.name == "use_sim_time" and param.value != self.get_parameter("use_sim_time").value:
+                return SetParametersResult(successful=False, reason=(
+                    "use_sim_time is read at start-up (sim_world publishes /clock only if it started with it); "
+                    "restart sim_world with -p use_sim_time:=true, and its nodes with it"))
+        return SetParametersResult(successful=True)
 
     # -- the physics thread ------------------------------------------------------------------
     def _step_loop(self) -> None:
@@ -236,19 +258,24 @@ class SimWorldNode(Node):
         super().destroy_node()
 
     # -- inputs ------------------------------------------------------------------------------
+    # The outputs read the world under the lock and get None once it has stopped: the physics thread sets
+    # ``failure`` under the same lock, so a world that diverged between an output's own check and its read is
+    # seen here, not met as an exception that ended the process (a helper's review: 1-3 runs in 5).
     def tracked_pose(self):
-        """The reference point (m) and heading (rad) now: the 50 Hz pose needs no full state."""
+        """The reference point (m) and heading (rad) now (None: the world stopped): the 50 Hz pose needs no state."""
         with self._lock:
-            return self.world.tracked_pose()
+            return None if self.failure else self.world.tracked_pose()
 
     def nodes_m(self):
-        """The simulated body's nodes now (m): what the camera draws."""
+        """The simulated body's nodes now (m; None: the world stopped): what the camera draws."""
         with self._lock:
-            return self.world.node_positions_m()
+            return None if self.failure else self.world.node_positions_m()
 
     def state(self):
-        """The world's state now (computed once per world time step for the outputs that need all of it)."""
+        """The world's state now (None: the world stopped), computed once per world time step for the outputs."""
         with self._lock:
+            if self.failure:
+                return None
             if self._state is None or self._state.time_s != self.world.time_s:
                 self._state = self.world.state(with_contacts=False)
             return self._state
@@ -276,6 +303,7 @@ class SimWorldNode(Node):
             self._target_s = 0.0
             self._last_step = (time.monotonic(), 0.0)
             self._state = None
+            self._window = (time.monotonic(), 0.0, self._step_wall_s)  # the rate from the reset on, never negative
             was, self.failure = self.failure, ""
         response.success = True
         response.message = "the simulated robot is back at its start pose, vented" + (
@@ -285,9 +313,10 @@ class SimWorldNode(Node):
 
     # -- outputs -----------------------------------------------------------------------------
     def _publish_pose(self) -> None:
-        if self.failure:
+        pose = self.tracked_pose()
+        if pose is None:
             return
-        reference_xy_m, heading_rad = self.tracked_pose()
+        reference_xy_m, heading_rad = pose
         msg = PoseStamped()
         msg.header.stamp = self.get_clock().now().to_msg()
         msg.header.frame_id = FLOOR_FRAME
@@ -298,18 +327,18 @@ class SimWorldNode(Node):
         self._pose_pub.publish(msg)
 
     def _publish_image(self) -> None:
-        if self.failure:
-            return
         # Stamped at the instant of the state shown, as a camera stamps its exposure: not after the render, which
         # a busy machine can stall for 0.2-0.4 s (a rolling robot's pose would be dated centimetres late).
         nodes_m, stamp = self.nodes_m(), self.get_clock().now().to_msg()
+        if nodes_m is None:
+            return
         image = self.camera.render(nodes_m)  # outside the lock: the physics goes on meanwhile
         self._image_pub.publish(array_to_image_msg(image, stamp, "camera", self._camera_encoding))
 
     def _publish_markers(self) -> None:
-        if self.failure:
-            return
         state = self.state()
+        if state is None:
+            return
         stamp = self.get_clock().now().to_msg()
         commanded_m = pressures_to_lengths_m(state.commanded_pressure_bar, self.robot)
         commanded_shape = backbone_points(commanded_m, robot=self.robot, base=state.base_pose)
@@ -330,7 +359,9 @@ class SimWorldNode(Node):
                   "silence_vents": str(self.board.silence_vents), "receiver_stalls": str(self.receiver.stalls),
                   "failure": self.failure or "none"}
         level, message = self._summary()
-        status = diagnostic_status(f"{NODE_NAME}: simulated robot", "mujoco", level, message, values)
+        # Named as the node runs and keyed by its full name: two robots in two namespaces are told apart.
+        status = diagnostic_status(f"{self.get_name()}: simulated robot", "mujoco", level, message,
+                                   {**values, STATUS_NODE_KEY: self.get_fully_qualified_name()})
         self._diag_pub.publish(diagnostic_array([status], self.get_clock().now().to_msg()))
 
     def _summary(self) -> tuple[str, str]:
