@@ -39,13 +39,13 @@ from typing import Any
 
 from srs_ros.core.errors import ClusterError, InvalidInputError, SrsError
 from srs_ros.core.gait.library import list_gaits
-from srs_ros.core.gait.request import FREQUENCY_FIELD, SAMPLES_FIELD, amplitude_field, gait_field
+from srs_ros.core.gait.request import FREQUENCY_FIELD, MAX_RUN_S, SAMPLES_FIELD, amplitude_field, gait_field
 from srs_ros.core.gait.trajectory import GaitCycle, PoorFitWarning, generate_cycle
 from srs_ros.core.robot import RobotDescription, config_dir, default_robot
 from srs_ros.core.schema import Field, refusal
 from srs_ros.experiments.table import Cell, MeasuredTable, RunRecord, cell_key, paper_table
 from srs_ros.sim.config import SimConfig
-from srs_ros.sim.experiment import MAX_RUN_S, run_experiment
+from srs_ros.sim.experiment import run_experiment
 
 #: Shapes fitted per gait cycle (the trajectory server's default).
 CYCLE_SAMPLES = SAMPLES_FIELD.default

@@ -27,7 +27,7 @@ import numpy as np
 
 from srs_ros.core.errors import ConfigurationError
 from srs_ros.core.gait.library import list_gaits
-from srs_ros.core.gait.request import FREQUENCY_FIELD, amplitude_field, gait_field
+from srs_ros.core.gait.request import FREQUENCY_FIELD, MAX_RUN_S, amplitude_field, gait_field
 from srs_ros.core.robot import RobotDescription, config_dir, default_robot, read_yaml
 from srs_ros.core.schema import Field, Table, document, refusal
 
@@ -90,7 +90,8 @@ class MeasuredTable:
 MEASURED_TABLE = Table("measured_table", (
     Field("name", str, None, description="where the table comes from (default: the file)"),
     Field("velocity_definition", str, "", description="how the velocities were measured"),
-    Field("duration_s", float, minimum=0.0, above_minimum=True, unit="s", description="run time of every cell"),
+    Field("duration_s", float, minimum=0.0, maximum=MAX_RUN_S, above_minimum=True, unit="s",
+          description="run time of every cell"),
     Field("signed", bool, False, description="true if the velocities carry the sign of the displacement"),
     Field("columns", list, item=str, expected_text=f"{list(MEASURED_COLUMNS)}", description="the row layout"),
     Field("rows", list, nonempty=True, expected_text=f"a non-empty list of rows {list(MEASURED_COLUMNS)}",

@@ -20,17 +20,13 @@ import numpy as np
 
 from srs_ros.core.actuation.pressure import lengths_to_pressures_bar
 from srs_ros.core.errors import InvalidInputError
-from srs_ros.core.gait.request import SAMPLES_FIELD
+from srs_ros.core.gait.request import MAX_RUN_S, SAMPLES_FIELD
 from srs_ros.core.gait.trajectory import GaitCycle, generate_cycle
 from srs_ros.core.rig import load_rig
 from srs_ros.core.robot import RobotDescription, default_robot
 from srs_ros.core.vision.tracking import TravelingVelocity, traveling_velocity
 from srs_ros.sim.config import SimConfig, load_sim_config
 from srs_ros.sim.world import SimState, SimWorld
-
-#: Longest simulated run (s): one hour. A run holds all its commands and its record in memory (1e12 s asked for
-#: petabytes); the paper's runs are 15 s.
-MAX_RUN_S = 3600.0
 
 #: Frame rate of the recorded track (the overhead camera's, Hz).
 DEFAULT_RECORD_RATE_HZ = 30.0

@@ -19,10 +19,11 @@ import cv2
 
 from srs_ros.core.errors import SrsError
 from srs_ros.core.gait.library import list_gaits
+from srs_ros.core.gait.request import MAX_RUN_S
 from srs_ros.experiments.table import paper_table
 from srs_ros.sim.camera import OverheadCamera
 from srs_ros.sim.config import load_sim_config, with_friction
-from srs_ros.sim.experiment import DEFAULT_RECORD_RATE_HZ, MAX_RUN_S, run_experiment
+from srs_ros.sim.experiment import DEFAULT_RECORD_RATE_HZ, run_experiment
 from srs_ros.tools.output import prepare_output_file
 from srs_ros.tools.track_cli import plot_track, write_track_csv
 

@@ -125,6 +125,26 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+#: What a sweep or a calibration writes in its --out folder: any found there is an earlier run's.
+OUTPUT_NAMES = ("table.csv", "table.png", "bags", "sim.yaml", "table_before.csv", "table_after.csv",
+                "calibration.txt")
+
+
+def _fresh_output(path: str) -> Path:
+    """The --out folder, writable and without an earlier sweep's results.
+
+    A second sweep into it mixed its table with the first one's plots, and a --ros sweep refused a bag folder only
+    after the runs before it had run (a helper's review).
+    """
+    out = prepare_output(path)
+    earlier = sorted(name for name in OUTPUT_NAMES if (out / name).exists())
+    earlier += sorted(p.name for p in out.glob("paths_*.png"))
+    if earlier:
+        raise ConfigurationError(f"--out {path} holds an earlier run's results ({', '.join(earlier)}); use a new "
+                                 "folder, or remove them first.")
+    return out
+
+
 def _sim_config(args: argparse.Namespace) -> SimConfig:
     config = load_sim_config(args.sim_config)
     return with_friction(config, args.friction) if args.friction else config
@@ -160,20 +180,28 @@ def _runner(args: argparse.Namespace) -> OfflineRunner:
 def _offline(args: argparse.Namespace, grid: SweepGrid, reference: MeasuredTable, out: Path,
              runner: OfflineRunner) -> int:
     config = _sim_config(args)
-    started = time.perf_counter()
-    with _progress(len(grid), args, "simulated runs") as bar:
-        records = runner.run(grid.cells(), grid.duration_s, config, on_result=lambda _r: bar.update())
+    started, done = time.perf_counter(), []
     how = f"simulated offline, {grid.duration_s:g} s each, {runner.describe()}, {config.contact.describe()}"
+
+    def finished(record: RunRecord) -> None:
+        done.append(record)
+        bar.update()
+
+    with _progress(len(grid), args, "simulated runs") as bar:
+        try:
+            records = runner.run(grid.cells(), grid.duration_s, config, on_result=finished)
+        except KeyboardInterrupt:  # what was done is written, in the grid's order
+            order = {cell: index for index, cell in enumerate(grid.cells())}
+            done.sort(key=lambda r: order[r.cell])
+            if done:
+                _finish(done, reference, out, "simulated", time.perf_counter() - started, how + ", interrupted")
+            raise
     return _finish(records, reference, out, "simulated", time.perf_counter() - started, how)
 
 
 def _calibrate(args: argparse.Namespace, out: Path, runner: OfflineRunner) -> int:
     reference = load_measured_table(args.calibrate)
     config = _sim_config(args)
-    if args.fit:
-        fit_parameters(args.fit)  # bad names: exit 2 before anything runs
-    if args.max_evaluations < 1:
-        raise ConfigurationError(f"--max-evaluations {args.max_evaluations}: expected 1 or more.")
     bar: tqdm | None = None
 
     def stage(text: str) -> None:
@@ -221,7 +249,8 @@ def _calibrate(args: argparse.Namespace, out: Path, runner: OfflineRunner) -> in
                write_atomically(out / "calibration.txt", report + "\n")]
     print(report)
     print("\nwritten: " + ", ".join(str(p) for p in written))
-    return EXIT_OK
+    failed = sum(not r.ok for r in (*result.before, *result.after))
+    return EXIT_FAILED_RUNS if failed else EXIT_OK  # every run failed: exit 1, as the sweep (it said 0)
 
 
 def _ros(args: argparse.Namespace, grid: SweepGrid, reference: MeasuredTable, out: Path) -> int:
@@ -339,16 +368,20 @@ def main(argv: list[str] | None = None) -> int:
                                          "config/paper_table1.yaml).")
             load_measured_table(args.calibrate)  # a malformed table: exit 2 before the output folder is made
             _sim_config(args)
+            if args.fit:
+                fit_parameters(args.fit)  # bad names too
+            if args.max_evaluations < 1:
+                raise ConfigurationError(f"--max-evaluations {args.max_evaluations}: expected 1 or more.")
             with _runner(args) as runner:  # an unreachable cluster: exit 2 before the output folder is made
-                return _calibrate(args, prepare_output(args.out), runner)
+                return _calibrate(args, _fresh_output(args.out), runner)
         gaits = args.gaits or paper_table().gaits
         grid = SweepGrid.create(gaits, args.amplitudes, args.frequencies, args.duration_s)
         reference = load_measured_table(args.reference)
         if args.ros:
-            return _ros(args, grid, reference, prepare_output(args.out))
+            return _ros(args, grid, reference, _fresh_output(args.out))
         _sim_config(args)
         with _runner(args) as runner:
-            return _offline(args, grid, reference, prepare_output(args.out), runner)
+            return _offline(args, grid, reference, _fresh_output(args.out), runner)
     except SrsError as exc:
         print(f"{PROG}: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT

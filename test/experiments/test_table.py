@@ -52,7 +52,9 @@ def _table_file(tmp_path, rows, **section):
     ([["serpentine", 2, 0.5, 1]], {}, "measured_table.rows[0] is ['serpentine', 2, 0.5, 1]; expected a list"),
     ([["serpentine", 2, 0.5, 1, 1], ["serpentine", 2.0, 0.50, 2, 2]], {}, "rows[1] is .* appears twice"),
     ([], {}, "measured_table.rows is []; expected a non-empty list of rows"),
-    ([["serpentine", 2, 0.5, 1, 1]], {"duration_s": 0}, "measured_table.duration_s is 0; expected a number > 0"),
+    ([["serpentine", 2, 0.5, 1, 1]], {"duration_s": 0}, "measured_table.duration_s is 0; expected a number in (0, "),
+    ([["serpentine", 2, 0.5, 1, 1]], {"duration_s": 5000}, "measured_table.duration_s is 5000; expected a number in "
+                                                            "(0, 3600]"),  # a calibration's runs all failed, exit 0
     ([["serpentine", 2, 0.5, 1, 1]], {"columns": ["gait", "A", "f", "vx", "vy"]}, "measured_table.columns is"),
     ([["serpentine", 2, 0.5, 1, 1]], {"rate": 2}, "measured_table.rate is not a known key"),
 ])

@@ -120,6 +120,44 @@ def test_a_malformed_measured_table_exits_2_before_anything_runs(tmp_path, capsy
     assert main(["--calibrate", str(_lab_table(tmp_path, [["serpentine", 2.0, 0.5, 0.1, 0.1]])), "--fit", "grip",
                  "--out", str(out)]) == 2
     assert "unknown fit parameter 'grip'" in capsys.readouterr().err
+    assert not out.exists()  # an empty folder was left (a helper's review)
+
+
+def test_a_folder_with_an_earlier_sweeps_results_is_refused_before_anything_runs(tmp_path, capsys):
+    """A second sweep into a folder mixed its table with the first one's plots (a helper's review)."""
+    out = tmp_path / "sweep"
+    out.mkdir()
+    (out / "paths_serpentine.png").write_bytes(b"an earlier sweep's plot")
+    assert main(["--gait", "inward_rolling", "--amplitudes", "2", "--frequencies", "1", "--duration-s", "1",
+                 "--out", str(out)]) == 2
+    assert "holds an earlier run's results (paths_serpentine.png); use a new folder" in capsys.readouterr().err
+    assert sorted(p.name for p in out.iterdir()) == ["paths_serpentine.png"]
+
+
+def test_a_calibration_whose_runs_failed_exits_1_and_ctrl_c_writes_the_runs_done(tmp_path, capsys, monkeypatch):
+    """--calibrate said 0 with every run failed; an offline sweep stopped by Ctrl-C wrote nothing, though its help
+    says what was done is written (a helper's review). In this process (--workers 1), a stand-in run_cell."""
+    from srs_ros.experiments import sweep as sweep_module
+    from srs_ros.experiments.table import RunRecord
+
+    monkeypatch.setattr(sweep_module, "run_cell", lambda cell, *_a, **_k: RunRecord.failed(cell, "a stand-in"))
+    table = _lab_table(tmp_path, [["inward_rolling", 4.0, 1.0, 5.61, 10.11]])
+    assert main(["--calibrate", str(table), "--fit", "friction_coefficient", "--max-evaluations", "1",
+                 "--fit-duration-s", "1", "--workers", "1", "--no-progress", "--out", str(tmp_path / "cal")]) == 1
+    capsys.readouterr()
+
+    def interrupted_after_two(cell, *_args, **_kwargs):
+        if len(calls) == 2:
+            raise KeyboardInterrupt
+        calls.append(cell)
+        return RunRecord.failed(cell, "a stand-in run")
+
+    calls = []
+    monkeypatch.setattr(sweep_module, "run_cell", interrupted_after_two)
+    out = tmp_path / "sweep"
+    assert main(["--gait", "inward_rolling", "--amplitudes", "2", "3", "4", "--frequencies", "1", "--duration-s", "1",
+                 "--workers", "1", "--no-progress", "--out", str(out)]) == 130
+    assert [r.cell for r in read_table_csv(out / "table.csv")] == calls  # the two runs done, in the grid's order
 
 
 def test_an_unwritable_output_folder_exits_2(tmp_path, capsys):

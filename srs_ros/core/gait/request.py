@@ -40,6 +40,9 @@ def gait_field(gait_names: Iterable[str]) -> Field:
                  description="gait to fit")
 
 
+#: Longest run of a gait an experiment may ask for (s): one hour. A simulated run holds all its commands and its
+#: record in memory (1e12 s asked for petabytes); the paper's runs are 15 s.
+MAX_RUN_S = 3600.0
 #: Most samples per cycle a local caller may ask for (srs_trajectory, the library): 1e8 ended in a MemoryError.
 MAX_LOCAL_SAMPLES = 100_000
 
