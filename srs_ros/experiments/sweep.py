@@ -59,7 +59,8 @@ def _values(name: str, values: Iterable[Any], field: Field) -> list[Any]:
     if not values:
         raise refusal(WHERE, name, values, f"at least one value, each {field.expected}", InvalidInputError)
     checked = [field.check(v, WHERE, f"{name}[{i}]", InvalidInputError) for i, v in enumerate(values)]
-    return list(dict.fromkeys(checked))
+    # repeats as the cells key them (1e-6): 2 and 2.0000001 ran the same cell twice (a helper's review)
+    return list(dict.fromkeys(round(v, 6) if isinstance(v, float) else v for v in checked))
 
 
 @dataclass(frozen=True)

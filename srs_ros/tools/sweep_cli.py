@@ -372,6 +372,9 @@ def main(argv: list[str] | None = None) -> int:
                 fit_parameters(args.fit)  # bad names too
             if args.max_evaluations < 1:
                 raise ConfigurationError(f"--max-evaluations {args.max_evaluations}: expected 1 or more.")
+            if args.fit_duration_s <= 0.0:  # 0 was taken as "the table's run time"
+                raise ConfigurationError(f"--fit-duration-s {args.fit_duration_s:g}: expected seconds > 0 (leave it "
+                                         f"out for {DEFAULT_FIT_DURATION_S:g} s).")
             with _runner(args) as runner:  # an unreachable cluster: exit 2 before the output folder is made
                 return _calibrate(args, _fresh_output(args.out), runner)
         gaits = args.gaits or paper_table().gaits

@@ -84,6 +84,12 @@ def test_a_bad_grid_is_refused_with_the_reason(gaits, amplitudes, frequencies, d
         SweepGrid.create(gaits, amplitudes, frequencies, duration)
 
 
+def test_values_that_key_one_cell_are_one_run():
+    """2 and 2.0000001 bar key the same cell (1e-6) and ran it twice, two identical rows (a helper's review)."""
+    grid = SweepGrid.create(["serpentine"], [2, 2.0000001, 3], [0.5, 0.5000001], 1.0)
+    assert grid.cells() == [("serpentine", 2.0, 0.5), ("serpentine", 3.0, 0.5)]
+
+
 def test_the_grid_lists_cells_in_the_papers_order():
     grid = SweepGrid.create(["outward_rolling", "serpentine"], [4, 2, 2.0], [1, 0.25], 3)
     assert grid.amplitudes_bar == (4.0, 2.0)  # repeats dropped, order kept
