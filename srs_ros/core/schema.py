@@ -24,6 +24,7 @@ stay with the code that knows them and raise through :func:`refusal`, so they re
 
 from __future__ import annotations
 
+import contextlib
 import csv
 import math
 import numbers
@@ -366,7 +367,11 @@ def parse_assignments(items: Iterable[str], flag: str, example: str) -> dict[str
         if not equals or not name:
             raise ConfigurationError(f"{flag} {item!r}: expected NAME=VALUE, e.g. {flag} {example}")
         try:
-            values[name] = yaml.safe_load(text) if text.strip() else text
+            value = yaml.safe_load(text) if text.strip() else text
+            if isinstance(value, str):  # YAML 1.1 reads 1e-3 and 5E2 as text; a number is meant
+                with contextlib.suppress(ValueError):
+                    value = float(value)
+            values[name] = value
         except yaml.YAMLError as exc:
             raise ConfigurationError(f"{flag} {item!r}: the value cannot be read ({str(exc).splitlines()[0]}); "
                                      f"expected a number, true/false, a [list] or text, e.g. {flag} {example}") \

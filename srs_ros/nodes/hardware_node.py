@@ -242,8 +242,9 @@ class HardwareNode(LifecycleNode):
         """Set up rig, timing and shaper from the parameters, open the backend and set the gate up for it."""
         setup = hardware_setup({f.name: self.get_parameter(f.name).value for f in HARDWARE_SETTINGS})
         self.shaper = setup.shaper
-        backend = create_backend(setup.backend, setup.rig.robot, setup.rig.backend_options,
-                                 setup.rig.source if setup.backend == setup.rig.backend else "")
+        own = setup.backend == setup.rig.backend  # the rig's options are its own backend's, not an override's
+        backend = create_backend(setup.backend, setup.rig.robot, setup.rig.backend_options if own else {},
+                                 setup.rig.source if own else "")
         backend.open()
         try:
             warning = setup.timing.check_hardware(backend.name, backend.host_loss_timeout_s,

@@ -35,6 +35,7 @@ from pathlib import Path
 from tqdm import tqdm
 
 from srs_ros.core.errors import ConfigurationError, SrsError
+from srs_ros.core.gait.request import MAX_RUN_S
 from srs_ros.experiments.calibration import (
     DEFAULT_FIT_BEYOND_FRICTION,
     DEFAULT_MAX_EVALUATIONS,
@@ -372,9 +373,9 @@ def main(argv: list[str] | None = None) -> int:
                 fit_parameters(args.fit)  # bad names too
             if args.max_evaluations < 1:
                 raise ConfigurationError(f"--max-evaluations {args.max_evaluations}: expected 1 or more.")
-            if args.fit_duration_s <= 0.0:  # 0 was taken as "the table's run time"
-                raise ConfigurationError(f"--fit-duration-s {args.fit_duration_s:g}: expected seconds > 0 (leave it "
-                                         f"out for {DEFAULT_FIT_DURATION_S:g} s).")
+            if not 0.0 < args.fit_duration_s <= MAX_RUN_S:  # 0 was taken as "the table's run time"
+                raise ConfigurationError(f"--fit-duration-s {args.fit_duration_s:g}: expected seconds in (0, "
+                                         f"{MAX_RUN_S:g}] (leave it out for {DEFAULT_FIT_DURATION_S:g} s).")
             with _runner(args) as runner:  # an unreachable cluster: exit 2 before the output folder is made
                 return _calibrate(args, _fresh_output(args.out), runner)
         gaits = args.gaits or paper_table().gaits

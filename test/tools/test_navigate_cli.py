@@ -42,7 +42,7 @@ def test_integer_boolean_and_list_settings_are_taken_as_ros2_param_set_reads_the
     """Every value was read as a float: 3 cycles became 3.0 (refused), true and a list could not be given at all."""
     code = main(["--goal", "4", "0", "--out", str(tmp_path / "run.csv"), "--setting", "axis_move_max_cycles=3",
                  "--setting", "stop_cycle_ahead=false", "--setting", "turn_levels_rad=[-0.5, 0.0, 0.5]",
-                 "--setting", "goal_tolerance_m=0.03"])
+                 "--setting", "goal_tolerance_m=3e-2"])  # YAML 1.1 reads 3e-2 as text: still a number
     captured = capsys.readouterr()
     assert code == 1 and "refused: goal (4.000, 0.000) m is" in captured.out, captured.err  # the settings taken
     assert main(["--goal", "0", "0.5", "--out", "x.csv", "--setting", "stop_cycle_ahead=[1"]) == 2

@@ -123,7 +123,7 @@ def test_a_malformed_measured_table_exits_2_before_anything_runs(tmp_path, capsy
     assert not out.exists()  # an empty folder was left (a helper's review)
     assert main(["--calibrate", str(_lab_table(tmp_path, [["serpentine", 2.0, 0.5, 0.1, 0.1]])), "--fit-duration-s",
                  "0", "--out", str(out)]) == 2  # 0 was taken as the table's run time
-    assert "--fit-duration-s 0: expected seconds > 0" in capsys.readouterr().err and not out.exists()
+    assert "--fit-duration-s 0: expected seconds in (0, 3600]" in capsys.readouterr().err and not out.exists()
 
 
 def test_a_folder_with_an_earlier_sweeps_results_is_refused_before_anything_runs(tmp_path, capsys):

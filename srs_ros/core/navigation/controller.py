@@ -194,7 +194,8 @@ class NavigationController(CruiseStopping, FineDriving, EdgeGuard):
         return self._refuse(reason)
 
     def _refuse(self, reason: str) -> GoalDecision:
-        self._message = f"goal refused: {reason}" + (f"; still {self._message}" if self.state.active else "")
+        still = self._message.partition("; still ")[2] if self._message.startswith("goal refused: ") else self._message
+        self._message = f"goal refused: {reason}" + (f"; still {still}" if self.state.active and still else "")
         return GoalDecision(False, reason)
 
     def cancel(self, now_s: float, reason: str = "cancelled") -> GaitCommand:

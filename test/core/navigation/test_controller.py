@@ -339,6 +339,17 @@ def test_a_goal_sent_again_and_again_does_not_hide_a_lost_pose():
     assert controller.tick(4.2).moving is False and controller.state is NavigationState.POSE_LOST
 
 
+def test_refusals_over_and_over_do_not_grow_the_message():
+    """Each refusal put itself before the last one's "...; still ..." (at 1 Hz a message growing without end)."""
+    controller = NavigationController(settings(), AREA)
+    controller.set_goal(0.0, 0.7, 0.0)
+    for now_s in (0.1, 0.2, 0.3):
+        assert not controller.set_goal(9.0, 9.0, now_s).accepted
+    message = controller.progress(0.3).message
+    assert message.count("goal refused:") == 1 and message.count("; still ") == 1, message
+    assert message.endswith("; still driving to goal 1 of 1 at (0.000, 0.700) m"), message
+
+
 def test_progress_reports_distance_and_heading_error():
     controller = NavigationController(settings(), AREA)
     controller.set_goal(0.3, 0.4, 0.0)
