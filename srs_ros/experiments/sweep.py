@@ -335,6 +335,10 @@ class OfflineRunner:
                             "make a new one (or a new runner) and run again.")
 
 
+#: How often a batch looks which of its runs a local pool has started (s): a break is charged to those only.
+LOOK_EVERY_S = 0.2
+
+
 class _Batch:
     """One call of :meth:`OfflineRunner.run` on an executor: the futures in flight and the records so far."""
 
@@ -346,6 +350,8 @@ class _Batch:
         #: Runs lost when a local pool broke with others in it, to run again one at a time (cell index, attempt).
         self.suspects: list[tuple[int, int]] = []
         self._alone: Future | None = None  # the suspect running alone in a fresh pool
+        self._started: set[Future] = set()  # the futures seen started (handed to a worker) at the last look
+        self._spared: dict[int, int] = {}  # cell index -> breaks it was lost in while seen queued, not started
 
     def run(self) -> list[RunRecord]:
         try:
@@ -354,7 +360,8 @@ class _Batch:
             while self.pending or self.suspects:
                 if self.suspects and not self.pending:
                     self._submit(*self.suspects.pop(0), alone=True)
-                done, _ = wait(self.pending, return_when=FIRST_COMPLETED)
+                self._started = {future for future in self.pending if future.running()}
+                done, _ = wait(self.pending, timeout=LOOK_EVERY_S, return_when=FIRST_COMPLETED)
                 for future in done:
                     self._finished(future, *self.pending.pop(future))
         finally:
@@ -373,22 +380,32 @@ class _Batch:
         except Exception as exc:  # noqa: BLE001 - anything but a lost worker is raised again
             if not _lost_with_worker(exc):
                 raise
-            record = self._lost(index, attempt, executor, exc, alone=future is self._alone)
+            record = self._lost(index, attempt, executor, exc, alone=future is self._alone,
+                                started=future in self._started or not self._started)
         if record is not None:
             self.records[index] = record
             if self.on_result is not None:
                 self.on_result(record)
 
-    def _lost(self, index: int, attempt: int, executor: Executor, error: Exception, alone: bool = False
-              ) -> RunRecord | None:
+    def _lost(self, index: int, attempt: int, executor: Executor, error: Exception, alone: bool = False,
+              started: bool = True) -> RunRecord | None:
         """A run lost with its worker: submitted again (None) or, after :data:`MAX_RESUBMITS`, a failed record.
 
-        A local pool that breaks fails every run in it, and which one broke it is not known: those runs are not
+        A local pool that breaks fails every run in it, and which one broke it is not known. The runs still queued
+        could not have: they go to the new pool as they were. Those seen started (at most workers + 1) are not
         charged an attempt but run again one at a time, each alone in a fresh pool, where a run that breaks it is
-        the one. (Charging them all failed healthy runs queued beside a run that kills its worker every time.)
+        the one. (Charging them all failed healthy runs queued beside a run that kills its worker every time.) A run
+        lost while seen queued more than :data:`MAX_RESUBMITS` times is a suspect too, so a run that breaks the pool
+        between two looks is found all the same.
         """
         if isinstance(error, BrokenExecutor):
             self.runner._drop_pool(executor)
+            if not alone and not started and self._spared.get(index, 0) < MAX_RESUBMITS:
+                self._spared[index] = self._spared.get(index, 0) + 1
+                self._submit(index, attempt)
+                self.runner.log(f"{cell_name(self.cells[index])}: its worker pool broke before it started "
+                                f"({error_line(error)}); submitted again as it was")
+                return None
             if not alone:
                 self.suspects.append((index, attempt))
                 self.runner.log(f"{cell_name(self.cells[index])}: its worker pool broke ({error_line(error)}); "
