@@ -33,6 +33,7 @@ from std_msgs.msg import Float64MultiArray, MultiArrayDimension, String
 from visualization_msgs.msg import Marker
 
 from srs_ros.core.errors import InvalidInputError
+from srs_ros.core.vision.camera_calibration import DEFAULT_FRAME_ID
 
 #: The opt-in Fast DDS profile (in config/) of node processes on one machine: a 16 MB shared-memory segment, so
 #: that a 0.9 MB bgr8 camera image passes whole instead of in UDP fragments that a busy reader loses (see the
@@ -305,7 +306,7 @@ BODY_MARKERS_TOPIC = "sim/body_markers"
 CLOCK_TOPIC = "/clock"
 
 
-FLOOR_FRAME = "floor"
+FLOOR_FRAME = DEFAULT_FRAME_ID
 
 
 def floor_marker(marker_id: int, namespace: str, kind: int, rgba: Sequence[float], stamp: Time,

@@ -10,6 +10,7 @@ from functools import partial
 from typing import TYPE_CHECKING
 
 from srs_ros.core.errors import ConfigurationError
+from srs_ros.core.vision.camera_calibration import DEFAULT_FRAME_ID
 
 if TYPE_CHECKING:  # a type only: srs_bringup reads views without loading OpenCV
     from srs_ros.core.vision.tracking import TrackResult
@@ -44,7 +45,7 @@ class ViewStatus:
     last_seen_xy_m: tuple[float, float] | None = None
     last_seen_ago_s: float | None = None
     last_image_ago_s: float | None = None
-    frame_id: str = "floor"
+    frame_id: str = DEFAULT_FRAME_ID
 
     @property
     def level(self) -> str:
@@ -98,7 +99,7 @@ class ViewStatus:
             x_m, y_m = _number(values, "last_seen_x_m"), _number(values, "last_seen_y_m")
             return cls(state, message, None if x_m is None or y_m is None else (x_m, y_m),
                        _number(values, "last_seen_ago_s"), _number(values, "last_image_ago_s"),
-                       values.get("last_seen_frame_id", "floor"))
+                       values.get("last_seen_frame_id", DEFAULT_FRAME_ID))
         except ValueError:  # not one of ours, or a number that is not one
             return None
 
@@ -122,7 +123,7 @@ class ViewWatch:
     """
 
     def __init__(self, lost_after_s: float = 0.5, image_timeout_s: float = 1.0, start_s: float = 0.0,
-                 frame_id: str = "floor", source: str = "image_raw"):
+                 frame_id: str = DEFAULT_FRAME_ID, source: str = "image_raw"):
         """Start watching at ``start_s`` (no frame yet)."""
         if not (lost_after_s > 0 and image_timeout_s > 0):
             raise ConfigurationError(f"lost_after_s {lost_after_s} s and image_timeout_s {image_timeout_s} s; "
