@@ -48,7 +48,7 @@ def test_a_trajectory_server_busy_with_another_fit_is_asked_again_soon_and_is_no
 
     def applied():
         driver.pump()
-        errors.append(driver.error)
+        errors.append((time.monotonic(), driver.error))
         if not regenerate_calls or regenerate_calls[-1][1] != driver.calls["regenerate"]:
             regenerate_calls.append((time.monotonic(), driver.calls["regenerate"]))
         return driver.playing and not driver.busy and driver.error == ""
@@ -57,8 +57,12 @@ def test_a_trajectory_server_busy_with_another_fit_is_asked_again_soon_and_is_no
     ros_client.spin_until(applied, 30.0, "the command applied after the other fit")
     assert other_fit.done() and other_fit.result().success
     assert driver.calls["regenerate"] >= 2, driver.calls  # the first was answered busy
-    assert [e for e in errors if e] == [], errors  # a busy answer was never said as a failure
-    gaps = np.diff([t for t, _ in regenerate_calls[1:]])  # between the calls, each after a busy answer
+    # A busy answer is not said as a failure while the busy period is shorter than CALL_TIMEOUT_S (the fit takes
+    # about a second; on a machine loaded at boot it has taken 5.3 s, and from then on the error is right).
+    busy_from = regenerate_calls[1][0]  # the first call sent again: its call before was answered busy
+    within = busy_from + CALL_TIMEOUT_S - 0.5
+    assert [e for t, e in errors if e and t < within] == [], errors
+    gaps = np.diff([t for t, _ in regenerate_calls[1:] if t < within])  # between calls, each after a busy answer
     assert len(gaps) >= 1 and np.max(gaps) < RETRY_S, regenerate_calls  # asked again soon, not after RETRY_S
     assert ros_client.get_parameters("/trajectory_server", ["inward_rolling.turn_phase_rad"]) == {
         "inward_rolling.turn_phase_rad": 0.2}
