@@ -322,8 +322,7 @@ class Navigator(Node):
     def _on_pose(self, msg: PoseStamped) -> None:
         arrival = time.monotonic()
         if msg.header.frame_id not in ("", FLOOR_FRAME):
-            self.get_logger().error(f"robot_pose in frame '{msg.header.frame_id}' ignored; expected '{FLOOR_FRAME}'",
-                                    throttle_duration_sec=5.0)
+            self._pose_ignored(f"robot_pose in frame '{msg.header.frame_id}'; expected '{FLOOR_FRAME}'")
             return
         q = msg.pose.orientation
         pose = Pose2D(msg.pose.position.x, msg.pose.position.y, yaw_from_quaternion(q.z, q.w, q.x, q.y),
@@ -334,7 +333,7 @@ class Navigator(Node):
                 self._nav.update_gait_phase(phase)
             self._nav.update_pose(pose)
         except SrsError as exc:  # a NaN pose: ignored, the lost-pose check still runs on time
-            self.get_logger().error(f"robot_pose ignored: {exc}", throttle_duration_sec=5.0)
+            self._pose_ignored(str(exc))
             return
         self._last_pose_s = arrival
         self._track.add(pose.x_m, pose.y_m)
@@ -342,6 +341,10 @@ class Navigator(Node):
             self._nav.set_path(self._path, pose.time_s, rounds=LOOP_ROUNDS)
             self._nav.update_pose(dataclasses.replace(pose, time_s=pose.time_s + 1e-6))
         self._driver.drive(self._nav.command)
+
+    def _pose_ignored(self, reason: str) -> None:
+        self._nav.pose_ignored(reason)  # a pose lost after it names this, not only the log
+        self.get_logger().error(f"robot_pose ignored: {reason}", throttle_duration_sec=5.0)
 
     def _on_tick(self) -> None:
         self._after_event(time.monotonic())

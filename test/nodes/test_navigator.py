@@ -22,7 +22,10 @@ import time
 
 import numpy as np
 import pytest
+from geometry_msgs.msg import PoseStamped
 from srs_testing.navigation import NavigationSystem
+
+from srs_ros.ros.interfaces import POSE_TOPIC
 
 pytestmark = pytest.mark.slow
 
@@ -153,6 +156,9 @@ def test_a_silent_tracker_is_a_lost_pose_the_gait_stops_and_vents_and_waits_for_
     robot.goal(*goal)
     robot.wait_state({"driving"}, 10.0, "driving")
     robot.wait(lambda: robot.commanding(2.0), 10.0, "the gait commanded")
+    # Poses in another frame (a second tracker misconfigured, say) come on: the loss names them (before, only the
+    # log did, and the progress said "out of view or tracker silent").
+    wrong_frame = robot.client.node.create_publisher(PoseStamped, POSE_TOPIC, 10)
     os.killpg(robot.tracker.process.pid, signal.SIGSTOP)  # the tracker hangs: no pose any more
     stopped_s = time.monotonic()
     sent_s = [stopped_s]
@@ -160,6 +166,9 @@ def test_a_silent_tracker_is_a_lost_pose_the_gait_stops_and_vents_and_waits_for_
     def lost_while_the_goal_is_sent_again() -> bool:  # as `ros2 topic pub -r 4 goal_pose ...`: it hid the loss
         if time.monotonic() - sent_s[-1] >= 0.25:
             robot.goal(*goal)
+            pose = PoseStamped()
+            pose.header.frame_id, pose.pose.orientation.w = "camera", 1.0
+            wrong_frame.publish(pose)
             sent_s.append(time.monotonic())
         return robot.state()["state"] == "pose_lost"
 
@@ -176,6 +185,7 @@ def test_a_silent_tracker_is_a_lost_pose_the_gait_stops_and_vents_and_waits_for_
     # may be older than the SIGSTOP: the bound that matters is the upper one)
     silent = re.search(r"no pose from the camera for ([0-9.]+) s", lost["message"])
     assert silent and float(silent.group(1)) >= 1.0, lost["message"]
+    assert "poses came but were ignored: robot_pose in frame 'camera'; expected 'floor'" in lost["message"], lost
     assert lost_s < 2.5
     # gait_player answered the stop: the navigator's state says so on its next publication (a loaded machine
     # delays it past the vent, seen once in a full suite run); a gait that went on playing fails here

@@ -68,6 +68,8 @@ BACK_UNLESS_MISS_WITHIN = 0.5
 #: "Three-point turns that turn nothing").
 FUTILE_BACK_AWAYS = 2
 BACK_AWAY_GAIN_DEG = 1.0
+#: The most waypoints a path may have: each is a goal of seconds to a minute; 20000 blocked the navigator for 1.5 s.
+MAX_WAYPOINTS = 1000
 
 
 class NavigationController(CruiseStopping, FineDriving, EdgeGuard):
@@ -92,6 +94,7 @@ class NavigationController(CruiseStopping, FineDriving, EdgeGuard):
         self._command = self._stop_command("no goal yet")
         self._level: int | None = None
         self._changed_s = self._measured_s = self._started_s = self._last_pose_s = 0.0
+        self._pose_ignored = ""  # why the poses that came since the last good one were ignored (the node says)
         self._heading_error_rad = 0.0
         self._backing_from: str | None = None
         # The goal off the line as the last three-point turn began (rad), and how many in a row began no nearer.
@@ -148,8 +151,9 @@ class NavigationController(CruiseStopping, FineDriving, EdgeGuard):
             points = [(float(x), float(y)) for x, y in waypoints]
         except (TypeError, ValueError):
             return self._refuse("a path is a list of waypoints, each (x_m, y_m)")
-        if not points:
-            return self._refuse("a path needs at least one waypoint")
+        if not 1 <= len(points) <= MAX_WAYPOINTS:
+            return self._refuse(f"a path of {len(points)} waypoints; expected 1 to {MAX_WAYPOINTS} (split a longer "
+                                "route into paths sent one after the other)")
         for i, (x, y) in enumerate(points):
             reason = self.area.refusal(x, y) if self.area is not None else (
                 "" if math.isfinite(x) and math.isfinite(y) else f"goal ({x}, {y}) is not a finite floor position (m)")
@@ -212,6 +216,7 @@ class NavigationController(CruiseStopping, FineDriving, EdgeGuard):
         if not self.history.add(pose):
             return self._command
         self._last_pose_s = self._clock_s = pose.time_s
+        self._pose_ignored = ""
         if self.state is NavigationState.DRIVING:
             self._drive(pose)
         elif self.state is NavigationState.STOPPING:
@@ -225,10 +230,15 @@ class NavigationController(CruiseStopping, FineDriving, EdgeGuard):
             last = self.history.window(0.0)
             where = f" (last seen at {last[-1, 1]:.3f}, {last[-1, 2]:.3f} m)" if len(last) else ""
             self.history.clear()
-            self._finish(NavigationState.POSE_LOST,
-                         f"no pose from the camera for {silent_s:.1f} s{where}: stopped; the robot may be out of "
-                         "the camera's view or the tracker silent; send a new goal once it is tracked again")
+            cause = (f"poses came but were ignored: {self._pose_ignored}" if self._pose_ignored else
+                     "the robot may be out of the camera's view or the tracker silent")
+            self._finish(NavigationState.POSE_LOST, f"no pose from the camera for {silent_s:.1f} s{where}: stopped; "
+                         f"{cause}; send a new goal once it is tracked again")
         return self._command
+
+    def pose_ignored(self, reason: str) -> None:
+        """A pose came and was not usable (its frame, a NaN): a pose lost after it says this reason."""
+        self._pose_ignored = reason
 
     def update_gait_phase(self, phase: float) -> None:
         """The gait player's phase in [0, 1) now (feed it with every pose: the robot is stopped at set phases)."""
