@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import threading
 import time
+from collections import deque
 
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import PoseStamped
@@ -74,6 +75,10 @@ LOG_THROTTLE_S = 1.0
 
 #: The slowest camera or markers rate (per second) other than 0 (off).
 MIN_OUTPUT_RATE_HZ = 0.1
+#: /diagnostics says WARN when the world followed the wall clock at less than SLOW_WORLD_RATE over the last
+#: SLOW_WINDOW_S: sustained, not one of a busy machine's 0.2-0.4 s stalls (0.92 over 5 s).
+SLOW_WORLD_RATE = 0.8
+SLOW_WINDOW_S = 5.0
 PARAMETERS = (
     ParameterSpec("sim_config_file", "", "simulation YAML; '' = the package's config/sim.yaml", read_only=True),
     ParameterSpec("robot_description_file", "", "robot YAML; '' = the package's config/robot.yaml", read_only=True),
@@ -127,6 +132,7 @@ class SimWorldNode(Node):
         self._clock_base_s = 0.0  # /clock = base + world time: it never goes back at a ~/reset
         self._step_wall_s = 0.0  # wall time spent stepping, for the real-time figure
         self._window = (time.monotonic(), 0.0, 0.0)  # (wall s, world s, stepping s) at the last diagnostics
+        self._rate_marks: deque[tuple[float, float]] = deque()  # (wall s, world s) at recent diagnostics
         self._state = None  # the world's state at its current time, computed once for every output
         self._last_step = (time.monotonic(), 0.0)  # (wall s, world s) at the last wake-up: dates the commands
         self.receiver = ReceiverWatch()  # the executor: while it is behind, a command may wait unread
@@ -304,6 +310,7 @@ class SimWorldNode(Node):
             self._last_step = (time.monotonic(), 0.0)
             self._state = None
             self._window = (time.monotonic(), 0.0, self._step_wall_s)  # the rate from the reset on, never negative
+            self._rate_marks.clear()
             was, self.failure = self.failure, ""
         response.success = True
         response.message = "the simulated robot is back at its start pose, vented" + (
@@ -358,18 +365,33 @@ class SimWorldNode(Node):
                   "world_rate": f"{(world_s - then_world_s) / span_s:.3f}", "commands": str(self.commands),
                   "silence_vents": str(self.board.silence_vents), "receiver_stalls": str(self.receiver.stalls),
                   "failure": self.failure or "none"}
-        level, message = self._summary()
+        level, message = self._summary(self._slow_rate(now_s, world_s))
         # Named as the node runs and keyed by its full name: two robots in two namespaces are told apart.
         status = diagnostic_status(f"{self.get_name()}: simulated robot", "mujoco", level, message,
                                    {**values, STATUS_NODE_KEY: self.get_fully_qualified_name()})
         self._diag_pub.publish(diagnostic_array([status], self.get_clock().now().to_msg()))
 
-    def _summary(self) -> tuple[str, str]:
+    def _slow_rate(self, now_s: float, world_s: float) -> float | None:
+        """The world's rate over the last SLOW_WINDOW_S (world s per wall s) if below SLOW_WORLD_RATE, else None."""
+        marks = self._rate_marks
+        marks.append((now_s, world_s))
+        while len(marks) > 1 and now_s - marks[1][0] >= SLOW_WINDOW_S:
+            marks.popleft()
+        span_s = now_s - marks[0][0]
+        rate = (world_s - marks[0][1]) / span_s if span_s >= SLOW_WINDOW_S else None
+        return rate if rate is not None and rate < SLOW_WORLD_RATE else None
+
+    def _summary(self, slow_rate: float | None = None) -> tuple[str, str]:
         if self.failure:
             return "ERROR", f"stopped: {self.failure}; call ~/reset"
         if self.board.vented_by_silence:
             return "WARN", (f"vented by the board's own watchdog: no regulator command for "
                             f"{self.board.command_timeout_s:g} s (is the hardware node running?)")
+        if slow_rate is not None:
+            return "WARN", (f"behind real time: {slow_rate:.2f}x over the last {SLOW_WINDOW_S:g} s (the machine is "
+                            "too busy for this model: the robot moves slower than its gait asks and its clock "
+                            "slips, see slipped_s; free a core, or start every node with use_sim_time to follow "
+                            "the world's clock)")
         return "OK", "stepping in real time"
 
 

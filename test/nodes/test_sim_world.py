@@ -3,11 +3,12 @@
 sim_world paused, stopped, killed and restarted: test/nodes/test_sim_rig_faults.py.
 """
 
+import re
 import time
 
 import numpy as np
 import pytest
-from diagnostic_msgs.msg import DiagnosticArray
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from geometry_msgs.msg import PoseStamped
 from sensor_msgs.msg import Image, JointState
 from srs_testing import ros_args
@@ -262,3 +263,44 @@ def test_its_status_names_the_robot_its_rate_after_a_reset_is_not_negative_and_u
     assert reports[0].name == "sim_world: simulated robot" and first[STATUS_NODE_KEY] == "/snake1/sim_world"
     assert float(after_reset["world_rate"]) >= 0.0, after_reset
     assert not refused.successful and "use_sim_time is read at start-up" in refused.reason
+
+
+def test_a_world_that_runs_behind_real_time_says_so_and_ok_again_once_it_keeps_up(ros_domain, monkeypatch):
+    """At 0.59x real time (a busy machine) sim_world said OK "stepping in real time" (a helper's review): the loop
+    then sees a robot slower than its gait. Here the physics thread is held off the world 0.3 s in every 0.35 s."""
+    import rclpy
+
+    from srs_ros.nodes import sim_world
+    from srs_ros.nodes.sim_world import SimWorldNode
+
+    monkeypatch.setattr(sim_world, "SLOW_WINDOW_S", 1.0)
+    rclpy.init(args=["sim_world", "--ros-args", "-p", "camera_rate_hz:=0.0", "-p", "markers_rate_hz:=0.0"],
+               domain_id=ros_domain)
+    try:
+        node = SimWorldNode()
+        reports = []
+        monkeypatch.setattr(node._diag_pub, "publish", lambda msg: reports.extend(msg.status))
+
+        def publish_after(seconds: float, hold: bool) -> None:
+            end_s = time.monotonic() + seconds
+            while time.monotonic() < end_s:
+                if hold:
+                    with node._lock:  # the world cannot step: more than MAX_CATCH_UP_S slips
+                        time.sleep(0.3)
+                time.sleep(0.05)
+            node._publish_diagnostics()
+
+        try:
+            publish_after(0.5, hold=False)
+            publish_after(1.2, hold=True)
+            publish_after(1.2, hold=False)
+            publish_after(0.1, hold=False)
+        finally:
+            node.destroy_node()
+    finally:
+        rclpy.shutdown()
+    levels = [(status.level, status.message) for status in reports]
+    ok, warn = DiagnosticStatus.OK, DiagnosticStatus.WARN
+    assert levels[0] == (ok, "stepping in real time"), levels
+    assert levels[1][0] == warn and re.match(r"behind real time: 0\.[0-7]\dx over the last 1 s", levels[1][1]), levels
+    assert levels[3] == (ok, "stepping in real time"), levels
