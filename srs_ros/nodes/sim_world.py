@@ -365,7 +365,11 @@ class SimWorldNode(Node):
                   "world_rate": f"{(world_s - then_world_s) / span_s:.3f}", "commands": str(self.commands),
                   "silence_vents": str(self.board.silence_vents), "receiver_stalls": str(self.receiver.stalls),
                   "failure": self.failure or "none"}
-        level, message = self._summary(self._slow_rate(now_s, world_s))
+        clock_rivals = self.count_publishers(CLOCK_TOPIC) - 1 if self._clock_pub is not None else 0
+        if clock_rivals > 0:
+            self.get_logger().error(f"{CLOCK_TOPIC} has {clock_rivals} other publisher(s): one simulation with "
+                                    "use_sim_time per ROS_DOMAIN_ID", throttle_duration_sec=10.0)
+        level, message = self._summary(self._slow_rate(now_s, world_s), clock_rivals)
         # Named as the node runs and keyed by its full name: two robots in two namespaces are told apart.
         status = diagnostic_status(f"{self.get_name()}: simulated robot", "mujoco", level, message,
                                    {**values, STATUS_NODE_KEY: self.get_fully_qualified_name()})
@@ -381,9 +385,13 @@ class SimWorldNode(Node):
         rate = (world_s - marks[0][1]) / span_s if span_s >= SLOW_WINDOW_S else None
         return rate if rate is not None and rate < SLOW_WORLD_RATE else None
 
-    def _summary(self, slow_rate: float | None = None) -> tuple[str, str]:
+    def _summary(self, slow_rate: float | None = None, clock_rivals: int = 0) -> tuple[str, str]:
         if self.failure:
             return "ERROR", f"stopped: {self.failure}; call ~/reset"
+        if clock_rivals > 0:  # /clock is one topic for the whole domain, namespaces or not
+            return "ERROR", (f"{clock_rivals} other publisher(s) of {CLOCK_TOPIC}: every node on use_sim_time sees "
+                             "its time jump back and forth; run one simulation with use_sim_time per ROS_DOMAIN_ID "
+                             "(the others without it, or in a domain of their own)")
         if self.board.vented_by_silence:
             return "WARN", (f"vented by the board's own watchdog: no regulator command for "
                             f"{self.board.command_timeout_s:g} s (is the hardware node running?)")

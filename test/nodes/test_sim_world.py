@@ -304,3 +304,36 @@ def test_a_world_that_runs_behind_real_time_says_so_and_ok_again_once_it_keeps_u
     assert levels[0] == (ok, "stepping in real time"), levels
     assert levels[1][0] == warn and re.match(r"behind real time: 0\.[0-7]\dx over the last 1 s", levels[1][1]), levels
     assert levels[3] == (ok, "stepping in real time"), levels
+
+
+def test_another_clock_publisher_beside_a_sim_world_on_use_sim_time_is_an_error_it_names(ros_domain, monkeypatch):
+    """Two sim_worlds on use_sim_time in one domain (namespaces do not separate /clock) step every node's time back
+    and forth; sim_world said OK. Here a second /clock publisher comes up beside it."""
+    import rclpy
+    from rosgraph_msgs.msg import Clock
+
+    from srs_ros.nodes.sim_world import SimWorldNode
+
+    rclpy.init(args=["sim_world", "--ros-args", "-r", "__ns:=/snake1", "-p", "use_sim_time:=true", "-p",
+                     "camera_rate_hz:=0.0", "-p", "markers_rate_hz:=0.0"], domain_id=ros_domain)
+    try:
+        node = SimWorldNode()
+        reports = []
+        monkeypatch.setattr(node._diag_pub, "publish", lambda msg: reports.extend(msg.status))
+        rival = rclpy.create_node("other_simulation")
+        try:
+            node._publish_diagnostics()
+            rival.create_publisher(Clock, "/clock", 10)
+            end_s = time.monotonic() + 10.0
+            while node.count_publishers("/clock") < 2 and time.monotonic() < end_s:
+                time.sleep(0.05)
+            node._publish_diagnostics()
+        finally:
+            rival.destroy_node()
+            node.destroy_node()
+    finally:
+        rclpy.shutdown()
+    alone, beside = reports
+    assert alone.level != DiagnosticStatus.ERROR, alone.message
+    assert beside.level == DiagnosticStatus.ERROR and beside.message.startswith("1 other publisher(s) of /clock"), \
+        beside.message
