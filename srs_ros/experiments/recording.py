@@ -1,18 +1,22 @@
 """rosbag2 directories (``metadata.yaml`` + MCAP) written and read with ``rosbags``, no ROS install needed.
 
-:class:`BagRecorder` takes messages already serialized as CDR (what rclpy's raw subscriptions and
-``rclpy.serialization.serialize_message`` give) with their ROS type name, and writes them with the
-message definitions of ROS 2 Jazzy's type store, so the bag opens in ``ros2 bag info`` / ``ros2 bag play``,
-Foxglove and ``rosbags`` alike. A topic is added on its first message, so a bag holds exactly the topics
-that carried data (e.g. ``/sim/ground_truth_pose`` only on the simulated rig). :meth:`BagRecorder.close`
-(also on an exception, as a context manager) finishes the files: what was recorded is kept.
+:class:`BagRecorder` takes messages already serialized as CDR (what rclpy's raw subscriptions give: the
+bytes as they came over DDS) with their ROS type name, and writes them with the message definitions of
+ROS 2 Jazzy's type store, so the bag opens in ``ros2 bag info`` / ``ros2 bag play``, Foxglove and
+``rosbags`` alike. (``rclpy.serialization.serialize_message`` is not such bytes for every type: for a
+JointState it adds 8 trailing bytes that rosbags' ``deserialize_cdr`` refuses as a size mismatch.) A topic
+is added on its first message, so a bag holds exactly the topics that carried data (e.g.
+``/sim/ground_truth_pose`` only on the simulated rig). :meth:`BagRecorder.close` (also on an exception, as
+a context manager) finishes the files: what was recorded is kept.
 """
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
+from typing import Any
 
+from rosbags.interfaces import Qos, QosDurability, QosHistory, QosLiveliness, QosReliability, QosTime
 from rosbags.rosbag2 import Reader, StoragePlugin, Writer
 from rosbags.typesys import Stores, get_typestore
 
@@ -45,8 +49,14 @@ class BagRecorder:
     def __exit__(self, *exc) -> None:
         self.close()
 
-    def write(self, topic: str, type_name: str, stamp_ns: int, data: bytes) -> None:
-        """Add one CDR-serialized message of ``type_name`` (e.g. ``sensor_msgs/msg/JointState``) at ``stamp_ns``."""
+    def write(self, topic: str, type_name: str, stamp_ns: int, data: bytes,
+              offered_qos: Callable[[], Sequence[Qos]] | None = None) -> None:
+        """Add one CDR-serialized message of ``type_name`` (e.g. ``sensor_msgs/msg/JointState``) at ``stamp_ns``.
+
+        ``offered_qos`` gives the QoS profiles of the topic's publishers (read once, at its first message), which
+        rosbag2 keeps in ``metadata.yaml``: ``ros2 bag play`` replays a topic whose publishers all offered
+        transient-local durability (the latched gait trajectory) as latched.
+        """
         if self.closed:
             return
         connection = self._connections.get(topic)
@@ -54,7 +64,8 @@ class BagRecorder:
             if type_name not in self._typestore.types:
                 raise ConfigurationError(f"{topic}: message type {type_name!r} is not in the {TYPESTORE.name} "
                                          "type store; it cannot be recorded with its definition.")
-            connection = self._writer.add_connection(topic, type_name, typestore=self._typestore)
+            connection = self._writer.add_connection(topic, type_name, typestore=self._typestore,
+                                                     offered_qos_profiles=tuple(offered_qos() if offered_qos else ()))
             self._connections[topic] = connection
             self.counts[topic] = 0
         self._writer.write(connection, int(stamp_ns), bytes(data))
@@ -65,6 +76,35 @@ class BagRecorder:
         if not self.closed:
             self.closed = True
             self._writer.close()
+
+
+#: rmw's infinite duration as rosbag2 writes it.
+INFINITE_TIME = QosTime(2147483647, 4294967295)
+
+
+def _bag_time(duration: Any) -> QosTime:
+    nanoseconds = int(duration.nanoseconds)
+    if nanoseconds >= INFINITE_TIME.sec * 10**9:
+        return INFINITE_TIME
+    return QosTime(*divmod(nanoseconds, 10**9))
+
+
+def bag_qos(profile: Any) -> Qos:
+    """An rclpy ``QoSProfile`` (a publisher's, as ``get_publishers_info_by_topic`` gives it) as rosbag2 records it.
+
+    The policies' numbers are rmw's in both (rclpy's enums and rosbags' mirror them); read by attribute, so the
+    recording needs no ROS import.
+    """
+    return Qos(QosHistory(int(profile.history)), int(profile.depth), QosReliability(int(profile.reliability)),
+               QosDurability(int(profile.durability)), _bag_time(profile.deadline), _bag_time(profile.lifespan),
+               QosLiveliness(int(profile.liveliness)), _bag_time(profile.liveliness_lease_duration),
+               bool(profile.avoid_ros_namespace_conventions))
+
+
+def bag_offered_qos(path: str | Path) -> dict[str, list[Qos]]:
+    """Topic -> the offered QoS profiles recorded in a rosbag2 directory's metadata."""
+    with Reader(Path(path)) as reader:
+        return {connection.topic: list(connection.ext.offered_qos_profiles) for connection in reader.connections}
 
 
 def bag_message_counts(path: str | Path) -> dict[str, int]:

@@ -48,7 +48,7 @@ from trajectory_msgs.msg import JointTrajectory
 
 from srs_ros.core.actuation.operator import REAL_ARM_PREFIX
 from srs_ros.core.errors import SrsError
-from srs_ros.experiments.recording import BagRecorder
+from srs_ros.experiments.recording import BagRecorder, bag_qos
 from srs_ros.experiments.table import ROS_SETTLE_S, Cell, RunRecord
 from srs_ros.ros.interfaces import (
     ACTUATOR_STATE_TOPIC,
@@ -164,13 +164,18 @@ class RosSweep:
         self.node.destroy_node()
         rclpy.try_shutdown(context=self.context)
 
+    def _offered_qos(self, topic: str) -> list:
+        """The QoS profiles the topic's publishers offer, as rosbag2 records them (``ros2 bag play`` reads them)."""
+        return [bag_qos(info.qos_profile) for info in self.node.get_publishers_info_by_topic(topic)]
+
     def _receiver(self, topic: str, msg_class):
         kind = type_name(msg_class)
 
         def receive(data: bytes) -> None:
             now = time.monotonic()
             if self.recorder is not None:
-                self.recorder.write(topic, kind, self.node.get_clock().now().nanoseconds, data)
+                self.recorder.write(topic, kind, self.node.get_clock().now().nanoseconds, data,
+                                    offered_qos=lambda: self._offered_qos(topic))
             if msg_class is JointTrajectory:
                 self._trajectory, self._trajectories = data, self._trajectories + 1
             elif topic.endswith("/" + POSE_TOPIC):
@@ -435,8 +440,9 @@ class RosSweep:
                                  "run the sweep again to be asked")
             self.recorder = BagRecorder(bag_path)
             if self._trajectory is not None:
-                self.recorder.write(self.node.resolve_topic_name(TRAJECTORY_TOPIC), type_name(JointTrajectory),
-                                    self.node.get_clock().now().nanoseconds, self._trajectory)
+                topic = self.node.resolve_topic_name(TRAJECTORY_TOPIC)
+                self.recorder.write(topic, type_name(JointTrajectory), self.node.get_clock().now().nanoseconds,
+                                    self._trajectory, offered_qos=lambda: self._offered_qos(topic))
             start_pose = self._wait_pose(0.0, "before the start")
             first = len(self._poses)
             started = time.monotonic()

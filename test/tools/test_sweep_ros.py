@@ -16,6 +16,7 @@ import time
 import pytest
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import PoseStamped
+from rosbags.interfaces import QosDurability
 from srs_testing import RosClient, ros_args, script_path
 from std_msgs.msg import Float64MultiArray
 from std_srvs.srv import Trigger
@@ -23,7 +24,7 @@ from std_srvs.srv import Trigger
 from srs_ros.core.actuation.operator import arm as operator_arm
 from srs_ros.core.actuation.safety import CommandGate
 from srs_ros.core.robot import config_dir
-from srs_ros.experiments.recording import bag_message_counts, bag_topic_types
+from srs_ros.experiments.recording import bag_message_counts, bag_offered_qos, bag_topic_types
 from srs_ros.experiments.ros_sweep import RosSweep, RosSweepOptions, RunAborted
 from srs_ros.experiments.table import TABLE_COLUMNS, read_table_csv
 from srs_ros.ros.interfaces import BUSY_RETRY_S, FIT_BUSY_PREFIX, POSE_TOPIC, STATUS_NODE_KEY, diagnostic_values
@@ -82,6 +83,13 @@ def test_ros_sweep_on_the_simulated_rig_records_bags_and_the_offline_table_layou
         assert counts["/robot_pose"] > 2.5 * 2  # ... the tracker on a 15 fps camera
         assert counts["/sim/ground_truth_pose"] > 2.5 * 20
         assert counts["/diagnostics"] >= 3
+        # The publishers' QoS, as rosbag2 records it: `ros2 bag play` replays the trajectory latched (it recorded
+        # none: `offered_qos_profiles: []`).
+        offered = bag_offered_qos(bag)
+        assert offered["/gait_trajectory"] and {q.durability for q in offered["/gait_trajectory"]} == {
+            QosDurability.TRANSIENT_LOCAL}, offered["/gait_trajectory"]
+        assert offered["/joint_setpoints"] and {q.durability for q in offered["/joint_setpoints"]} == {
+            QosDurability.VOLATILE}, offered["/joint_setpoints"]
 
     offline = tmp_path / "offline"
     from srs_ros.tools.sweep_cli import main
