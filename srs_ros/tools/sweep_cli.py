@@ -315,7 +315,8 @@ def _run_cells(sweep, grid: SweepGrid, bags: Path, args: argparse.Namespace,
             tqdm.write(f"{PROG}: stopped: {exc}", file=sys.stderr)
             break
         except KeyboardInterrupt:
-            records.append(RunRecord.failed(cell, "interrupted (Ctrl-C); its bag keeps what was recorded"))
+            kept = "its bag keeps what was recorded" if bag.exists() else "before its bag was opened: no bag"
+            records.append(RunRecord.failed(cell, f"interrupted (Ctrl-C); {kept}"))
             return records, EXIT_INTERRUPTED
         records.append(record)
         bar.update()

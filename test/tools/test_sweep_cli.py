@@ -170,3 +170,35 @@ def test_an_unwritable_output_folder_exits_2(tmp_path, capsys):
                  "--out", str(blocker / "sweep")]) == 2
     assert "cannot write there" in capsys.readouterr().err
     assert blocker.read_text() == "not a folder"
+
+
+def test_ctrl_c_before_a_runs_bag_is_opened_does_not_say_the_bag_keeps_anything(tmp_path):
+    """A Ctrl-C while waiting for the rig (before the bag exists) was recorded as "its bag keeps what was
+    recorded" (a helper's review); once the bag is open it is."""
+    import argparse
+
+    from tqdm import tqdm
+
+    class Interrupted:
+        """A RosSweep stand-in: its run is interrupted, before or after opening its bag (``open_bag``)."""
+
+        def __init__(self, open_bag: bool):
+            self.open_bag = open_bag
+
+        def run(self, cell, duration_s, bag, go):
+            if self.open_bag:
+                bag.mkdir()
+            raise KeyboardInterrupt
+
+    grid = SweepGrid.create(["inward_rolling"], [4.0], [1.0], duration_s=5.0)
+    args = argparse.Namespace(yes=True, on_failure="continue")
+    said = {}
+    for open_bag in (False, True):
+        bags = tmp_path / f"bags_{open_bag}"
+        bags.mkdir()
+        with tqdm(disable=True) as bar:
+            records, code = sweep_cli._run_cells(Interrupted(open_bag), grid, bags, args, bar)
+        assert code == sweep_cli.EXIT_INTERRUPTED and len(records) == 1
+        said[open_bag] = records[0].status
+    assert said[False] == "failed: interrupted (Ctrl-C); before its bag was opened: no bag", said
+    assert said[True] == "failed: interrupted (Ctrl-C); its bag keeps what was recorded", said
