@@ -417,6 +417,9 @@ def _csv_row(header: list[str], cells: list[str], table: Table, where: str, erro
         if f.name not in row:
             raise missing(where, f.name, f.expected, error)
         text = row[f.name].strip()
+        if text == "" and f.default is None:  # an optional field's empty cell: not set
+            values[f.name] = None
+            continue
         values[f.name] = f.check(_number(text, f.kind) if f.kind in (float, int) else text, where, error=error)
     return values
 

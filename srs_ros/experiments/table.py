@@ -25,11 +25,10 @@ from typing import Any
 
 import numpy as np
 
-from srs_ros.core.errors import ConfigurationError
 from srs_ros.core.gait.library import list_gaits
 from srs_ros.core.gait.request import FREQUENCY_FIELD, MAX_RUN_S, amplitude_field, gait_field
 from srs_ros.core.robot import RobotDescription, config_dir, default_robot, read_yaml
-from srs_ros.core.schema import Field, Table, document, refusal
+from srs_ros.core.schema import Field, Table, document, read_csv_rows, refusal
 
 #: After a run over ROS is vented, the wait before its end pose is taken (s): the body settles (srs_sweep --ros).
 ROS_SETTLE_S = 2.0
@@ -230,20 +229,34 @@ def write_table_csv(path: str | Path, records: Iterable[RunRecord], reference: M
     return write_atomically(path, stream.getvalue())
 
 
+def _measured(name: str, unit: str, what: str) -> Field:
+    return Field(name, float, None, unit=unit, description=f"{what}; empty for a run that failed or a cell not in "
+                 "the table", expected_text="a number, or empty")
+
+
+#: The columns of a sweep's ``table.csv`` (:data:`TABLE_COLUMNS`), as :func:`read_table_csv` checks them.
+TABLE_CSV_SCHEMA = Table("table.csv", (
+    Field("gait", str, nonempty=True), Field("amplitude_bar", float, minimum=0.0, unit="bar"),
+    Field("frequency_hz", float, minimum=0.0, above_minimum=True, unit="Hz"),
+    _measured("vx_cm_s", "cm/s", "travelling velocity along x"), _measured("vy_cm_s", "cm/s", "along y"),
+    _measured("dx_m", "m", "displacement along x"), _measured("dy_m", "m", "along y"),
+    _measured("paper_vx_cm_s", "cm/s", "the reference table's v_x"),
+    _measured("paper_vy_cm_s", "cm/s", "the reference table's v_y"),
+    Field("status", str, nonempty=True)))
+assert TABLE_CSV_SCHEMA.names == TABLE_COLUMNS
+
+
 def read_table_csv(path: str | Path) -> list[RunRecord]:
-    """Read a sweep's ``table.csv`` back into run records (the measured columns are dropped)."""
-    path = Path(path)
-    with path.open(newline="", encoding="utf-8") as stream:
-        reader = csv.DictReader(stream)
-        if tuple(reader.fieldnames or ()) != TABLE_COLUMNS:
-            raise ConfigurationError(f"{path}: columns {reader.fieldnames}; expected {list(TABLE_COLUMNS)}.")
+    """Read a sweep's ``table.csv`` back into run records (the reference table's columns are dropped).
 
-        def number(text: str) -> float:
-            return float(text) if text else math.nan
+    Every row is checked by :data:`TABLE_CSV_SCHEMA`; a refusal names the file, the line and the cell.
+    """
+    def number(value: float | None) -> float:
+        return math.nan if value is None else value
 
-        return [RunRecord(row["gait"], float(row["amplitude_bar"]), float(row["frequency_hz"]),
-                          number(row["vx_cm_s"]), number(row["vy_cm_s"]), number(row["dx_m"]), number(row["dy_m"]),
-                          row["status"]) for row in reader]
+    return [RunRecord(row["gait"], row["amplitude_bar"], row["frequency_hz"], number(row["vx_cm_s"]),
+                      number(row["vy_cm_s"]), number(row["dx_m"]), number(row["dy_m"]), row["status"])
+            for row in read_csv_rows(path, TABLE_CSV_SCHEMA)]
 
 
 # ------------------------------------------------------------------------------------------

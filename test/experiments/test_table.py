@@ -113,6 +113,23 @@ def test_table_csv_round_trip_with_the_papers_values_and_failures(tmp_path):
     assert [p.name for p in tmp_path.iterdir()] == ["table.csv"]  # no temporary file left behind
 
 
+@pytest.mark.parametrize(("line", "said"), [
+    ("inward_rolling,4,1,fast,9.5,0,0,,,ok", "table.csv:2: vx_cm_s is 'fast'; expected a number, or empty (cm/s)."),
+    ("inward_rolling,4,nan,1,1,0,0,,,ok", "table.csv:2: frequency_hz is nan; expected a number > 0 (Hz)."),
+    ("inward_rolling,4,1,1,1,0,0,,,", "table.csv:2: status is ''; expected a non-empty string."),
+])
+def test_a_table_csv_with_a_bad_cell_is_refused_with_its_line_and_column(tmp_path, line, said):
+    """read_table_csv raised a bare ValueError for a cell that is not a number (and took 'nan' as a frequency)."""
+    path = tmp_path / "table.csv"
+    path.write_text(",".join(TABLE_COLUMNS) + "\n" + line + "\n", encoding="utf-8")
+    with pytest.raises(ConfigurationError) as raised:
+        read_table_csv(path)
+    assert str(raised.value) == f"{tmp_path}/{said}"
+    path.write_bytes(b"gait\xff\n")
+    with pytest.raises(ConfigurationError, match="cannot be read as CSV"):
+        read_table_csv(path)
+
+
 def test_the_printed_table_has_the_papers_layout():
     records = [RunRecord(g, a, f, 1.0 * a, -2.0 * f, 0.15 * a, -0.3 * f) for g in ("serpentine", "inward_rolling")
                for a in (2.0, 4.0) for f in (0.25, 1.0)]

@@ -24,7 +24,7 @@ import csv
 import math
 import warnings
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -32,7 +32,7 @@ import numpy as np
 import yaml
 
 from srs_ros.core.actuation.pressure import lengths_to_pressures_bar, pressure_amplitude_scale
-from srs_ros.core.errors import InvalidInputError
+from srs_ros.core.errors import ConfigurationError, InvalidInputError
 from srs_ros.core.gait.fitting import FitSettings, fit_error_mm, fit_shapes
 from srs_ros.core.gait.interpolation import PeriodicTrajectory
 from srs_ros.core.gait.library import (
@@ -47,7 +47,8 @@ from srs_ros.core.gait.library import (
     shape_curves,
 )
 from srs_ros.core.gait.request import FREQUENCY_FIELD, MIN_SAMPLES, SAMPLES_FIELD, amplitude_field, any_samples
-from srs_ros.core.robot import RobotDescription, default_robot
+from srs_ros.core.robot import RobotDescription, default_robot, read_yaml
+from srs_ros.core.schema import Field, Table
 
 __all__ = ["GaitCycle", "GaitSpec", "generate_cycle", "list_gaits", "fit_settings", "MIN_SAMPLES"]
 
@@ -176,42 +177,90 @@ class GaitCycle:
 
     @classmethod
     def from_csv(cls, path: str | Path, robot: RobotDescription | None = None) -> GaitCycle:
-        """Read a cycle written by :meth:`to_csv` (the sidecar, if missing, is inferred from the columns)."""
+        """Read a cycle written by :meth:`to_csv` (the sidecar, if missing, is inferred from the columns).
+
+        The sidecar is checked by :func:`sidecar_table`, the rows must be finite numbers: a refusal
+        (:class:`InvalidInputError`) names the file, and the key or the row.
+        """
         robot = robot or default_robot()
         path = Path(path)
-        try:
-            with path.open("r", newline="", encoding="utf-8") as stream:
-                reader = csv.reader(stream)
-                header = next(reader)
-                table = [row for row in reader if row]
-        except (OSError, StopIteration) as exc:
-            raise InvalidInputError(f"{path}: cannot read a trajectory CSV ({exc}).") from None
+        header, table = _read_csv(path)
         needed = ["phase", "time_s", *robot.joint_names, "fit_error_mm"]
-        missing = [name for name in needed if name not in header]
-        if missing:
-            raise InvalidInputError(f"{path}: missing column(s) {missing}; expected at least {needed}.")
-        try:
-            data = np.array([[float(row[header.index(n)]) for n in needed] for row in table])
-        except (ValueError, IndexError) as exc:
-            raise InvalidInputError(f"{path}: a row is not numeric or is short ({exc}).") from None
-        meta: dict[str, Any] = {}
-        if _sidecar(path).is_file():
-            meta = yaml.safe_load(_sidecar(path).read_text(encoding="utf-8")) or {}
+        missing_columns = [name for name in needed if name not in header]
+        if missing_columns:
+            raise InvalidInputError(f"{path}: missing column(s) {missing_columns}; expected at least {needed}.")
+        data = _numbers(path, header, table, needed)
         lengths = data[:, 2:2 + robot.joint_count]
-        if "frequency_hz" in meta:
-            frequency = float(meta["frequency_hz"])
-        elif len(data) > 1 and data[1, 1] > data[0, 1]:
+        meta = _read_sidecar(path, robot, len(data))
+        frequency = meta["frequency_hz"]
+        if frequency is None:
+            if not (len(data) > 1 and data[1, 1] > data[0, 1]):
+                raise InvalidInputError(f"{path}: cannot infer the frequency (no sidecar {_sidecar(path).name}, "
+                                        "time_s not increasing).")
             frequency = 1.0 / (len(data) * (data[1, 1] - data[0, 1]))
-        else:
-            raise InvalidInputError(f"{path}: cannot infer the frequency (no sidecar {_sidecar(path).name}, "
-                                    "time_s not increasing).")
-        amplitude = float(meta.get("amplitude_bar", float(lengths_to_pressures_bar(lengths, robot).max())))
-        poor = tuple(int(i) for i in meta.get("poor_samples", ()))
-        if not meta and "poor" in header:
-            poor = tuple(i for i, row in enumerate(table) if int(float(row[header.index("poor")])))
-        return cls(gait=str(meta.get("gait", path.stem)), amplitude_bar=amplitude, frequency_hz=frequency,
-                   lengths_m=lengths, fit_error_mm=data[:, -1], poor_samples=poor,
-                   parameters=dict(meta.get("parameters", {})), joint_names=tuple(robot.joint_names), robot=robot)
+        amplitude = meta["amplitude_bar"]
+        if amplitude is None:
+            amplitude = float(lengths_to_pressures_bar(lengths, robot).max())
+        poor = meta["poor_samples"]
+        if poor is None and "poor" in header:
+            poor = np.flatnonzero(_numbers(path, header, table, ["poor"])[:, 0]).tolist()
+        return cls(gait=meta["gait"] or path.stem, amplitude_bar=amplitude, frequency_hz=frequency,
+                   lengths_m=lengths, fit_error_mm=data[:, -1], poor_samples=tuple(poor or ()),
+                   parameters=dict(meta["parameters"] or {}), joint_names=tuple(robot.joint_names), robot=robot)
+
+
+def sidecar_table(robot: RobotDescription) -> Table:
+    """The keys of a cycle CSV's sidecar ``<csv>.yaml`` (:meth:`GaitCycle.to_csv`); each may be left out."""
+    return Table("the sidecar", (
+        Field("gait", str, None, nonempty=True, description="the gait's name"),
+        replace(amplitude_field(robot), default=None),
+        replace(FREQUENCY_FIELD, default=None),
+        Field("joint_names", list, None, item=str, expected_text=f"the robot's joints {list(robot.joint_names)}"),
+        Field("poor_samples", list, None, minimum=0, item=int, description="samples fitted poorly"),
+        Field("parameters", dict, None, description="the gait's parameters")))
+
+
+def _read_csv(path: Path) -> tuple[list[str], list[list[str]]]:
+    try:
+        with path.open("r", newline="", encoding="utf-8") as stream:
+            reader = csv.reader(stream)
+            header = next(reader)
+            return header, [row for row in reader if row]
+    except (OSError, StopIteration, UnicodeDecodeError, csv.Error) as exc:
+        raise InvalidInputError(f"{path}: cannot read a trajectory CSV ({exc or 'empty'}).") from None
+
+
+def _numbers(path: Path, header: list[str], table: list[list[str]], columns: list[str]) -> np.ndarray:
+    """The named columns of every row as finite numbers."""
+    for line, row in enumerate(table, start=2):
+        try:
+            values = [float(row[header.index(n)]) for n in columns]
+        except (ValueError, IndexError):
+            raise InvalidInputError(f"{path}:{line}: a row is short or not numeric ({','.join(row)}); expected a "
+                                    f"number in each of {columns}.") from None
+        if not all(math.isfinite(v) for v in values):
+            raise InvalidInputError(f"{path}:{line}: a value is not finite ({','.join(row)}); expected finite "
+                                    "numbers.")
+    return np.array([[float(row[header.index(n)]) for n in columns] for row in table]).reshape(-1, len(columns))
+
+
+def _read_sidecar(path: Path, robot: RobotDescription, samples: int) -> dict[str, Any]:
+    """The sidecar's values checked by :func:`sidecar_table` (every key None without a sidecar)."""
+    table = sidecar_table(robot)
+    sidecar = _sidecar(path)
+    if not sidecar.is_file():
+        return dict.fromkeys(table.names)
+    try:
+        meta = table.read(read_yaml(sidecar) or {}, str(sidecar), error=InvalidInputError)
+    except ConfigurationError as exc:
+        raise InvalidInputError(str(exc)) from None
+    if meta["joint_names"] is not None and list(meta["joint_names"]) != list(robot.joint_names):
+        raise InvalidInputError(f"{sidecar}: joint_names {list(meta['joint_names'])}; expected the robot's "
+                                f"{list(robot.joint_names)} (a cycle of another robot description).")
+    if meta["poor_samples"] and max(meta["poor_samples"]) >= samples:
+        raise InvalidInputError(f"{sidecar}: poor_samples up to {max(meta['poor_samples'])}; expected sample "
+                                f"indices below the CSV's {samples} rows.")
+    return meta
 
 
 def _sidecar(path: Path) -> Path:

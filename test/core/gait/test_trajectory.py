@@ -1,5 +1,6 @@
 """Gait cycles: validation, amplitude and frequency, periodic playback, poor-fit reporting, CSV round trip."""
 
+import re
 import warnings
 
 import numpy as np
@@ -186,3 +187,32 @@ def test_csv_with_missing_columns_is_refused(tmp_path):
 
 def test_list_gaits_is_reexported():
     assert "serpentine" in list_gaits()
+
+
+@pytest.mark.parametrize(("sidecar", "said"), [
+    ("frequency_hz: .nan\n", "frequency_hz is nan; expected a number in"),
+    ("amplitude_bar: 9\n", "amplitude_bar is 9; expected a number in"),
+    ("frequncy_hz: 1\n", "frequncy_hz"),
+    ("poor_samples: [99]\n", "poor_samples up to 99; expected sample indices below the CSV's"),
+    ("joint_names: [a, b]\n", "joint_names ['a', 'b']; expected the robot's"),
+    (b"gait: \xff\n", "not UTF-8 text"),
+])
+def test_a_cycle_csvs_bad_sidecar_is_refused_with_the_key(tmp_path, serpentine, sidecar, said):
+    """The sidecar was read with no check: a NaN frequency or a misspelled key made a cycle (a helper's review)."""
+    path = serpentine.to_csv(tmp_path / "serp.csv")
+    side = tmp_path / "serp.csv.yaml"
+    side.write_bytes(sidecar if isinstance(sidecar, bytes) else sidecar.encode())
+    with pytest.raises(InvalidInputError, match=re.escape(str(side))) as raised:
+        GaitCycle.from_csv(path)
+    assert said in str(raised.value), raised.value
+
+
+def test_a_cycle_csv_with_a_non_finite_or_text_cell_is_refused_with_its_line(tmp_path, serpentine):
+    path = serpentine.to_csv(tmp_path / "serp.csv")
+    lines = path.read_text().splitlines()
+    for bad, said in (("nan", "serp.csv:3: a value is not finite"), ("x", "serp.csv:3: a row is short or not numeric")):
+        cells = lines[2].split(",")
+        cells[3] = bad
+        path.write_text("\n".join([*lines[:2], ",".join(cells), *lines[3:]]) + "\n")
+        with pytest.raises(InvalidInputError, match=re.escape(said)):
+            GaitCycle.from_csv(path)
