@@ -21,6 +21,7 @@ from srs_testing import (
     fastdds_shm_clean,
     fastdds_shm_clean_if_killed,
     release_domain,
+    stop_all,
 )
 
 _LOG_DIR = tempfile.mkdtemp(prefix="srs_ros_test_logs_")
@@ -115,8 +116,7 @@ def launch_node(ros_env, tmp_path):
         return proc
 
     yield _launch
-    for proc in started:
-        proc.stop()
+    stop_all(started)
 
 
 @pytest.fixture(scope="module")
