@@ -9,8 +9,10 @@ beside each). The README's "Tests" section has the figures.
 
 from __future__ import annotations
 
+import faulthandler
 import os
 import tempfile
+from pathlib import Path
 
 import pytest
 from srs_testing import (
@@ -69,6 +71,36 @@ def pytest_collection_modifyitems(items) -> None:
 def pytest_sessionfinish() -> None:
     """Whatever a test killed, no Fast DDS shared-memory file outlives the run."""
     fastdds_shm_clean()
+
+
+#: A test (setup, call and teardown) still running after this long ends its process, every thread's stack written
+#: first. setup.cfg's pytest-timeout (300 s) ends a test stuck in Python; it cannot end one stuck in C with the GIL
+#: held, as a Fast DDS deadlock inside ``create_client`` was (2026-11-29: a worker hung 13 min, the CI run would have
+#: hung to its limit). faulthandler's watchdog is a C thread: it needs no GIL. xdist reports the test failed
+#: ("node down") and starts another worker.
+HANG_S = 420.0
+_HANG_DIR = Path(os.environ.setdefault("SRS_TEST_HANG_DIR", tempfile.mkdtemp(prefix="srs_ros_test_hangs_")))
+
+
+@pytest.hookimpl(hookwrapper=True)
+def pytest_runtest_protocol(item, nextitem):
+    path = _HANG_DIR / f"{os.getpid()}.txt"
+    with path.open("w") as stream:
+        stream.write(f"{item.nodeid}: still running after {HANG_S:g} s; its process was ended. Every thread:\n")
+        stream.flush()
+        faulthandler.dump_traceback_later(HANG_S, exit=True, file=stream)
+        try:
+            yield
+        finally:
+            faulthandler.cancel_dump_traceback_later()
+    path.unlink()
+
+
+def pytest_terminal_summary(terminalreporter) -> None:
+    """The stacks of any test the watchdog ended (written by its worker process)."""
+    for path in sorted(_HANG_DIR.glob("*.txt")):
+        terminalreporter.write_sep("=", f"a hung test, ended by the watchdog ({path})")
+        terminalreporter.write_line(path.read_text(errors="replace")[-8000:])
 
 
 @pytest.fixture

@@ -94,6 +94,11 @@ def test_the_launch_layout_keeps_moving_for_a_minute_beside_busy_processes_and_p
     diagnostics = ros_client.subscribe(DiagnosticArray, "/diagnostics")
     ros_client.spin_until(lambda: len(truth) > 10, 60.0, "the simulated robot's ground truth")
     ros_client.spin_until(lambda: _moved_m(truth, 2.0) > 0.02, 60.0, "the robot rolling")
+    # Every client this test calls is made now, before the load: creating one just after the minute of processes
+    # coming and going (SIGKILLed at the end) hung in Fast DDS 2.14 for good (a lock-order deadlock inside
+    # create_client, with the GIL held; seen once, 2026-11-29, on a machine 1.75x slower than before).
+    assert ros_client.lifecycle_state("/hardware_node") == "active"
+    ros_client.get_parameters("/gait_player", ["rate_hz"])
     nice = load_prefix()
     busy = [subprocess.Popen([*nice, sys.executable, "-c", "while True: pass"]) for _ in range(BUSY_PROCESSES)]
     getters: list[subprocess.Popen] = []
