@@ -2,7 +2,7 @@
 
 ``srs_wiring_check`` and ``srs_identify`` open a backend through the one contract (as the hardware node
 does) and must leave every regulator at 0 bar however they end: :func:`interrupts_on_sigterm` turns
-SIGTERM into the same ``KeyboardInterrupt`` as Ctrl-C, :func:`vent_and_close` vents with Ctrl-C ignored.
+SIGTERM into the same ``KeyboardInterrupt`` as Ctrl-C, :func:`vent_and_close` vents with both ignored.
 A real rig (``drives_real_hardware``) needs the operator's go (:func:`operator_go`).
 """
 
@@ -89,10 +89,13 @@ def write_whole(backend: ActuatorBackend, pressure_bar) -> np.ndarray:
 
 
 def vent_and_close(backend: ActuatorBackend) -> bool:
-    """Vent and close with Ctrl-C ignored, so a second Ctrl-C cannot cut the vent short; True if vented."""
+    """Vent and close with Ctrl-C and SIGTERM ignored; True if vented.
+
+    Neither a second Ctrl-C nor a supervisor's stop can cut the vent short (a CAN vent is three frames).
+    """
     if not backend.is_open:
         return True  # never opened (or open failed): nothing of ours is pressurised
-    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    previous = {sig: signal.signal(sig, signal.SIG_IGN) for sig in (signal.SIGINT, signal.SIGTERM)}
     try:
         try:
             backend.vent()
@@ -107,7 +110,8 @@ def vent_and_close(backend: ActuatorBackend) -> bool:
             vented = False
         return vented
     finally:
-        signal.signal(signal.SIGINT, previous)
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
 
 
 def operator_go(backend: ActuatorBackend, what: str, confirmed: bool, program: str) -> str:
