@@ -65,6 +65,14 @@ class ActuatorBackend(abc.ABC):
     #: Seconds the hardware holds the last command without a new one before it vents by itself (a CAN
     #: board's alive-counter timeout, an NI watchdog), or None where it holds it for ever if the host dies.
     host_loss_timeout_s: float | None = None
+    #: Where only some outputs vent by themselves (an NI watchdog on some devices only): their timeout (s); the
+    #: others hold for ever, so ``host_loss_timeout_s`` is None. Checked against the command period all the same.
+    partial_host_loss_timeout_s: float | None = None
+
+    @property
+    def silence_vent_s(self) -> float | None:
+        """The shortest time without a write after which any output vents by itself (s), None if none does."""
+        return self.host_loss_timeout_s if self.host_loss_timeout_s is not None else self.partial_host_loss_timeout_s
 
     def __init__(self, robot: RobotDescription | None = None, options: Mapping[str, Any] | None = None):
         """Store the robot description and the backend's own options (validated by the subclass)."""

@@ -238,6 +238,7 @@ class DaqBackend(ActuatorBackend):
             raise HardwareError(f"daq backend (require_watchdog: true): {message}")
         self.watchdog_status = "MISSING on " + ", ".join(device for device, _, _ in missing)
         self.host_loss_timeout_s = None
+        self.partial_host_loss_timeout_s = self.watchdog_timeout_s if self._watchdogs else None
         _LOG.warning("daq backend: %s", message)
 
     def _watchdog_device(self, device: str) -> str:
@@ -273,7 +274,7 @@ class DaqBackend(ActuatorBackend):
                 pass
             _close_quietly(watchdog)
         self._expired = ""
-        self.watchdog_status, self.host_loss_timeout_s = "not open", None
+        self.watchdog_status, self.host_loss_timeout_s, self.partial_host_loss_timeout_s = "not open", None, None
 
     def _expiry(self, exc: BaseException) -> str:
         """Why the write failed if a watchdog has expired (its error code, or its ``expired`` flag), else ''."""

@@ -248,7 +248,7 @@ class HardwareNode(LifecycleNode):
         backend.open()
         try:
             warning = setup.timing.check_hardware(backend.name, backend.host_loss_timeout_s,
-                                                  backend.drives_real_hardware)
+                                                  backend.drives_real_hardware, backend.silence_vent_s)
         except ConfigurationError:
             backend.close()
             raise
@@ -257,7 +257,7 @@ class HardwareNode(LifecycleNode):
         self.timing = setup.timing
         self.gate.configure(setup.rig.robot.joint_count, setup.timing.setpoint_timeout_s, setup.ramp_time_s,
                             requires_arm=backend.drives_real_hardware,
-                            max_gap_s=setup.timing.stall_gap_s(backend.host_loss_timeout_s))
+                            max_gap_s=setup.timing.stall_gap_s(backend.silence_vent_s))
         return setup.rig, backend
 
     def _create_runtime(self) -> None:

@@ -324,7 +324,7 @@ def _max_late_s(backend: ActuatorBackend, rig: RigConfig) -> float:
     (a CAN board's, an NI watchdog's, sim_world's board): 80 % of it. Hardware that holds its last command
     for ever has none, and the rig's setpoint timeout stands in (a step started that late is short).
     """
-    timeout_s = backend.host_loss_timeout_s
+    timeout_s = backend.silence_vent_s  # where only some outputs have a watchdog, theirs
     return HARDWARE_TIMEOUT_SHARE * timeout_s if timeout_s is not None else rig.setpoint_timeout_s
 
 

@@ -12,6 +12,7 @@ import pytest
 
 from srs_ros.backends import create_backend
 from srs_ros.backends.daq_backend import DaqBackend, expand_physical_channels
+from srs_ros.core.actuation.timing import CommandTiming
 from srs_ros.core.errors import BackendUnavailableError, ConfigurationError, HardwareError
 from srs_ros.core.rig import load_rig
 from srs_ros.core.robot import config_dir
@@ -274,6 +275,24 @@ def test_a_device_without_an_ao_watchdog_warns_by_default(fake_nidaqmx, caplog, 
     assert backend.host_loss_timeout_s is None and backend.read_state().details["watchdog"] == f"MISSING on {device}"
     backend.write_pressures(np.full(9, 2.0))  # it runs, unprotected on that device
     backend.close()
+
+
+def test_the_watchdogs_that_run_beside_a_device_without_one_are_checked_against_the_command_period(fake_nidaqmx):
+    """Dev1's watchdog at 0.01 s beside Dev4 (none): the rig was taken with a warning, and the first command 0.1 s
+    later failed as 'the process stalled' (a helper's review); the same timeout on Dev1 alone was refused."""
+    backend = DaqBackend(options={"physical_channels": "Dev1/ao0:7, Dev4/ao0", "watchdog_timeout_s": 0.01})
+    backend.open()
+    try:
+        assert backend.host_loss_timeout_s is None and backend.partial_host_loss_timeout_s == 0.01
+        timing = CommandTiming(command_rate_hz=10.0, setpoint_timeout_s=0.2)
+        with pytest.raises(ConfigurationError, match="vents after 0.01 s without a command, less than three"):
+            timing.check_hardware("daq", backend.host_loss_timeout_s, True, backend.silence_vent_s)
+        assert timing.stall_gap_s(backend.silence_vent_s) == 0.01
+        slow_enough = CommandTiming(command_rate_hz=400.0, setpoint_timeout_s=0.2)
+        assert "keeps its last command" in slow_enough.check_hardware("daq", None, True, backend.silence_vent_s)
+    finally:
+        backend.close()
+    assert backend.silence_vent_s is None  # closed: nothing runs
 
 
 @pytest.mark.parametrize("device", ["Dev3", "Dev4"])

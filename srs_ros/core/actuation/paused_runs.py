@@ -18,7 +18,7 @@ together; the caller fits on those.
 
 Example::
 
-    recording, plan = run_plan_through_pauses(io, plan, max_late_s=0.8 * backend.host_loss_timeout_s, on_retry=print)
+    recording, plan = run_plan_through_pauses(io, plan, max_late_s=0.8 * backend.silence_vent_s, on_retry=print)
 """
 
 from __future__ import annotations

@@ -63,17 +63,21 @@ class CommandTiming:
         """A gap between two commands (s) after which the hardware may have vented: output restarts with a ramp."""
         return min(self.setpoint_timeout_s, host_loss_timeout_s or math.inf)
 
-    def check_hardware(self, hardware: str, host_loss_timeout_s: float | None, drives_real_hardware: bool) -> str:
+    def check_hardware(self, hardware: str, host_loss_timeout_s: float | None, drives_real_hardware: bool,
+                       silence_vent_s: float | None = None) -> str:
         """Check the hardware's own vent-on-silence (s, None = it has none) against the command period.
 
-        Raises :class:`ConfigurationError` if it would vent between commands; returns a warning for real
-        hardware without one (it keeps its last command if the host dies), else ''.
+        ``silence_vent_s``: the shortest vent-on-silence of any output where only some have one (default
+        ``host_loss_timeout_s``). Raises :class:`ConfigurationError` if an output would vent between commands;
+        returns a warning for real hardware whose outputs do not all vent (they keep the last command if the host
+        dies), else ''.
         """
-        if host_loss_timeout_s is not None and host_loss_timeout_s < HOST_LOSS_COMMAND_PERIODS * self.period_s:
+        vents_s = host_loss_timeout_s if silence_vent_s is None else silence_vent_s
+        if vents_s is not None and vents_s < HOST_LOSS_COMMAND_PERIODS * self.period_s:
             raise ConfigurationError(
-                f"the {hardware} hardware vents after {host_loss_timeout_s:g} s without a command, less than three "
+                f"the {hardware} hardware vents after {vents_s:g} s without a command, less than three "
                 f"command periods at command_rate_hz {self.command_rate_hz:g} Hz: it would vent between commands; "
-                f"raise command_rate_hz to at least {HOST_LOSS_COMMAND_PERIODS / host_loss_timeout_s:g} Hz.")
+                f"raise command_rate_hz to at least {HOST_LOSS_COMMAND_PERIODS / vents_s:g} Hz.")
         if host_loss_timeout_s is None and drives_real_hardware:
             return (f"the {hardware} hardware keeps its last command if this host dies (no watchdog): fit a dump "
                     "valve or relay on the supply (docs/safety.md)")
