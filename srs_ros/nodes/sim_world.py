@@ -365,10 +365,10 @@ class SimWorldNode(Node):
                   "world_rate": f"{(world_s - then_world_s) / span_s:.3f}", "commands": str(self.commands),
                   "silence_vents": str(self.board.silence_vents), "receiver_stalls": str(self.receiver.stalls),
                   "failure": self.failure or "none"}
-        clock_rivals = self.count_publishers(CLOCK_TOPIC) - 1 if self._clock_pub is not None else 0
+        clock_rivals = self.count_publishers(self._clock_pub.topic_name) - 1 if self._clock_pub is not None else 0
         if clock_rivals > 0:
-            self.get_logger().error(f"{CLOCK_TOPIC} has {clock_rivals} other publisher(s): one simulation with "
-                                    "use_sim_time per ROS_DOMAIN_ID", throttle_duration_sec=10.0)
+            self.get_logger().error(f"{self._clock_pub.topic_name} has {clock_rivals} other publisher(s): one "
+                                    "simulation with use_sim_time per ROS_DOMAIN_ID", throttle_duration_sec=10.0)
         level, message = self._summary(self._slow_rate(now_s, world_s), clock_rivals)
         # Named as the node runs and keyed by its full name: two robots in two namespaces are told apart.
         status = diagnostic_status(f"{self.get_name()}: simulated robot", "mujoco", level, message,
@@ -389,12 +389,15 @@ class SimWorldNode(Node):
         if self.failure:
             return "ERROR", f"stopped: {self.failure}; call ~/reset"
         if clock_rivals > 0:  # /clock is one topic for the whole domain, namespaces or not
-            return "ERROR", (f"{clock_rivals} other publisher(s) of {CLOCK_TOPIC}: every node on use_sim_time sees "
+            topic = self._clock_pub.topic_name if self._clock_pub is not None else CLOCK_TOPIC
+            return "ERROR", (f"{clock_rivals} other publisher(s) of {topic}: every node on use_sim_time sees "
                              "its time jump back and forth; run one simulation with use_sim_time per ROS_DOMAIN_ID "
                              "(the others without it, or in a domain of their own)")
         if self.board.vented_by_silence:
             return "WARN", (f"vented by the board's own watchdog: no regulator command for "
                             f"{self.board.command_timeout_s:g} s (is the hardware node running?)")
+        if slow_rate is not None and self._clock_pub is not None:  # every node follows /clock: slower, not wrong
+            return "OK", f"stepping at {slow_rate:.2f}x real time (use_sim_time: every node follows /clock)"
         if slow_rate is not None:
             return "WARN", (f"behind real time: {slow_rate:.2f}x over the last {SLOW_WINDOW_S:g} s (the machine is "
                             "too busy for this model: the robot moves slower than its gait asks and its clock "

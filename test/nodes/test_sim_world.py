@@ -314,8 +314,9 @@ def test_another_clock_publisher_beside_a_sim_world_on_use_sim_time_is_an_error_
 
     from srs_ros.nodes.sim_world import SimWorldNode
 
-    rclpy.init(args=["sim_world", "--ros-args", "-r", "__ns:=/snake1", "-p", "use_sim_time:=true", "-p",
-                     "camera_rate_hz:=0.0", "-p", "markers_rate_hz:=0.0"], domain_id=ros_domain)
+    rclpy.init(args=["sim_world", "--ros-args", "-r", "__ns:=/snake1", "-r", "/clock:=/sim1/clock", "-p",
+                     "use_sim_time:=true", "-p", "camera_rate_hz:=0.0", "-p", "markers_rate_hz:=0.0"],
+               domain_id=ros_domain)
     try:
         node = SimWorldNode()
         reports = []
@@ -323,11 +324,17 @@ def test_another_clock_publisher_beside_a_sim_world_on_use_sim_time_is_an_error_
         rival = rclpy.create_node("other_simulation")
         try:
             node._publish_diagnostics()
-            rival.create_publisher(Clock, "/clock", 10)
+            rival.create_publisher(Clock, "/sim1/clock", 10)  # where this sim_world's /clock is remapped
             end_s = time.monotonic() + 10.0
-            while node.count_publishers("/clock") < 2 and time.monotonic() < end_s:
+            while node.count_publishers("/sim1/clock") < 2 and time.monotonic() < end_s:
                 time.sleep(0.05)
             node._publish_diagnostics()
+            rival.destroy_node()
+            rival = rclpy.create_node("rival_gone")
+            while node.count_publishers("/sim1/clock") > 1 and time.monotonic() < end_s:
+                time.sleep(0.05)
+            # Slower than real time on use_sim_time is no fault: every node follows /clock.
+            slow_on_sim_time = node._summary(slow_rate=0.5)
         finally:
             rival.destroy_node()
             node.destroy_node()
@@ -335,5 +342,6 @@ def test_another_clock_publisher_beside_a_sim_world_on_use_sim_time_is_an_error_
         rclpy.shutdown()
     alone, beside = reports
     assert alone.level != DiagnosticStatus.ERROR, alone.message
-    assert beside.level == DiagnosticStatus.ERROR and beside.message.startswith("1 other publisher(s) of /clock"), \
-        beside.message
+    assert beside.level == DiagnosticStatus.ERROR, beside.message
+    assert beside.message.startswith("1 other publisher(s) of /sim1/clock"), beside.message
+    assert slow_on_sim_time == ("OK", "stepping at 0.50x real time (use_sim_time: every node follows /clock)")
