@@ -343,7 +343,7 @@ class Navigator(Node):
         self._driver.drive(self._nav.command)
 
     def _pose_ignored(self, reason: str) -> None:
-        self._nav.pose_ignored(reason)  # a pose lost after it names this, not only the log
+        self._nav.pose_ignored(reason, time.monotonic())  # a pose lost soon after names this, not only the log
         self.get_logger().error(f"robot_pose ignored: {reason}", throttle_duration_sec=5.0)
 
     def _on_tick(self) -> None:

@@ -94,7 +94,7 @@ class NavigationController(CruiseStopping, FineDriving, EdgeGuard):
         self._command = self._stop_command("no goal yet")
         self._level: int | None = None
         self._changed_s = self._measured_s = self._started_s = self._last_pose_s = 0.0
-        self._pose_ignored = ""  # why the poses that came since the last good one were ignored (the node says)
+        self._pose_ignored = ("", -math.inf)  # why the last pose was ignored (the node says), and when (s)
         self._heading_error_rad = 0.0
         self._backing_from: str | None = None
         # The goal off the line as the last three-point turn began (rad), and how many in a row began no nearer.
@@ -152,8 +152,8 @@ class NavigationController(CruiseStopping, FineDriving, EdgeGuard):
         except (TypeError, ValueError):
             return self._refuse("a path is a list of waypoints, each (x_m, y_m)")
         if not 1 <= len(points) <= MAX_WAYPOINTS:
-            return self._refuse(f"a path of {len(points)} waypoints; expected 1 to {MAX_WAYPOINTS} (split a longer "
-                                "route into paths sent one after the other)")
+            return self._refuse(f"a path of {len(points)} waypoints; expected 1 to {MAX_WAYPOINTS}" + (
+                " (split a longer route into paths sent one after the other)" if points else ""))
         for i, (x, y) in enumerate(points):
             reason = self.area.refusal(x, y) if self.area is not None else (
                 "" if math.isfinite(x) and math.isfinite(y) else f"goal ({x}, {y}) is not a finite floor position (m)")
@@ -216,7 +216,7 @@ class NavigationController(CruiseStopping, FineDriving, EdgeGuard):
         if not self.history.add(pose):
             return self._command
         self._last_pose_s = self._clock_s = pose.time_s
-        self._pose_ignored = ""
+        self._pose_ignored = ("", -math.inf)
         if self.state is NavigationState.DRIVING:
             self._drive(pose)
         elif self.state is NavigationState.STOPPING:
@@ -230,15 +230,16 @@ class NavigationController(CruiseStopping, FineDriving, EdgeGuard):
             last = self.history.window(0.0)
             where = f" (last seen at {last[-1, 1]:.3f}, {last[-1, 2]:.3f} m)" if len(last) else ""
             self.history.clear()
-            cause = (f"poses came but were ignored: {self._pose_ignored}" if self._pose_ignored else
-                     "the robot may be out of the camera's view or the tracker silent")
+            ignored, ignored_s = self._pose_ignored  # named if one came within the timeout
+            cause = (f"poses came but were ignored: {ignored.rstrip('.')}" if now_s - ignored_s <= self.settings.
+                     pose_timeout_s else "the robot may be out of the camera's view or the tracker silent")
             self._finish(NavigationState.POSE_LOST, f"no pose from the camera for {silent_s:.1f} s{where}: stopped; "
                          f"{cause}; send a new goal once it is tracked again")
         return self._command
 
-    def pose_ignored(self, reason: str) -> None:
-        """A pose came and was not usable (its frame, a NaN): a pose lost after it says this reason."""
-        self._pose_ignored = reason
+    def pose_ignored(self, reason: str, now_s: float) -> None:
+        """A pose came at ``now_s`` and was not usable (its frame, a NaN): a pose lost soon after names ``reason``."""
+        self._pose_ignored = (reason, float(now_s))
 
     def update_gait_phase(self, phase: float) -> None:
         """The gait player's phase in [0, 1) now (feed it with every pose: the robot is stopped at set phases)."""

@@ -229,18 +229,6 @@ def test_a_goal_outside_the_view_is_refused_and_the_current_goal_kept():
     assert not path.accepted and path.reason.startswith("waypoint 2 of 2")
 
 
-def test_a_path_of_too_many_waypoints_or_none_is_refused_at_once_and_the_goal_kept():
-    """20000 waypoints (a patrol sent in a loop) blocked the navigator's callbacks for 1.5 s: refused by their count,
-    before each is checked against the view."""
-    controller = NavigationController(settings(), AREA)
-    controller.set_goal(0.3, 0.3, 0.0)
-    for count in (controller_module.MAX_WAYPOINTS + 1, 20000, 0):
-        decision = controller.set_path([(0.2, 0.2)] * count, 0.5)
-        assert not decision.accepted and decision.reason.startswith(f"a path of {count} waypoints; expected 1 to ")
-        assert controller.goal == (0.3, 0.3) and controller.state is NavigationState.DRIVING
-    assert controller.set_path([(0.2, 0.2)] * controller_module.MAX_WAYPOINTS, 0.6).accepted
-
-
 def test_a_new_goal_replaces_the_current_one():
     controller, roller = NavigationController(settings(), AREA), Roller()
     controller.set_goal(0.0, 0.7, 0.0)
@@ -329,22 +317,6 @@ def test_a_lost_pose_stops_after_the_timeout_and_says_so():
     progress = controller.progress(3.05)
     assert progress.state is NavigationState.POSE_LOST and progress.level == "ERROR"
     assert "no pose from the camera for 1.1 s" in progress.message and "last seen at" in progress.message
-
-
-def test_a_pose_lost_after_ignored_poses_says_why_they_were_ignored():
-    """Poses in a wrong frame or NaN ended as "out of view or tracker silent"; only the log named the cause."""
-    controller, roller = NavigationController(settings(), AREA), Roller()
-    controller.set_goal(0.0, 0.7, 0.0)
-    drive(controller, roller, 2.9, lost_after_s=2.0)
-    controller.pose_ignored("robot_pose in frame 'camera'; expected 'floor'")
-    controller.tick(3.05)
-    message = controller.progress(3.05).message
-    assert "poses came but were ignored: robot_pose in frame 'camera'" in message and "out of" not in message
-    controller.set_goal(0.0, 0.7, 3.1)  # a good pose clears the cause: a later loss is the plain one
-    controller.pose_ignored("a NaN")
-    controller.update_pose(roller.pose(3.2))
-    controller.tick(4.3)
-    assert "the robot may be out of the camera's view" in controller.progress(4.3).message
 
 
 def test_a_goal_sent_again_and_again_does_not_hide_a_lost_pose():
