@@ -97,10 +97,17 @@ def pytest_runtest_protocol(item, nextitem):
 
 
 def pytest_terminal_summary(terminalreporter) -> None:
-    """The stacks of any test the watchdog ended (written by its worker process)."""
+    """The stacks of any test the watchdog ended (written by its worker process; with one process, ``-n 0``, the
+    run ends there and the stacks stay in ``SRS_TEST_HANG_DIR``). A file with its first line only: the worker died
+    in that test by something else (a crash, a kill)."""
     for path in sorted(_HANG_DIR.glob("*.txt")):
-        terminalreporter.write_sep("=", f"a hung test, ended by the watchdog ({path})")
-        terminalreporter.write_line(path.read_text(errors="replace")[-8000:])
+        text = path.read_text(errors="replace")
+        hung = "Timeout (" in text
+        title = "a hung test, ended by the watchdog" if hung else "a worker died in this test (not the watchdog)"
+        terminalreporter.write_sep("=", f"{title} ({path})")
+        terminalreporter.write_line(text[-8000:] if hung else text.splitlines()[0].partition(": ")[0])
+    if os.environ.get("PYTEST_XDIST_WORKER") is None and not any(_HANG_DIR.iterdir()):
+        _HANG_DIR.rmdir()
 
 
 @pytest.fixture

@@ -408,8 +408,8 @@ def read_csv_rows(path: str | Path, table: Table, error: type[Exception] = Confi
 
 def _csv_row(header: list[str], cells: list[str], table: Table, where: str, error: type[Exception]
              ) -> dict[str, Any]:
-    """One CSV row checked by ``table`` (a cell beyond the header's columns is refused)."""
-    if len(cells) > len(header):
+    """One CSV row checked by ``table`` (a row of more or fewer cells than the header's columns is refused)."""
+    if len(cells) != len(header):
         raise refusal(where, "the row", ",".join(cells), f"{len(header)} cells, one a column", error)
     row = dict(zip(header, cells))
     values = {}

@@ -78,15 +78,13 @@ class BagRecorder:
             self._writer.close()
 
 
-#: rmw's infinite duration as rosbag2 writes it.
-INFINITE_TIME = QosTime(2147483647, 4294967295)
+#: An infinite duration as Jazzy's rosbag2 writes it: rmw's infinite, INT64_MAX ns, as seconds and nanoseconds (what
+#: Fast DDS reports for a publisher's default deadline, lifespan and lease through get_publishers_info_by_topic).
+INFINITE_TIME = QosTime(9223372036, 854775807)
 
 
 def _bag_time(duration: Any) -> QosTime:
-    nanoseconds = int(duration.nanoseconds)
-    if nanoseconds >= INFINITE_TIME.sec * 10**9:
-        return INFINITE_TIME
-    return QosTime(*divmod(nanoseconds, 10**9))
+    return QosTime(*divmod(min(int(duration.nanoseconds), 2**63 - 1), 10**9))
 
 
 def bag_qos(profile: Any) -> Qos:

@@ -20,7 +20,7 @@ from srs_ros.experiments.recording import (
 def test_the_publishers_qos_is_recorded_as_rosbag2_does_once_per_topic(tmp_path):
     latched = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL, deadline=Duration(seconds=1.5))
     lossy = QoSProfile(depth=5, reliability=ReliabilityPolicy.BEST_EFFORT,
-                       lifespan=Duration(nanoseconds=INFINITE_TIME.sec * 10**9 + 999))
+                       lifespan=Duration(nanoseconds=2**63 - 1))  # infinite, as Fast DDS reports it
     asked = []
 
     def offered():
@@ -40,5 +40,6 @@ def test_the_publishers_qos_is_recorded_as_rosbag2_does_once_per_topic(tmp_path)
     assert first.durability is QosDurability.TRANSIENT_LOCAL and first.depth == 1
     assert first.deadline == QosTime(1, 500_000_000)
     assert second.reliability is QosReliability.BEST_EFFORT and second.lifespan == INFINITE_TIME
+    assert INFINITE_TIME == QosTime(9223372036, 854775807)  # as `ros2 bag record` of Jazzy writes it
     with pytest.raises(ConfigurationError, match="exists already"):
         BagRecorder(tmp_path / "bag")

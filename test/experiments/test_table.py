@@ -117,6 +117,8 @@ def test_table_csv_round_trip_with_the_papers_values_and_failures(tmp_path):
     ("inward_rolling,4,1,fast,9.5,0,0,,,ok", "table.csv:2: vx_cm_s is 'fast'; expected a number, or empty (cm/s)."),
     ("inward_rolling,4,nan,1,1,0,0,,,ok", "table.csv:2: frequency_hz is nan; expected a number > 0 (Hz)."),
     ("inward_rolling,4,1,1,1,0,0,,,", "table.csv:2: status is ''; expected a non-empty string."),
+    ("inward_rolling,4,1,1,1,0,0,,ok", "table.csv:2: the row is 'inward_rolling,4,1,1,1,0,0,,ok'; expected 10 "
+                                       "cells, one a column."),
 ])
 def test_a_table_csv_with_a_bad_cell_is_refused_with_its_line_and_column(tmp_path, line, said):
     """read_table_csv raised a bare ValueError for a cell that is not a number (and took 'nan' as a frequency)."""

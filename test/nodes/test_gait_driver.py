@@ -59,7 +59,7 @@ def test_a_trajectory_server_busy_with_another_fit_is_asked_again_soon_and_is_no
     assert driver.calls["regenerate"] >= 2, driver.calls  # the first was answered busy
     # A busy answer is not said as a failure while the busy period is shorter than CALL_TIMEOUT_S (the fit takes
     # about a second; on a machine loaded at boot it has taken 5.3 s, and from then on the error is right).
-    busy_from = regenerate_calls[1][0]  # the first call sent again: its call before was answered busy
+    busy_from = regenerate_calls[1][0]  # the first regenerate (entry 0 is the set_gait before it): busy from here
     within = busy_from + CALL_TIMEOUT_S - 0.5
     assert [e for t, e in errors if e and t < within] == [], errors
     gaps = np.diff([t for t, _ in regenerate_calls[1:] if t < within])  # between calls, each after a busy answer

@@ -190,6 +190,9 @@ class GaitCycle:
         if missing_columns:
             raise InvalidInputError(f"{path}: missing column(s) {missing_columns}; expected at least {needed}.")
         data = _numbers(path, header, table, needed)
+        if len(data) < MIN_SAMPLES:
+            raise InvalidInputError(f"{path}: {len(data)} row(s) of samples; expected at least {MIN_SAMPLES} (a "
+                                    "cycle as GaitCycle.to_csv writes it, a row a sample).")
         lengths = data[:, 2:2 + robot.joint_count]
         meta = _read_sidecar(path, robot, len(data))
         frequency = meta["frequency_hz"]

@@ -210,6 +210,11 @@ def test_a_cycle_csvs_bad_sidecar_is_refused_with_the_key(tmp_path, serpentine, 
 def test_a_cycle_csv_with_a_non_finite_or_text_cell_is_refused_with_its_line(tmp_path, serpentine):
     path = serpentine.to_csv(tmp_path / "serp.csv")
     lines = path.read_text().splitlines()
+    for rows in (0, 3):  # a header alone gave a bare ValueError, 3 rows a refusal without the file
+        path.write_text("\n".join(lines[:1 + rows]) + "\n")
+        (tmp_path / "serp.csv.yaml").unlink(missing_ok=True)
+        with pytest.raises(InvalidInputError, match=re.escape(f"{path}: {rows} row(s) of samples; expected at least")):
+            GaitCycle.from_csv(path)
     for bad, said in (("nan", "serp.csv:3: a value is not finite"), ("x", "serp.csv:3: a row is short or not numeric")):
         cells = lines[2].split(",")
         cells[3] = bad
