@@ -30,6 +30,7 @@ import numpy as np
 from srs_ros.backends import BACKENDS, ActuatorBackend
 from srs_ros.core.actuation.identification import (
     DEFAULT_MAX_DELAY_S,
+    SETTLED_SHARE,
     CommandPlan,
     Identification,
     Measurement,
@@ -48,6 +49,7 @@ from srs_ros.core.actuation.muscle_calibration import (
     load_calibration,
     save_calibration,
 )
+from srs_ros.core.actuation.muscle_model import MUSCLE_OPTIONS
 from srs_ros.core.actuation.paused_runs import run_plan_through_pauses
 from srs_ros.core.errors import ConfigurationError, FitError, HardwareError
 from srs_ros.core.rig import RigConfig, default_rig_path, load_rig
@@ -154,18 +156,28 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def _check_arguments(parser: argparse.ArgumentParser, args: argparse.Namespace, robot: RobotDescription) -> None:
-    limit = robot.max_pressure_bar
+#: Commands the settled end of a step (its last SETTLED_SHARE) must span at least, for a read-back to average.
+SETTLED_COMMANDS = 2
+
+
+def _check_arguments(parser: argparse.ArgumentParser, args: argparse.Namespace, rig: RigConfig) -> None:
+    limit = rig.robot.max_pressure_bar
     for level in [*args.levels, *args.chirp_bar]:
         if not (math.isfinite(level) and 0.0 < level <= limit):
             parser.error(f"pressure {level:g} bar: expected levels within (0, {limit:g}] bar (max_pressure_bar)")
     if len(set(args.levels)) < 3:
         parser.error(f"--levels {args.levels}: expected at least three distinct levels (below and above the deadzone)")
     for flag, value, high in (("--hold-s", args.hold_s, MAX_HOLD_S), ("--vent-s", args.vent_s, MAX_HOLD_S),
-                              ("--chirp-s", args.chirp_s, 600.0), ("--max-delay-s", args.max_delay_s, 2.0),
+                              ("--chirp-s", args.chirp_s, 600.0),
+                              ("--max-delay-s", args.max_delay_s, MUSCLE_OPTIONS["transport_delay_s"].maximum),
                               ("--startup-timeout-s", args.startup_timeout_s, 600.0)):
         if not (math.isfinite(value) and 0.0 < value <= high):
             parser.error(f"{flag} {value:g}: expected seconds in (0, {high:g}]")
+    settled_s, commands_s = SETTLED_SHARE * args.hold_s, SETTLED_COMMANDS / rig.command_rate_hz
+    if settled_s < commands_s:  # no settled read-back to fit: it failed later as "the machine is too busy"
+        parser.error(f"--hold-s {args.hold_s:g}: its settled last {SETTLED_SHARE:.0%} ({settled_s:g} s) is shorter "
+                     f"than {SETTLED_COMMANDS} commands at the rig's {rig.command_rate_hz:g} Hz; expected at least "
+                     f"{commands_s / SETTLED_SHARE:g} s")
     if args.chirp_bar[0] >= args.chirp_bar[1] or not (0.0 < args.chirp_hz[0] < args.chirp_hz[1] <= 50.0):
         parser.error("--chirp-bar LOW HIGH and --chirp-hz START END: expected LOW < HIGH and 0 < START < END <= 50")
 
@@ -251,7 +263,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         robot = load_robot(args.robot) if args.robot else None
         rig = load_rig(args.rig, robot)
-        _check_arguments(parser, args, rig.robot)
+        _check_arguments(parser, args, rig)
         joints = select_joints(args.channels, rig.robot.joint_names)
         out = prepare_output_file(args.out or f"{rig.name}_calibration.yaml", "--out")  # before any air
         table = read_length_table(args.length_table, rig.robot) if args.length_table else None
@@ -346,8 +358,9 @@ def _open_and_run(backend: ActuatorBackend, rig: RigConfig, plan: CommandPlan,
               f"{plan.duration_s:.1f} s", flush=True)
         _wait_for_readback(backend, rig, io, args.startup_timeout_s)
         max_late_s = _max_late_s(backend, rig)
-        runs.append(run_plan_through_pauses(io, plan, max_late_s, on_step=announce,
-                                            on_retry=lambda why: print(f"{PROGRAM}: {why}", flush=True)))
+        runs.append(run_plan_through_pauses(
+            io, plan, max_late_s, on_step=announce, on_retry=lambda why: print(f"{PROGRAM}: {why}", flush=True),
+            on_progress=lambda at_s: print(f"{PROGRAM}: {at_s:.0f} of {plan.duration_s:.0f} s sent", flush=True)))
 
     code = run_vented(backend, PROGRAM, measure, "measured")
     recording, ran = runs[0] if runs and code == EXIT_OK else (None, plan)

@@ -89,6 +89,18 @@ def test_a_rig_that_cannot_measure_is_refused_before_any_air(tmp_path, capsys):
     assert "no pressure read-back" in capsys.readouterr().err and not out.exists()
 
 
+def test_a_hold_too_short_for_a_settled_read_back_is_refused_before_any_air(tmp_path, capsys):
+    """`--hold-s 0.004` pressurised, found no settled read-back and blamed a busy machine (a helper's review)."""
+    out = tmp_path / "cal.yaml"
+    with pytest.raises(SystemExit) as ended:
+        main(["--rig", str(RIGS / "mock.yaml"), "--together", "--levels", "1", "2", "3", "--hold-s", "0.004",
+              "--vent-s", "0.05", "--out", str(out)])
+    assert ended.value.code == 2 and not out.exists()
+    said = capsys.readouterr().err
+    assert "--hold-s 0.004: its settled last 25% (0.001 s) is shorter than 2 commands at the rig's" in said, said
+    assert "pressurising" not in said.lower()
+
+
 def test_a_ruler_table_calibrates_a_rig_without_length_sensors_and_sends_nothing(tmp_path, capsys):
     table = tmp_path / "ruler.csv"
     table.write_text("joint,pressure_bar,length_m\n" + "".join(

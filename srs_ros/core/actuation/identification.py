@@ -169,10 +169,12 @@ class Recording:
     length_m: np.ndarray | None
 
 
-def run_plan(io: RigIO, plan: CommandPlan, on_step: Callable[[int, Step], None] | None = None) -> Recording:
-    """Send ``plan`` at its times through ``io`` and record; ``on_step(index, step)`` as each step starts.
+def run_plan(io: RigIO, plan: CommandPlan, on_step: Callable[[int, Step], None] | None = None,
+             on_progress: Callable[[float], None] | None = None) -> Recording:
+    """Send ``plan`` at its times through ``io`` and record, saying how far it is.
 
-    The caller vents and closes afterwards (and on any exception, Ctrl-C included).
+    ``on_step(index, step)`` as each step starts, ``on_progress(plan_s)`` every :data:`PROGRESS_EVERY_S` of the
+    plan (a chirp has no steps to say). The caller vents and closes afterwards (and on any exception, Ctrl-C included).
     """
     count, joints = plan.pressure_bar.shape
     command_s, sent_bar = np.empty(count), np.empty((count, joints))
@@ -186,6 +188,9 @@ def run_plan(io: RigIO, plan: CommandPlan, on_step: Callable[[int, Step], None] 
         while on_step is not None and next_step < len(starts) and starts[next_step] <= plan.times_s[k] + 1e-9:
             on_step(next_step, plan.steps[next_step])
             next_step += 1
+        if on_progress is not None and k and plan.times_s[k] // PROGRESS_EVERY_S > plan.times_s[k - 1] // \
+                PROGRESS_EVERY_S:
+            on_progress(float(plan.times_s[k]))
         command_s[k] = io.now_s() - start_s
         sent_bar[k] = io.write_pressures(plan.pressure_bar[k])
         measurement = io.measure()
@@ -235,7 +240,10 @@ def fit_static_characteristic(pressure_bar, length_m, where: str = "muscle", tes
     length = np.asarray(length_m, dtype=float)
     keep = np.isfinite(pressure) & np.isfinite(length)
     pressure, length = pressure[keep], length[keep]
-    top_m = float(length.max()) if length.size else 0.0
+    if not length.size:
+        raise FitError(f"{where}: no length was measured (every settled read-back of it was missing); expected a "
+                       "length sensor reading at each level: check the muscle's length channel.")
+    top_m = float(length.max())
     extending = length > max(EXTENSION_NOISE_SHARE * top_m, 1e-6)
     if len(np.unique(np.round(pressure[extending], 3))) < 2:
         raise FitError(f"{where}: extended at {len(np.unique(np.round(pressure[extending], 3)))} distinct pressure(s) "
@@ -268,12 +276,22 @@ def settled_points(recording: Recording, plan: CommandPlan, joint: int) -> tuple
         if joint not in step.joints:
             continue
         rows = (recording.sample_s >= step.settled_s) & (recording.sample_s < step.end_s)
-        if recording.length_m is None or not np.any(rows):
-            continue
+        if recording.length_m is None or not np.any(np.isfinite(recording.length_m[rows, joint])):
+            continue  # no length read while settled: no point (nanmean warned of an empty slice)
         measured = None if recording.pressure_bar is None else np.nanmean(recording.pressure_bar[rows, joint])
         pressures.append(step.level_bar if measured is None or not np.isfinite(measured) else measured)
         lengths.append(np.nanmean(recording.length_m[rows, joint]))
     return np.array(pressures), np.array(lengths)
+
+
+#: How often a run says how far it is (s of the plan).
+PROGRESS_EVERY_S = 10.0
+#: A fitted delay at most this (s) is at the fit's lower bound, 0: no real supply line is that short.
+NO_DELAY_S = 0.002
+#: The length changes a ruler table may hold: down to this below 0 (m; reading error) ...
+LENGTH_TABLE_SLACK_M = 0.005
+#: ... and up to this many times the robot's largest extension (a value typed in cm is 100 times too large).
+LENGTH_TABLE_TIMES = 3.0
 
 
 def length_table_schema(robot: RobotDescription) -> Table:
@@ -282,7 +300,9 @@ def length_table_schema(robot: RobotDescription) -> Table:
         Field("joint", str, choices=tuple(robot.joint_names), description="the muscle measured"),
         Field("pressure_bar", float, minimum=0.0, maximum=robot.max_pressure_bar, unit="bar",
               description="the pressure held"),
-        Field("length_m", float, unit="m", description="the length change measured at that pressure"),
+        Field("length_m", float, minimum=-LENGTH_TABLE_SLACK_M, maximum=LENGTH_TABLE_TIMES * robot.max_extension_m,
+              unit="m", description="the length change measured at that pressure (a few mm below 0 is a ruler's "
+              "error; more than a few times the robot's largest extension, a value in other units)"),
     ))
 
 
@@ -420,6 +440,11 @@ def identify(robot: RobotDescription, joints: Sequence[int], recording: Recordin
                 result.warnings.append(f"{name}: the dynamics fit ran into its bounds (delay "
                                        f"{line.transport_delay_s:.3f} s, tau {line.pressure_time_constant_s:.3f} s): "
                                        "hold the steps longer or raise --max-delay-s")
+            if line.transport_delay_s <= NO_DELAY_S:  # the fit cannot go below 0: a read-back dated too early
+                result.warnings.append(f"{name}: the dynamics fit put the delay at 0 s (tau "
+                                       f"{line.pressure_time_constant_s:.3f} s, rms {line.rms_bar:.3f} bar); a supply "
+                                       "line always delays: a read-back dated before its command fits this way, so "
+                                       "check how the backend dates its read-back before using these values")
     return result
 
 

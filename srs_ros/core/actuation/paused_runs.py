@@ -164,12 +164,13 @@ def joined(first: tuple[Recording, CommandPlan], then: tuple[Recording, CommandP
 
 def run_plan_through_pauses(io: RigIO, plan: CommandPlan, max_late_s: float, retries: int = DEFAULT_RETRIES,
                             on_step: Callable[[int, Step], None] | None = None,
-                            on_retry: Callable[[str], None] | None = None) -> tuple[Recording, CommandPlan]:
+                            on_retry: Callable[[str], None] | None = None,
+                            on_progress: Callable[[float], None] | None = None) -> tuple[Recording, CommandPlan]:
     """Run ``plan``, and again every part a pause (of the host or the read-back) disturbed; the recording and plan.
 
     Raises :class:`HardwareError` when parts are still disturbed after ``retries`` runs again.
     """
-    recording = run_plan(io, plan, on_step)
+    recording = run_plan(io, plan, on_step, on_progress)
     todo, why = _to_run_again(recording, plan, max_late_s)
     result = set_aside(recording, plan, todo)
     for attempt in range(1, retries + 2):
@@ -180,7 +181,7 @@ def run_plan_through_pauses(io: RigIO, plan: CommandPlan, max_late_s: float, ret
         if on_retry is not None:
             on_retry(f"{len(todo)} part(s) of the plan disturbed: {why}; running them again ({attempt} of {retries})")
         again = plan_of_segments(plan, todo)
-        recording = run_plan(io, again, on_step)
+        recording = run_plan(io, again, on_step, on_progress)
         plan = again
         todo, why = _to_run_again(recording, plan, max_late_s)
         result = joined(result, set_aside(recording, plan, todo))

@@ -20,6 +20,7 @@ from typing import Any
 
 from srs_ros.core.actuation.compensation import SetpointShaper, setpoint_shaper
 from srs_ros.core.actuation.muscle_calibration import CALIBRATED_MAP, PAPER_MAP
+from srs_ros.core.actuation.muscle_model import MUSCLE_OPTIONS
 from srs_ros.core.actuation.timing import CommandTiming, command_timing
 from srs_ros.core.ramp import DEFAULT_RAMP_TIME_S
 from srs_ros.core.rig import RigConfig, load_rig
@@ -49,9 +50,9 @@ HARDWARE_SETTINGS = Table("hardware_node", (
     Field("lag_compensation", bool, False,
           description="lead the supply line's delay and invert its lag (live; needs the calibration's dynamics or "
                       "the two compensation_* parameters)"),
-    Field("compensation_delay_s", float, 0.0, 0.0, 2.0,
+    Field("compensation_delay_s", float, 0.0, 0.0, MUSCLE_OPTIONS["transport_delay_s"].maximum,
           description="supply-line delay led by the compensation (s); 0 = the calibration file's"),
-    Field("compensation_time_constant_s", float, 0.0, 0.0, 10.0,
+    Field("compensation_time_constant_s", float, 0.0, 0.0, MUSCLE_OPTIONS["pressure_time_constant_s"].maximum,
           description="pressure time constant the compensation inverts (s); 0 = the calibration file's"),
 ), description="the hardware node's settings")
 
