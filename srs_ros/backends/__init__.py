@@ -23,10 +23,11 @@ def create_backend(name: str, robot: RobotDescription | None = None,
                    options: Mapping[str, Any] | None = None, source: str = "") -> ActuatorBackend:
     """Instantiate the backend called ``name`` (not yet opened).
 
-    ``source``: the rig file its options came from, named in a refusal of them.
+    ``source``: the rig file the name and options came from, named in a refusal of them.
     """
     if name not in BACKENDS:
-        raise ConfigurationError(f"backend: unknown backend {name!r}; expected one of {sorted(BACKENDS)}.")
+        key = f"{source}: rig.backend" if source else "backend"
+        raise ConfigurationError(f"{key}: unknown backend {name!r}; expected one of {sorted(BACKENDS)}.")
     module_name, class_name = BACKENDS[name].split(":")
     backend_class = getattr(importlib.import_module(module_name), class_name)
     try:
