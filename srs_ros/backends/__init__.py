@@ -19,23 +19,27 @@ BACKENDS: dict[str, str] = {
 }
 
 
+def backend_class(name: str, source: str = "") -> type[ActuatorBackend]:
+    """The class of the backend called ``name`` (its module imported now); ``source`` as in create_backend."""
+    if name not in BACKENDS:
+        key = f"{source}: rig.backend" if source else "backend"
+        raise ConfigurationError(f"{key}: unknown backend {name!r}; expected one of {sorted(BACKENDS)}.")
+    module_name, class_name = BACKENDS[name].split(":")
+    return getattr(importlib.import_module(module_name), class_name)
+
+
 def create_backend(name: str, robot: RobotDescription | None = None,
                    options: Mapping[str, Any] | None = None, source: str = "") -> ActuatorBackend:
     """Instantiate the backend called ``name`` (not yet opened).
 
     ``source``: the rig file the name and options came from, named in a refusal of them.
     """
-    if name not in BACKENDS:
-        key = f"{source}: rig.backend" if source else "backend"
-        raise ConfigurationError(f"{key}: unknown backend {name!r}; expected one of {sorted(BACKENDS)}.")
-    module_name, class_name = BACKENDS[name].split(":")
-    backend_class = getattr(importlib.import_module(module_name), class_name)
     try:
-        return backend_class(robot=robot, options=options)
+        return backend_class(name, source)(robot=robot, options=options)
     except ConfigurationError as exc:
         if not source:
             raise
         raise ConfigurationError(f"{source}: {exc}") from None
 
 
-__all__ = ["ActuatorBackend", "ActuatorState", "BACKENDS", "create_backend"]
+__all__ = ["ActuatorBackend", "ActuatorState", "BACKENDS", "backend_class", "create_backend"]

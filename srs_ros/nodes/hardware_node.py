@@ -1,8 +1,7 @@
 """The hardware node (managed/lifecycle): setpoints in, the one clamp, regulator commands out at a fixed rate.
 
-Lifecycle: configure loads the robot and rig and opens the backend (a failure logs the reason and
-leaves the node unconfigured, nothing sent) and starts the command timer, which sends 0 bar until
-activated; activate enables output; deactivate, cleanup and shutdown vent every valve to 0 bar.
+Lifecycle: configure loads the robot and rig, opens the backend (a failure logs why, nothing sent) and starts
+the command timer (0 bar until activated); activate enables output; deactivate, cleanup and shutdown vent.
 A backend failure while commanding (any exception, e.g. ``HardwareError``) vents (best effort) and
 takes the node through ErrorProcessing to unconfigured; configure + activate recover it.
 
@@ -31,10 +30,8 @@ Interfaces (relative names, remappable):
   a calibrated map) are limited by the one clamp, with a throttled warning and a counter. ``velocity``
   (m/s, optional; gait_player sends it) feeds the lag compensation. A setpoint already queued when the
   node is released (a fault, cleanup) is dropped quietly and counted (``setpoints_while_unconfigured``).
-- lengths become pressures through ``pressure_map``: ``paper`` (``P = 100 l``) or ``calibrated`` (each
-  muscle's inverted static characteristic from ``calibration_file``, written by ``srs_identify``); with
-  ``lag_compensation`` (live) commands lead the supply line's delay and invert its lag
-  (:mod:`srs_ros.core.actuation.compensation`), always through the one clamp.
+- lengths become pressures through ``pressure_map`` (``paper``: ``P = 100 l``; ``calibrated``: ``calibration_file``
+  from ``srs_identify``), led by ``lag_compensation`` if on (live), always through the one clamp.
 - publishes ``commanded_pressure_bar`` and ``command_voltage_v`` (std_msgs/Float64MultiArray, dim 0
   labelled with the comma-joined joint names): what the backend was sent, on each command while
   configured (zeros when inactive, disarmed, stale or e-stopped); ``actuator_state`` (sensor_msgs/JointState)
@@ -46,9 +43,8 @@ Interfaces (relative names, remappable):
   survives deactivate/cleanup/configure), ``~/reset`` (releases the latch; output resumes with the
   next fresh setpoint, after a new ``~/arm`` on a real rig), ``~/arm`` and ``~/disarm``; the lifecycle
   services.
-- parameters: :data:`PARAMETERS`; ``lag_compensation`` takes effect at once; ``max_pressure_bar`` and
-  ``realtime_priority`` are read-only (start-up only), ``max_pressure_bar`` can only lower the robot's limit;
-  the others take effect at the next configure.
+- parameters: :data:`PARAMETERS`; ``lag_compensation`` live; ``max_pressure_bar`` (only lowers the robot's limit)
+  and ``realtime_priority`` read-only; the others at the next configure.
 """
 
 from __future__ import annotations
@@ -67,7 +63,7 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 from std_srvs.srv import Trigger
 
-from srs_ros.backends import BACKENDS, ActuatorBackend, create_backend
+from srs_ros.backends import BACKENDS, ActuatorBackend, backend_class, create_backend
 from srs_ros.core.actuation import operator
 from srs_ros.core.actuation.compensation import SetpointShaper
 from srs_ros.core.actuation.intake import IntakeDecision, NoteThrottle, Setpoint, take_setpoint
@@ -83,7 +79,7 @@ from srs_ros.core.actuation.status import (
     stall_message,
 )
 from srs_ros.core.actuation.timing import CommandTiming
-from srs_ros.core.errors import ConfigurationError
+from srs_ros.core.errors import ConfigurationError, SrsError
 from srs_ros.core.rig import RigConfig
 from srs_ros.ros.interfaces import (
     ACTUATOR_STATE_TOPIC,
@@ -228,14 +224,34 @@ class HardwareNode(LifecycleNode):
         return TransitionCallbackReturn.SUCCESS
 
     def _try_recovery(self) -> None:
-        """Configure (and activate, if it was active) a rig that recovers by itself; stop once done or overtaken."""
-        if self.lifecycle_label() == "unconfigured" and self.trigger_configure() != TransitionCallbackReturn.SUCCESS:
-            return  # configure said why; try again next period
+        """Configure (and activate, if it was active) a rig that recovers by itself; stop once done or overtaken.
+
+        A rig chosen since the fault (``rig_file``, ``backend``) that waits for the operator is left to them.
+        """
+        unconfigured = self.lifecycle_label() == "unconfigured"
+        if unconfigured and self._recovers_by_itself_now() is False:
+            self.destroy_timer(self._recovery_timer)
+            self._recovery_timer = None
+            self.get_logger().warning("automatic recovery stopped: the rig set since the fault is real hardware, "
+                                      "which waits for the operator; configure it yourself")
+        elif not unconfigured or self.trigger_configure() == TransitionCallbackReturn.SUCCESS:
+            self._recovered()
+        # else configure said why; tried again next period
+
+    def _recovered(self) -> None:
         if self.status.reactivate and self.lifecycle_label() == "inactive":
             self.trigger_activate()
         self.destroy_timer(self._recovery_timer)
         self._recovery_timer = None
         self.get_logger().warning(self.status.recovered(self.lifecycle_label()))
+
+    def _recovers_by_itself_now(self) -> bool | None:
+        """Whether the rig the parameters now name recovers by itself (None if they cannot be read: configure says)."""
+        try:
+            setup = hardware_setup({f.name: self.get_parameter(f.name).value for f in HARDWARE_SETTINGS})
+            return backend_class(setup.backend).recovers_by_itself
+        except SrsError:
+            return None
 
     # -- configure helpers --------------------------------------------------------------------
     def _open_backend(self) -> tuple[RigConfig, ActuatorBackend]:

@@ -150,3 +150,30 @@ def test_a_node_frozen_between_deciding_and_writing_sends_0_bar_then_ramps(hardw
     rig.node.gate.decide = decide
     peaks = [float(p.max()) for p in rig.step(40)]
     assert peaks[0] < 1.0 and max(peaks) == pytest.approx(2.0)  # back with the ramp, not a step
+
+
+def test_the_simulators_automatic_recovery_leaves_a_real_rig_set_since_the_fault_to_the_operator(hardware, tmp_path,
+                                                                                                 ros_domain):
+    """After a sim rig's fault the operator set rig_file to a CAN rig; a second later the recovery timer configured
+    and activated it by itself, bus open, saying 'holding 0 bar until the simulated robot answers' (a helper's
+    review). A real rig waits for the operator."""
+    sim = tmp_path / "sim_fast.yaml"
+    sim.write_text("rig:\n  name: sim_fast\n  backend: sim\n  command_rate_hz: 100.0\n  setpoint_timeout_s: 0.2\n"
+                   "  backend_options:\n    startup_timeout_s: 0.3\n")
+    can_rig = tmp_path / "can_virtual.yaml"
+    can_rig.write_text("rig:\n  name: can_virtual\n  backend: can\n  command_rate_hz: 100.0\n  setpoint_timeout_s: "
+                       "0.2\n  backend_options:\n    interface: virtual\n    channel: recovery_review\n"
+                       "    readback: false\n")
+    rclpy.init(domain_id=ros_domain)  # the sim backend's bus node lives in the default context
+    try:
+        driven = hardware(rig_file=str(sim))
+        node = driven.node
+        driven.start()
+        time.sleep(0.4)
+        node._on_command_tick()  # no sim_world answered within startup_timeout_s: a backend fault
+        assert node.lifecycle_label() == "unconfigured" and node._recovery_timer is not None
+        assert node.set_parameters([Parameter("rig_file", value=str(can_rig))])[0].successful
+        node._try_recovery()  # what the recovery timer does RECOVERY_PERIOD_S later
+        assert node.lifecycle_label() == "unconfigured" and node.backend is None and node._recovery_timer is None
+    finally:
+        rclpy.try_shutdown()
