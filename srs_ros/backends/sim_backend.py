@@ -81,6 +81,17 @@ SIM_OPTIONS = Table("", (
 ), description="a mapping of option: value")
 
 
+def _check_topic_name(key: str, name: str) -> None:
+    from rclpy.exceptions import InvalidTopicNameException
+    from rclpy.validate_topic_name import validate_topic_name
+
+    try:
+        validate_topic_name(name)
+    except InvalidTopicNameException as exc:
+        reason = str(exc).splitlines()[0].removeprefix("Invalid topic name: ")
+        raise refusal(WHERE, key, name, f"a ROS topic name ({reason})") from None
+
+
 class SimBackend(ActuatorBackend):
     """Commands to ``sim_world`` over DDS, read-back from it; a pause holds output, a long silence faults."""
 
@@ -101,6 +112,8 @@ class SimBackend(ActuatorBackend):
         self.readback_timeout_s: float = options["readback_timeout_s"]
         self.world_lost_timeout_s: float = options["world_lost_timeout_s"]
         self.startup_timeout_s: float = options["startup_timeout_s"]
+        for key in ("command_topic", "monitor_topic"):  # refused here, naming the key, not at open by rclpy
+            _check_topic_name(key, options[key])
         if self.world_lost_timeout_s < self.readback_timeout_s:
             raise refusal(WHERE, "world_lost_timeout_s", self.world_lost_timeout_s,
                           f"at least readback_timeout_s = {self.readback_timeout_s:g} s (a pause first holds, only "

@@ -41,6 +41,10 @@ def spin_until(executor, predicate, timeout_s=10.0, what="condition"):
     ({"readback_timeout_s": 0.0}, r"readback_timeout_s is 0.0; expected a number in \[0.02, 5\] \(s\)"),
     ({"startup_timeout_s": "soon"}, "startup_timeout_s is 'soon'"),
     ({"command_topic": ""}, "command_topic is ''; expected a non-empty string"),
+    # A raw InvalidTopicNameException at open, naming neither key nor file (a helper's review).
+    ({"command_topic": "sim/bad topic"}, "command_topic is 'sim/bad topic'; expected a ROS topic name \\(topic name "
+                                         "must not contain characters"),
+    ({"monitor_topic": "1abc"}, "monitor_topic is '1abc'; expected a ROS topic name"),
 ])
 def test_bad_options_are_refused_with_the_key(options, match):
     with pytest.raises(ConfigurationError, match=match):
