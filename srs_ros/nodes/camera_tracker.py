@@ -12,6 +12,9 @@ marker is missing publishes nothing. ``/diagnostics`` (status ``camera_tracker: 
   arriving without a pose for ``lost_after_s``; the key/values ``view_state``, ``last_seen_x_m``,
   ``last_seen_y_m``, ``last_seen_frame_id``, ``last_seen_ago_s`` carry the same;
 - ERROR ``no images from /image_raw for .. s (camera silent)`` after ``image_timeout_s`` (1 s) without a frame;
+- ERROR ``images refused: <reason>`` while frames arrive that cannot be tracked (a size other than the
+  calibration's ``image_size_px``, an unknown encoding, an empty image), the reason also in the log (one line
+  per 5 s at most);
 
 and returns to OK when the robot is seen again. The decisions are :class:`srs_ros.core.vision.tracking.ViewWatch`'s,
 all tracking is in :mod:`srs_ros.core.vision.tracking`; this module is ROS wiring only.
@@ -20,6 +23,7 @@ all tracking is in :mod:`srs_ros.core.vision.tracking`; this module is ROS wirin
 from __future__ import annotations
 
 import dataclasses
+import math
 import sys
 import time
 from pathlib import Path
@@ -67,6 +71,8 @@ STATUS_NAME_SUFFIX = "marker tracking"
 RENAMED_PARAMETERS = {"lost_timeout_s": "image_timeout_s (no images: ERROR camera silent) and lost_after_s "
                                         "(no pose: WARN robot out of the camera's view)"}
 
+#: Refused frames are logged at most this often (one line, the newest reason), s.
+REFUSAL_LOG_PERIOD_S = 5.0
 #: Options of the tracker the node does not take as parameters (the default holds).
 NOT_PARAMETERS = ("max_marker_spacing_m",)
 
@@ -159,6 +165,8 @@ class CameraTrackerNode(Node):
 
         self.frames = 0
         self.tracked_frames = 0
+        self.refused_frames = 0
+        self.last_refusal_log_s = -math.inf  # when a refusal was last logged (steady clock, s)
         self.last_result: TrackResult | None = None
         self.last_state = None
 
@@ -228,18 +236,36 @@ class CameraTrackerNode(Node):
         try:
             frame = image_msg_to_array(msg)
         except InvalidInputError as exc:
-            self.get_logger().error(f"image refused: {exc}", throttle_duration_sec=5.0)
+            self.refuse(str(exc))
             return
         try:
             self.track(frame, msg.header.stamp)
         except Exception as exc:  # a callback must never stop the tracker; this frame is skipped
-            self.get_logger().error(f"image refused (unexpected error, please report): {type(exc).__name__}: {exc}",
-                                    throttle_duration_sec=5.0)
+            self.refuse(f"unexpected error, please report: {type(exc).__name__}: {exc}")
+
+    def refuse(self, reason: str) -> None:
+        """A frame arrived that cannot be tracked: count it, say why on /diagnostics and in the log.
+
+        The log gets one line every :data:`REFUSAL_LOG_PERIOD_S` at most (not one per frame), with the newest reason;
+        /diagnostics says the newest reason at once.
+        """
+        now = time.monotonic()
+        self.refused_frames += 1
+        self.watch.refused(now, reason)
+        if now - self.last_refusal_log_s >= REFUSAL_LOG_PERIOD_S:
+            self.last_refusal_log_s = now
+            self.get_logger().error(f"image refused: {reason} ({self.refused_frames} frames refused so far)")
+        if self.watch.status(time.monotonic()).state != self.last_state:
+            self.publish_diagnostics()
 
     # -- outputs -----------------------------------------------------------------------------------
     def track(self, frame: np.ndarray, stamp: Time) -> None:
-        """Run the tracker on a frame and publish what it found (nothing when a marker is missing)."""
-        result = self.tracker.process(frame, stamp_to_seconds(stamp))
+        """Run the tracker on a frame and publish what it found (nothing when a marker is missing or it is refused)."""
+        try:
+            result = self.tracker.process(frame, stamp_to_seconds(stamp))
+        except InvalidInputError as exc:  # expected: a frame of the wrong size or shape; the reason says which
+            self.refuse(str(exc))
+            return
         now = time.monotonic()
         self.frames += 1
         self.last_result = result
@@ -276,7 +302,7 @@ class CameraTrackerNode(Node):
         view = self.watch.status(time.monotonic())
         self.last_state = view.state
         values: dict[str, Any] = {
-            "frames": self.frames, "tracked_frames": self.tracked_frames,
+            "frames": self.frames, "tracked_frames": self.tracked_frames, "refused_frames": self.refused_frames,
             "markers": self.tracker.describe_markers(), "frame_id": self.frame_id,
             "calibration_rms_mm": f"{self.calibration.rms_error_mm:.3f}",
         }

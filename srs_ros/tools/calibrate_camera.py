@@ -17,7 +17,8 @@ section. Pixels are then undistorted before the fit, and the intrinsics are save
 
 The result goes to ``--out`` (default ``config/camera_calibration.yaml``) with the reprojection error
 (mm) of every point; with ``--max-rms-mm`` a poorer fit is rejected: nothing is written (the old file
-stays) and the exit status is 1.
+stays) and the exit status is 1. Exactly four point pairs fix the homography exactly: their error is 0 by
+construction and says nothing about the fit (no error estimate); five or more give one.
 """
 
 from __future__ import annotations
@@ -36,9 +37,12 @@ from srs_ros.core.robot import config_dir, read_yaml
 from srs_ros.core.schema import REQUIRED, Field, Table, refusal
 from srs_ros.core.vision import aruco
 from srs_ros.core.vision.camera_calibration import (
+    CALIBRATION_TABLE,
     DEFAULT_CALIBRATION_FILE,
     DEFAULT_FRAME_ID,
+    MIN_POINT_PAIRS,
     CameraCalibration,
+    CameraIntrinsics,
     calibration_from_pairs,
     load_intrinsics,
     read_point_pairs,
@@ -86,13 +90,21 @@ def read_layout(layout: Any, source: str) -> tuple[dict[int, tuple[float, float,
         marker = MARKER_TABLE.at(f"markers[{index}]").read(entry, source)
         if marker["id"] in known:
             raise refusal(source, f"markers[{index}].id", marker["id"], "an id not given to another marker")
+        expected = aruco.expected_marker_id(values["aruco_dictionary"], marker["id"])
+        if expected is not None:
+            raise refusal(source, f"markers[{index}].id", marker["id"], expected)
         known[marker["id"]] = (marker["x_m"], marker["y_m"], marker["yaw_rad"])
     return known, values["marker_size_m"], values["aruco_dictionary"]
 
 
-def pairs_from_marker_image(image: np.ndarray, layout: Mapping[str, Any], source: str = "<layout>"
-                            ) -> tuple[np.ndarray, np.ndarray, list[int]]:
-    """Point pairs (image_px, floor_m) from ArUco markers laid at known floor positions; also the ids not found."""
+def pairs_from_marker_image(image: np.ndarray, layout: Mapping[str, Any], source: str = "<layout>",
+                            intrinsics: CameraIntrinsics | None = None) -> tuple[np.ndarray, np.ndarray, list[int]]:
+    """Point pairs (image_px, floor_m) from ArUco markers laid at known floor positions; also the ids not found.
+
+    Without ``marker_size_m`` each marker gives its centre: with ``intrinsics`` (a distorting lens) the centre of
+    its undistorted corners (a square's centre is exact only in an undistorted image), put back through the lens,
+    as the tracker takes it.
+    """
     known, size_m, dictionary = read_layout(layout, source)
     detector = aruco.MarkerDetector(dictionary,
                                     aruco.detector_parameters(cornerRefinementMethod=cv2.aruco.CORNER_REFINE_SUBPIX))
@@ -107,12 +119,23 @@ def pairs_from_marker_image(image: np.ndarray, layout: Mapping[str, Any], source
             image_px.append(found[marker_id])
             floor_m.append(marker_corners_floor_m(x, y, yaw, size_m))
         else:
-            image_px.append(quad_centre(found[marker_id])[None])
+            image_px.append(_marker_centre_px(found[marker_id], intrinsics)[None])
             floor_m.append(np.array([[x, y]]))
     missing = sorted(set(known) - set(found))
     if not image_px:
         raise ConfigurationError(f"{source}: none of the markers {sorted(known)} was found in the image.")
     return np.concatenate(image_px), np.concatenate(floor_m), missing
+
+
+def _marker_centre_px(corners_px: np.ndarray, intrinsics: CameraIntrinsics | None) -> np.ndarray:
+    """The camera pixel of a marker's centre: the diagonals' crossing of its undistorted corners."""
+    if intrinsics is None:
+        return quad_centre(corners_px)
+    ideal = quad_centre(intrinsics.undistort_px(corners_px))
+    if not np.all(np.isfinite(ideal)):
+        raise ConfigurationError(f"marker corners {corners_px.round(1).tolist()} cannot be undistorted: the lens "
+                                 "model has no inverse there; check the intrinsics.")
+    return intrinsics.distort_px(ideal)
 
 
 def report(calibration: CameraCalibration) -> str:
@@ -122,7 +145,37 @@ def report(calibration: CameraCalibration) -> str:
         lines.append(f"{u:8.2f} {v:8.2f} {x:8.4f} {y:8.4f} {e:9.3f}")
     lines.append(f"reprojection error over {len(calibration.image_px)} points: rms {calibration.rms_error_mm:.3f} mm, "
                  f"max {calibration.max_error_mm:.3f} mm")
+    if len(calibration.image_px) == MIN_POINT_PAIRS:
+        lines.append(f"note: {MIN_POINT_PAIRS} point pairs fix the homography exactly, so the error is 0 by "
+                     "construction and gives no estimate of the fit's accuracy; add pairs (or markers) for one.")
     return "\n".join(lines)
+
+
+def check_flags(parser: argparse.ArgumentParser, args: argparse.Namespace) -> None:
+    """Refuse (``parser.error``, exit status 2) a flag the saved calibration could not hold, before any work."""
+    if args.max_rms_mm is not None and not (math.isfinite(args.max_rms_mm) and args.max_rms_mm > 0.0):
+        parser.error(f"--max-rms-mm {args.max_rms_mm}: expected a finite error above 0 mm")
+    for flag, key, value in (("--image-size", "image_size_px", args.image_size), ("--frame-id", "frame_id",
+                                                                                 args.frame_id)):
+        field = CALIBRATION_TABLE[key]
+        if value is not None and not field.convert(value)[0]:
+            shown = " ".join(map(str, value)) if isinstance(value, list) else repr(value)
+            parser.error(f"{flag} {shown}: expected {field.expected}")
+    if args.image and not args.markers:
+        parser.error("--image needs --markers (the floor layout YAML)")
+
+
+def point_pairs(args: argparse.Namespace, intrinsics: CameraIntrinsics | None
+                ) -> tuple[np.ndarray, np.ndarray, tuple[int, int] | None, str, list[int]]:
+    """(image_px, floor_m, image size or None, where they came from, marker ids not found) of the flags."""
+    if args.pairs:
+        image_px, floor_m = read_point_pairs(args.pairs)
+        return image_px, floor_m, tuple(args.image_size) if args.image_size else None, args.pairs, []
+    image = cv2.imread(args.image, cv2.IMREAD_COLOR)
+    if image is None:
+        raise ConfigurationError(f"{args.image}: cannot be read as an image (missing file or unknown format).")
+    image_px, floor_m, missing = pairs_from_marker_image(image, read_yaml(args.markers), args.markers, intrinsics)
+    return image_px, floor_m, (image.shape[1], image.shape[0]), f"{args.image} + {args.markers}", missing
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -140,25 +193,11 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--intrinsics", help="camera intrinsics YAML (K, D; ROS camera_calibration format)")
     parser.add_argument("--max-rms-mm", type=float, help="exit with status 1 if the rms error is above this, mm")
     args = parser.parse_args(argv)
-    if args.max_rms_mm is not None and not (math.isfinite(args.max_rms_mm) and args.max_rms_mm > 0.0):
-        parser.error(f"--max-rms-mm {args.max_rms_mm}: expected a finite error above 0 mm")
+    check_flags(parser, args)
     try:
         out = prepare_output_file(args.out or config_dir() / DEFAULT_CALIBRATION_FILE, "--out")
-        missing: list[int] = []
-        if args.pairs:
-            image_px, floor_m = read_point_pairs(args.pairs)
-            size = tuple(args.image_size) if args.image_size else None
-            source = args.pairs
-        else:
-            if not args.markers:
-                parser.error("--image needs --markers (the floor layout YAML)")
-            image = cv2.imread(args.image, cv2.IMREAD_COLOR)
-            if image is None:
-                raise ConfigurationError(f"{args.image}: cannot be read as an image (missing file or unknown format).")
-            image_px, floor_m, missing = pairs_from_marker_image(image, read_yaml(args.markers), args.markers)
-            size = (image.shape[1], image.shape[0])
-            source = f"{args.image} + {args.markers}"
         intrinsics = load_intrinsics(args.intrinsics) if args.intrinsics else None
+        image_px, floor_m, size, source, missing = point_pairs(args, intrinsics)
         calibration = calibration_from_pairs(image_px, floor_m, size, args.frame_id, intrinsics)
     except SrsError as exc:
         print(f"srs_calibrate_camera: {exc}", file=sys.stderr)

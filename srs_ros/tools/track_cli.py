@@ -10,22 +10,35 @@ from __future__ import annotations
 import argparse
 import csv
 import math
+import re
 import sys
 from pathlib import Path
 
 import cv2
 import numpy as np
+from tqdm import tqdm
 
 from srs_ros.core.errors import ConfigurationError, InvalidInputError, SrsError
 from srs_ros.core.vision.camera_calibration import load_calibration
 from srs_ros.core.vision.tracking import DETECTORS, TRACKER_TABLE, Tracker, TrackerConfig, traveling_velocity
 from srs_ros.tools.output import prepare_output_file
 
+#: The tracker options srs_track takes, by flag (the camera_tracker node's parameter names).
+OPTION_FLAGS = {"--detector": "detector", "--dictionary": "aruco_dictionary", "--tail-id": "tail_marker_id",
+                "--head-id": "head_marker_id", "--position-ratio": "position_ratio"}
 
-def track_video(video: str | Path, tracker: Tracker, fps: float | None = None) -> tuple[np.ndarray, int]:
+
+def _progress_bar(total: int | None, name: str):
+    return tqdm(total=total, desc=name, unit="frame", file=sys.stderr, dynamic_ncols=True)
+
+
+def track_video(video: str | Path, tracker: Tracker, fps: float | None = None, progress: bool = False
+                ) -> tuple[np.ndarray, int]:
     """Track every frame of a video; returns (rows (n, 4) of time_s, x_m, y_m, yaw_rad; frame count).
 
-    Frame times are ``index / fps`` (the file's frame rate unless ``fps`` is given).
+    Frame times are ``index / fps`` (the file's frame rate unless ``fps`` is given). With ``progress`` a bar on
+    stderr counts the frames. A frame the tracker refuses (e.g. a size other than the calibration's) stops the
+    run with :class:`InvalidInputError` naming the video, the frame and the reason.
     """
     capture = cv2.VideoCapture(str(video))
     if not capture.isOpened():
@@ -34,16 +47,25 @@ def track_video(video: str | Path, tracker: Tracker, fps: float | None = None) -
     if not rate or rate <= 0:
         raise ConfigurationError(f"{video}: the file gives no frame rate; pass --fps.")
     rows, index = [], 0
+    total = int(capture.get(cv2.CAP_PROP_FRAME_COUNT)) or None
+    bar = _progress_bar(total, Path(video).name) if progress else None
     try:
         while True:
             ok, frame = capture.read()
             if not ok:
                 break
-            result = tracker.process(frame, index / rate)
+            try:
+                result = tracker.process(frame, index / rate)
+            except InvalidInputError as exc:
+                raise InvalidInputError(f"{video}, frame {index}: {exc}") from None
             if result.tracked:
                 rows.append((result.time_s, *result.pose))
             index += 1
+            if bar is not None:
+                bar.update()
     finally:
+        if bar is not None:
+            bar.close()
         capture.release()
     return np.array(rows, dtype=np.float64).reshape(-1, 4), index
 
@@ -88,6 +110,21 @@ def plot_track(path: str | Path, rows: np.ndarray, title: str) -> Path:
     return path
 
 
+def tracker_config(args: argparse.Namespace, parser: argparse.ArgumentParser) -> TrackerConfig:
+    """The tracker options of the flags, each checked first (a refusal names the flag, before any work)."""
+    values = {option: getattr(args, flag[2:].replace("-", "_")) for flag, option in OPTION_FLAGS.items()}
+    for flag, option in OPTION_FLAGS.items():
+        if not TRACKER_TABLE[option].convert(values[option])[0]:
+            parser.error(f"{flag} {values[option]}: expected {TRACKER_TABLE[option].expected}")
+    try:
+        return TrackerConfig.from_dict(values, "srs_track")
+    except ConfigurationError as exc:  # a combination: equal ids, an id the dictionary does not hold
+        message = str(exc).removeprefix("srs_track: ")
+        for flag, option in OPTION_FLAGS.items():
+            message = re.sub(rf"\b{option}\b", flag, message)
+        parser.error(message)
+
+
 def main(argv: list[str] | None = None) -> int:
     """Console script ``srs_track``."""
     parser = argparse.ArgumentParser(prog="srs_track", description=__doc__.splitlines()[0])
@@ -114,14 +151,12 @@ def main(argv: list[str] | None = None) -> int:
         parser.error(f"--end-window {args.end_window}: expected seconds >= 0")
     if args.fps is not None and not (math.isfinite(args.fps) and args.fps > 0.0):
         parser.error(f"--fps {args.fps}: expected a frame rate above 0 Hz")
+    config = tracker_config(args, parser)
     try:
         for path, flag in ((args.out, "--out"), (args.plot, "--plot")):
             prepare_output_file(path, flag)  # before the video is tracked, not after it
-        config = TrackerConfig.from_dict({"detector": args.detector, "aruco_dictionary": args.dictionary,
-                                          "tail_marker_id": args.tail_id, "head_marker_id": args.head_id,
-                                          "position_ratio": args.position_ratio}, "srs_track")
         tracker = Tracker(load_calibration(args.calibration), config)
-        rows, frames = track_video(args.video, tracker, args.fps)
+        rows, frames = track_video(args.video, tracker, args.fps, progress=True)
         write_track_csv(args.out, rows)
         print(f"{args.video}: {frames} frames, {len(rows)} tracked, {frames - len(rows)} without a pose; "
               f"track written to {args.out}")

@@ -50,6 +50,24 @@ def statuses(diagnostics):
     return [s for array in diagnostics for s in array.status if s.name.endswith("marker tracking")]
 
 
+
+def publish_until(ros_client, node, publish, until, what: str, period_s: float = 0.05) -> None:
+    """Call ``publish()`` every ``period_s`` (a camera at 20 fps) until ``until()``; the node's log on a timeout."""
+    due = [0.0]
+
+    def answered():
+        if until():
+            return True
+        if time.monotonic() >= due[0]:
+            publish()
+            due[0] = time.monotonic() + period_s
+        return False
+
+    try:
+        ros_client.spin_until(answered, timeout_s=15.0, what=what)
+    except AssertionError:
+        raise AssertionError(f"timed out waiting for {what}; node log:\n{node.output()}") from None
+
 def test_image_conversion_round_trip_with_padding_and_rgb():
     rng = np.random.default_rng(0)
     bgr = rng.integers(0, 255, (5, 7, 3), dtype=np.uint8)
@@ -189,22 +207,12 @@ def test_tracker_node_says_when_the_robot_leaves_the_view_and_when_the_camera_fa
 
     def camera(frame, what, until):
         """A camera at 20 fps showing ``frame`` until ``until()``."""
-        due = [0.0]
+        def show():
+            clock_s[0] += 0.05
+            publisher.publish(array_to_image_msg(frame, seconds_to_stamp(clock_s[0])))
+            sent["robot" if frame is robot else "floor"].append(clock_s[0])
 
-        def answered():
-            if until():
-                return True
-            if time.monotonic() >= due[0]:
-                clock_s[0] += 0.05
-                publisher.publish(array_to_image_msg(frame, seconds_to_stamp(clock_s[0])))
-                sent["robot" if frame is robot else "floor"].append(clock_s[0])
-                due[0] = time.monotonic() + 0.05
-            return False
-
-        try:
-            ros_client.spin_until(answered, timeout_s=15.0, what=what)
-        except AssertionError:
-            raise AssertionError(f"timed out waiting for {what}; node log:\n{node.output()}") from None
+        publish_until(ros_client, node, show, until, what)
 
     # 1. The robot in view: poses, OK.
     camera(robot, "poses and OK", lambda: poses and latest() and latest().message == "tracking")
@@ -261,3 +269,41 @@ def test_the_colour_preset_is_the_one_for_the_simulated_camera_and_an_unknown_on
         tracker_config({**params, "color_preset": "stripes"})
     with pytest.raises(ConfigurationError, match=r"^camera_tracker: roi_margin_px is -1; expected an integer in"):
         tracker_config({**params, "color_preset": "", "roi_margin_px": -1})
+
+
+@pytest.mark.timeout(120)
+def test_images_the_tracker_cannot_use_are_said_refused_with_the_reason_not_camera_silent(tmp_path, launch_node,
+                                                                                         ros_client):
+    """Frames of another size than the calibration's were tracked into wrong poses without a word; frames refused
+    (an unknown encoding) left the node saying "camera silent" while they arrived (a helper's review)."""
+    calibration = save_calibration(SCENE.camera.calibration(), tmp_path / "cal.yaml")  # 320 x 240
+    node = launch_node("camera_tracker", ros_args({"calibration_file": str(calibration), "diagnostics_period_s": 0.2,
+                                                   "image_timeout_s": 3.0}))
+    poses = ros_client.subscribe(PoseStamped, "/robot_pose")
+    diagnostics = ros_client.subscribe(DiagnosticArray, "/diagnostics")
+    publisher = ros_client.node.create_publisher(Image, "/image_raw", 10)
+    small = SCENE.render(np.array([0.0, 0.0, 0.3]))[::2, ::2]  # 160 x 120
+    yuv = Image(height=240, width=320, encoding="yuv422", step=640)
+    yuv.data = bytes(640 * 240)
+
+    def camera(msg, until, what):
+        publish_until(ros_client, node, lambda: publisher.publish(msg), until, what)
+
+    def refused(reason):
+        found = statuses(diagnostics)
+        return found and values_of(found[-1]).get("view_state") == "images_refused" and reason in found[-1].message
+
+    sizes, start = "image is 160 x 120 px but the calibration", time.monotonic()
+    camera(array_to_image_msg(small, seconds_to_stamp(1.0)), lambda: refused(sizes), "images refused: the size")
+    status = statuses(diagnostics)[-1]
+    assert status.level == DiagnosticStatus.ERROR and "is for 320 x 240 px (image_size_px)" in status.message
+    assert int(values_of(status)["refused_frames"]) >= 1 and not poses
+    # Refused for 2 s at 20 fps: still refused, never "camera silent", and the log says it every 5 s, not per frame.
+    mark, since = len(diagnostics), time.monotonic()
+    camera(array_to_image_msg(small, seconds_to_stamp(2.0)), lambda: time.monotonic() - since > 2.0, "2 s of frames")
+    assert {values_of(s)["view_state"] for s in statuses(diagnostics[mark:])} == {"images_refused"}
+    assert int(values_of(statuses(diagnostics)[-1])["refused_frames"]) >= 20
+    assert 1 <= node.output().count("image refused: " + sizes) <= 1 + (time.monotonic() - start) / 5.0
+    camera(yuv, lambda: refused("image encoding 'yuv422' is not supported"), "images refused: the encoding")
+    log = node.output()
+    assert "unexpected error" not in log and "Traceback" not in log and node.alive()

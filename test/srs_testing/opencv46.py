@@ -19,7 +19,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[2]
 VENV = Path(os.environ.get("SRS_CV46_VENV", ROOT / ".venv-opencv46"))
 REQUIREMENTS = ["opencv-contrib-python-headless==4.6.0.66", "numpy<2", "PyYAML>=6", "matplotlib>=3.6",
-                "pytest>=8", "pytest-timeout>=2.3"]
+                "pytest>=8", "pytest-timeout>=2.3", "tqdm>=4.60"]
 SCRIPTS = {"srs_track": "srs_ros.tools.track_cli", "srs_calibrate_camera": "srs_ros.tools.calibrate_camera"}
 
 

@@ -66,6 +66,8 @@ def test_calibration_from_csv_pairs_and_threshold(tmp_path, capsys):
     (lambda layout: layout.update(marker_size_m=-0.08), "marker_size_m is -0.08; expected a number in (0, 1] (m)"),
     (lambda layout: layout["markers"][0].update(id=10.7), "markers[0].id is 10.7; expected an integer"),
     (lambda layout: layout["markers"][0].update(x_m=float("nan")), "markers[0].x_m is nan"),
+    # DICT_4X4_50 holds ids 0..49: id 77 was accepted and never found (a helper's review).
+    (lambda layout: layout["markers"][0].update(id=77), "markers[0].id is 77; expected an id of DICT_4X4_50, 0..49"),
 ])
 def test_a_bad_marker_layout_is_refused_by_the_schema_and_nothing_is_written(tmp_path, capsys, change, message):
     """The layout had checks of its own: a negative size, a misspelled key or a duplicate id were saved as a
@@ -90,9 +92,10 @@ def test_a_calibration_its_loader_would_refuse_is_not_written_over_a_good_one(tm
     out = tmp_path / "cal.yaml"
     out.write_text("camera_calibration: {homography_image_to_floor: [[1, 0, 0], [0, 1, 0], [0, 0, 1]]}\n")
     before = out.read_text()
-    code = calibrate_camera.main(["--pairs", str(tmp_path / "pairs.csv"), "--image-size", "0", "0", "--out", str(out)])
-    assert code == 2 and "image_size_px is [0, 0]; expected a list of 2 integers" in capsys.readouterr().err
-    assert out.read_text() == before  # it was saved, and srs_track and camera_tracker could not load it
+    with pytest.raises(SystemExit) as stop:  # refused before the fit (it was saved, and nothing could load it)
+        calibrate_camera.main(["--pairs", str(tmp_path / "pairs.csv"), "--image-size", "0", "0", "--out", str(out)])
+    assert stop.value.code == 2 and "--image-size 0 0: expected a list of 2 integers" in capsys.readouterr().err
+    assert out.read_text() == before
     with pytest.raises(SystemExit):
         calibrate_camera.main(["--pairs", str(tmp_path / "pairs.csv"), "--max-rms-mm", "nan", "--out", str(out)])
     assert "--max-rms-mm nan: expected a finite error above 0 mm" in capsys.readouterr().err
@@ -136,3 +139,46 @@ def test_a_bad_intrinsics_file_is_refused_with_what_is_missing(tmp_path, capsys)
                                   "--intrinsics", str(tmp_path / "camera.yaml")])
     assert code == 2 and "distortion coefficients" in capsys.readouterr().err
     assert not (tmp_path / "c.yaml").exists()
+
+
+@pytest.mark.parametrize(("flags", "message"), [
+    (["--image-size", "0", "-5"], "--image-size 0 -5: expected a list of 2 integers in [1, 100000] (px)"),
+    (["--frame-id", ""], "--frame-id '': expected a non-empty string"),
+])
+def test_a_bad_image_size_or_frame_is_refused_before_the_fit_is_reported(tmp_path, capsys, flags, message):
+    """They were refused only after the fit and its report were printed, as if it had worked."""
+    rows = "0,0,0,0\n100,0,1,0\n100,100,1,1\n0,100,0,1\n50,40,0.5,0.4\n"
+    (tmp_path / "pairs.csv").write_text("u_px,v_px,x_m,y_m\n" + rows)
+    with pytest.raises(SystemExit) as stop:
+        calibrate_camera.main(["--pairs", str(tmp_path / "pairs.csv"), "--out", str(tmp_path / "c.yaml"), *flags])
+    captured = capsys.readouterr()
+    assert stop.value.code == 2 and message in captured.err
+    assert captured.out == "" and not (tmp_path / "c.yaml").exists()
+
+
+def test_four_pairs_are_saved_with_a_note_that_their_error_is_no_estimate(tmp_path, capsys):
+    (tmp_path / "pairs.csv").write_text("u_px,v_px,x_m,y_m\n0,0,0,0\n100,0,1,0\n100,100,1,1\n0,100,0,1\n")
+    assert calibrate_camera.main(["--pairs", str(tmp_path / "pairs.csv"), "--out", str(tmp_path / "c.yaml")]) == 0
+    assert "4 point pairs fix the homography exactly, so the error is 0 by construction" in capsys.readouterr().out
+
+
+def test_marker_centres_through_a_lens_are_taken_from_the_undistorted_corners(tmp_path, capsys):
+    """Without marker_size_m the centre of the distorted corners was undistorted alone: 0.4-0.9 px off at the
+    corners of a 70 degree barrel lens (2 mm on the floor); the tracker takes the centre of undistorted corners."""
+    camera = SyntheticCamera(horizontal_fov_rad=np.radians(70.0), distortion=(-0.25, 0.06, 0.0, 0.0, 0.0))
+    (tmp_path / "camera.yaml").write_text(yaml.safe_dump({"distortion_model": "plumb_bob", "d": list(camera.distortion),
+                                                         "k": camera.lens.camera_matrix.ravel().tolist()}))
+    layout = [(i, x, y, 0.3 * i) for i, (x, y) in enumerate([(-0.5, -0.35), (0.5, -0.35), (0.5, 0.35), (-0.5, 0.35),
+                                                              (0.0, 0.0), (-0.25, 0.1), (0.3, -0.1)])]
+    cv2.imwrite(str(tmp_path / "floor.png"), SyntheticScene(camera=camera).render_floor_markers(layout, 0.14))
+    (tmp_path / "layout.yaml").write_text(yaml.safe_dump(
+        {"markers": [{"id": i, "x_m": x, "y_m": y, "yaw_rad": yaw} for i, x, y, yaw in layout]}))
+    out = tmp_path / "cal.yaml"
+    assert calibrate_camera.main(["--image", str(tmp_path / "floor.png"), "--markers", str(tmp_path / "layout.yaml"),
+                                  "--intrinsics", str(tmp_path / "camera.yaml"), "--out", str(out)]) == 0, \
+        capsys.readouterr().err
+    calib = load_calibration(out)
+    off_px = np.linalg.norm(calib.image_px - camera.floor_to_image_px(calib.floor_m), axis=1)
+    assert off_px.max() < 0.4, off_px  # what the detector gives for a square's centre (was 0.85 px)
+    probe = np.array([[x, y] for x in np.linspace(-0.45, 0.45, 5) for y in np.linspace(-0.3, 0.3, 4)])
+    assert np.abs(calib.image_to_floor(camera.floor_to_image_px(probe)) - probe).max() < 0.0012  # was 2.0 mm

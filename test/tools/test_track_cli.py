@@ -8,7 +8,7 @@ import pytest
 from srs_testing import script_path
 
 from srs_ros.core.vision.camera_calibration import save_calibration
-from srs_ros.sim.scene import SyntheticScene, constant_velocity_poses, write_video
+from srs_ros.sim.scene import SyntheticCamera, SyntheticScene, constant_velocity_poses, write_video
 from srs_ros.tools import track_cli
 
 VELOCITY_M_S = (0.04, 0.025)
@@ -81,3 +81,37 @@ def test_a_window_or_frame_rate_that_is_not_one_is_refused(tmp_path, capsys, opt
 def test_an_out_path_that_is_a_folder_is_refused_before_the_video_is_tracked(tmp_path, capsys):
     assert track_cli.main([str(tmp_path / "absent.avi"), "--out", str(tmp_path)]) == 2
     assert "is a folder; expected a file path in it" in capsys.readouterr().err  # not the video's error
+
+
+def test_a_video_of_another_size_than_the_calibration_stops_with_both_sizes(recording, tmp_path, capsys):
+    """A video of another size was tracked into wrong poses and a wrong Table I velocity, without a word."""
+    _, _, calibration, _, poses = recording
+    small = SyntheticScene(camera=SyntheticCamera(width_px=320, height_px=240))
+    video = write_video(tmp_path / "small.avi", small, poses[:3], 15.0)
+    code = track_cli.main([str(video), "--calibration", str(calibration), "--out", str(tmp_path / "t.csv")])
+    err = capsys.readouterr().err
+    assert code == 2
+    assert f"srs_track: {video}, frame 0: image is 320 x 240 px but the calibration {calibration} is for 640 x 480 px" \
+           in err, err
+    assert not (tmp_path / "t.csv").exists()
+
+
+@pytest.mark.parametrize(("flags", "message"), [
+    (["--position-ratio", "nan"], "srs_track: error: --position-ratio nan: expected a number in [0, 1]"),
+    (["--tail-id", "77"], "srs_track: error: --tail-id is 77; expected an id of DICT_4X4_50, 0..49"),
+    (["--tail-id", "3", "--head-id", "3"], "srs_track: error: --head-id is 3; expected an id other than --tail-id 3"),
+])
+def test_a_bad_tracker_flag_is_refused_once_by_its_flag_before_the_video_is_read(tmp_path, capsys, flags, message):
+    """`--position-ratio nan` said `srs_track: srs_track: position_ratio is nan` (the prefix twice, the YAML key)."""
+    with pytest.raises(SystemExit) as stop:
+        track_cli.main([str(tmp_path / "absent.avi"), "--out", str(tmp_path / "t.csv"), *flags])
+    err = capsys.readouterr().err
+    assert stop.value.code == 2 and message in err and "srs_track: srs_track" not in err, err
+
+
+def test_the_frames_tracked_so_far_are_shown_on_stderr(recording, tmp_path, capsys):
+    """srs_track printed nothing until the whole video was tracked."""
+    _, video, calibration, times, _ = recording
+    assert track_cli.main([str(video), "--calibration", str(calibration), "--out", str(tmp_path / "t.csv")]) == 0
+    err = capsys.readouterr().err
+    assert "run.avi: 100%" in err and f"{len(times)}/{len(times)}" in err and "frame" in err, err

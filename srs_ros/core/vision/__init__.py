@@ -1,8 +1,9 @@
 """The robot seen by an overhead camera, without ROS: markers, the floor calibration, the pose and its velocity.
 
-``aruco`` (either OpenCV ArUco API), ``camera_calibration`` (image pixels -> floor metres: homography, lens),
-``detectors`` (ArUco with ROI search, colour blobs), ``tracking`` (pose, velocity, Table I's traveling
-velocity), ``view`` (in view, out of view, camera silent: for /diagnostics).
+``aruco`` (either OpenCV ArUco API), ``homography`` (fitting a plane homography), ``camera_calibration``
+(image pixels -> floor metres: homography, lens), ``detectors`` (ArUco with ROI search, colour blobs),
+``tracking`` (pose, velocity, Table I's traveling velocity), ``view`` (in view, out of view, camera silent,
+images refused: for /diagnostics).
 """
 
 from srs_ros.core import lazy_exports

@@ -56,6 +56,17 @@ def dictionary(name: str):
     return cv2.aruco.getPredefinedDictionary(value)
 
 
+def marker_count(name: str) -> int:
+    """How many markers the predefined dictionary ``name`` holds: its ids are 0 .. count - 1 (DICT_4X4_50: 50)."""
+    return int(dictionary(name).bytesList.shape[0])
+
+
+def expected_marker_id(name: str, marker_id: int) -> str | None:
+    """None when ``marker_id`` is one of dictionary ``name``'s ids, else what is expected (for a refusal)."""
+    count = marker_count(name)
+    return None if 0 <= marker_id < count else f"an id of {name}, 0..{count - 1} (it holds {count} markers)"
+
+
 def detector_parameters(**fields):
     """Detector parameters with OpenCV's defaults, then ``fields`` (e.g. ``cornerRefinementMethod=...``) set."""
     require_aruco()

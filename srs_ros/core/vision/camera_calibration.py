@@ -2,9 +2,12 @@
 
 The paper tracked the robot "with image perspective projection" onto the floor (Sec. IV). A plane seen
 by a pinhole camera maps to the image by a homography ``H`` (3 x 3, defined up to scale), so four or more
-known floor points and their pixels fix it. This module fits ``H`` (normalised DLT, then Levenberg-Marquardt
-on the floor-side error), applies it to batches of points, reports the reprojection error in millimetres,
-and reads and writes the calibration YAML (``config/camera_calibration.yaml``). No ROS imports.
+known floor points and their pixels fix it. This module fits ``H`` (:mod:`srs_ros.core.vision.homography`:
+normalised DLT, then Gauss-Newton on the floor-side error, a step kept only when it lowers that error), maps
+batches of points through it, reports the reprojection error in millimetres, and reads and writes the
+calibration YAML (``config/camera_calibration.yaml``). Exactly four pairs fix ``H`` exactly: their reprojection
+error is 0 by construction and says nothing about the fit's accuracy (a fifth pair or more gives an error
+estimate). No ROS imports.
 
 Lens distortion (wide-angle cameras): the file may hold the camera's intrinsics as ``sensor_msgs/CameraInfo``
 names them (``distortion_model``, ``k`` the 3 x 3 camera matrix row by row, ``d`` the coefficients; what
@@ -15,7 +18,6 @@ maps *undistorted* pixels to the floor. Models: ``plumb_bob`` (k1, k2, p1, p2[, 
 
 from __future__ import annotations
 
-import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -27,107 +29,21 @@ import yaml
 from srs_ros.core.errors import ConfigurationError, InvalidInputError
 from srs_ros.core.robot import config_dir, read_yaml
 from srs_ros.core.schema import REQUIRED, Field, Table, document, missing, read_csv_rows, refusal
+from srs_ros.core.vision.homography import (
+    MIN_POINT_PAIRS,
+    apply_homography,
+    apply_homography_keeping_nan,
+    fit_homography,
+    reprojection_errors_mm,  # noqa: F401 (public here too, as before the homography had a module of its own)
+)
+from srs_ros.core.vision.homography import points_array as _points
 
 #: Top-level key of the calibration YAML.
 CALIBRATION_KEY = "camera_calibration"
 #: Name of the default calibration file in ``config/``.
 DEFAULT_CALIBRATION_FILE = "camera_calibration.yaml"
-#: Fewest point pairs that fix a plane homography (8 degrees of freedom, 2 equations per pair).
-MIN_POINT_PAIRS = 4
-
-
-def _points(name: str, value: Any) -> np.ndarray:
-    points = np.asarray(value, dtype=np.float64)
-    if points.ndim < 1 or points.shape[-1] != 2:
-        raise InvalidInputError(f"{name} has shape {points.shape}; expected (..., 2) points.")
-    if not np.all(np.isfinite(points)):
-        raise InvalidInputError(f"{name} holds NaN or inf; expected finite coordinates.")
-    return points
-
-
-def apply_homography(homography: np.ndarray, points: Any) -> np.ndarray:
-    """Map points (..., 2) through a 3 x 3 homography: ``p' ~ H [p, 1]``, batched over leading axes.
-
-    Example: with ``H = diag(0.001, 0.001, 1)`` (1 mm per pixel), pixel (640, 480) maps to (0.64, 0.48) m.
-    Points on the homography's line at infinity come out as inf (never silently as finite numbers).
-    """
-    points = _points("points", points)
-    h = np.asarray(homography, dtype=np.float64)
-    if h.shape != (3, 3):
-        raise InvalidInputError(f"homography has shape {h.shape}; expected (3, 3).")
-    mapped = points @ h[:, :2].T + h[:, 2]
-    with np.errstate(divide="ignore", invalid="ignore"):
-        return mapped[..., :2] / mapped[..., 2:3]
-
-
-def _normalising_transform(points: np.ndarray) -> np.ndarray:
-    """Similarity taking points to zero mean and mean distance sqrt(2) (Hartley normalisation)."""
-    centre = points.mean(axis=0)
-    spread = np.mean(np.linalg.norm(points - centre, axis=1))
-    scale = math.sqrt(2.0) / spread if spread > 0 else 1.0
-    return np.array([[scale, 0.0, -scale * centre[0]], [0.0, scale, -scale * centre[1]], [0.0, 0.0, 1.0]])
-
-
-def fit_homography(source_points: Any, target_points: Any) -> np.ndarray:
-    """Least-squares homography ``H`` with ``target ~ H source`` from n >= 4 point pairs (n, 2) each.
-
-    Normalised direct linear transform (Hartley and Zisserman, Alg. 4.2) refined by a few Gauss-Newton
-    steps on the target-side geometric error, so the result minimises the error in target units (metres
-    on the floor). Returns ``H`` scaled so that ``H[2, 2] = 1``. Raises :class:`InvalidInputError` when
-    fewer than four pairs are given or the points are degenerate (three or more on one line).
-    """
-    src = _points("source_points", source_points).reshape(-1, 2)
-    dst = _points("target_points", target_points).reshape(-1, 2)
-    if src.shape != dst.shape:
-        raise InvalidInputError(f"{len(src)} source points but {len(dst)} target points; expected one per pair.")
-    if len(src) < MIN_POINT_PAIRS:
-        raise InvalidInputError(
-            f"{len(src)} point pairs; a floor homography needs at least {MIN_POINT_PAIRS} (add known floor points)."
-        )
-    t_src, t_dst = _normalising_transform(src), _normalising_transform(dst)
-    s = apply_homography(t_src, src)
-    d = apply_homography(t_dst, dst)
-    zeros, ones = np.zeros(len(s)), np.ones(len(s))
-    su, sv, du, dv = s[:, 0], s[:, 1], d[:, 0], d[:, 1]
-    rows_u = np.stack([su, sv, ones, zeros, zeros, zeros, -du * su, -du * sv, -du], 1)
-    rows_v = np.stack([zeros, zeros, zeros, su, sv, ones, -dv * su, -dv * sv, -dv], 1)
-    _, singular, vt = np.linalg.svd(np.concatenate([rows_u, rows_v]))
-    if singular[-2] < 1e-9 * singular[0]:
-        raise InvalidInputError("the point pairs are degenerate (collinear or repeated); spread them over the floor.")
-    h = np.linalg.inv(t_dst) @ vt[-1].reshape(3, 3) @ t_src
-    h = _refine(h / h[2, 2], src, dst)
-    if abs(np.linalg.det(h)) < 1e-15:
-        raise InvalidInputError("the fitted homography is singular; the point pairs do not span the floor plane.")
-    return h
-
-
-def _refine(h: np.ndarray, src: np.ndarray, dst: np.ndarray, iterations: int = 10) -> np.ndarray:
-    """Gauss-Newton on the 8 free entries of H, minimising the sum of squared target-side errors."""
-    params = h.ravel()[:8].copy()
-    for _ in range(iterations):
-        hh = np.append(params, 1.0).reshape(3, 3)
-        num = src @ hh[:2, :2].T + hh[:2, 2]
-        den = src @ hh[2, :2] + hh[2, 2]
-        pred = num / den[:, None]
-        residual = (pred - dst).ravel()
-        jac = np.zeros((len(src), 2, 8))
-        ext = np.column_stack([src, np.ones(len(src))])
-        jac[:, 0, 0:3] = ext / den[:, None]
-        jac[:, 1, 3:6] = ext / den[:, None]
-        jac[:, :, 6:8] = -pred[:, :, None] * src[:, None, :] / den[:, None, None]
-        step, *_ = np.linalg.lstsq(jac.reshape(-1, 8), -residual, rcond=None)
-        params += step
-        if np.max(np.abs(step)) < 1e-14 * (1.0 + np.max(np.abs(params))):
-            break
-    return np.append(params, 1.0).reshape(3, 3)
-
-
-def reprojection_errors_mm(homography: np.ndarray, image_px: Any, floor_m: Any) -> np.ndarray:
-    """Distance (mm) between each known floor point and its pixel mapped through ``homography``."""
-    mapped = apply_homography(homography, image_px)
-    return 1000.0 * np.linalg.norm(mapped - _points("floor_m", floor_m), axis=-1)
-
-
+#: Largest error (normalised image coordinates, about 1e-6 px) of an undistorted point that counts as solved.
+UNDISTORT_TOLERANCE = 1e-9
 #: Distortion models (sensor_msgs/CameraInfo names) -> allowed numbers of coefficients.
 DISTORTION_MODELS = {"plumb_bob": (4, 5), "rational_polynomial": (8,), "equidistant": (4,)}
 
@@ -220,23 +136,46 @@ class CameraIntrinsics:
         return self._to_pixels(self._distort(self._to_normalised(_points("points_px", points_px))))
 
     def undistort_px(self, points_px: Any, iterations: int = 100) -> np.ndarray:
-        """Observed pixels (..., 2) -> ideal pinhole pixels (Gauss-Newton on :meth:`distort_px`, to 1e-12)."""
+        """Observed pixels (..., 2) -> ideal pinhole pixels (Gauss-Newton on :meth:`distort_px`, to 1e-12).
+
+        A pixel the lens model cannot give back comes out as NaN, never as a guess: where the model has no
+        inverse (a pixel beyond the largest radius it reaches, e.g. a strong barrel k1 at the image's corners),
+        the solver ends past the model's fold (radial factor <= 0, a mirrored point) or does not converge.
+        """
         target = self._to_normalised(_points("points_px", points_px))
         xy = target.copy()
         step = 1e-7
         for _ in range(iterations):
             residual = self._distort(xy) - target
-            if np.max(np.abs(residual), initial=0.0) < 1e-12:
+            if not np.any(np.abs(residual) >= 1e-12):  # NaN (a point already lost) counts as done
                 break
             # 2 x 2 Jacobian by central differences (the maps are smooth), solved per point.
-            jx = (self._distort(xy + [step, 0.0]) - self._distort(xy - [step, 0.0])) / (2 * step)
-            jy = (self._distort(xy + [0.0, step]) - self._distort(xy - [0.0, step])) / (2 * step)
+            jx, jy = self._jacobian(xy, step)
             det = jx[..., 0] * jy[..., 1] - jy[..., 0] * jx[..., 1]
             det = np.where(np.abs(det) > 1e-15, det, 1e-15)
             dx = (jy[..., 1] * residual[..., 0] - jy[..., 0] * residual[..., 1]) / det
             dy = (jx[..., 0] * residual[..., 1] - jx[..., 1] * residual[..., 0]) / det
             xy = xy - np.stack([dx, dy], axis=-1)
-        return self._to_pixels(xy)
+        return self._to_pixels(np.where(self._inverted(xy, target, step)[..., None], xy, np.nan))
+
+    def _jacobian(self, xy: np.ndarray, step: float) -> tuple[np.ndarray, np.ndarray]:
+        """The lens model's derivatives along x and along y (..., 2) at normalised ``xy``, by central differences."""
+        jx = (self._distort(xy + [step, 0.0]) - self._distort(xy - [step, 0.0])) / (2 * step)
+        jy = (self._distort(xy + [0.0, step]) - self._distort(xy - [0.0, step])) / (2 * step)
+        return jx, jy
+
+    def _inverted(self, xy: np.ndarray, target: np.ndarray, step: float) -> np.ndarray:
+        """Where ``xy`` is a valid undistortion of ``target``: converged, finite, on the lens model's unfolded side."""
+        with np.errstate(invalid="ignore", over="ignore"):
+            converged = np.all(np.abs(self._distort(xy) - target) < UNDISTORT_TOLERANCE, axis=-1)
+            jx, jy = self._jacobian(xy, step)
+            unfolded = jx[..., 0] * jy[..., 1] - jy[..., 0] * jx[..., 1] > 0
+            if self.model != "equidistant":
+                k1, k2, _, _, k3, k4, k5, k6 = self.distortion
+                r2 = np.sum(xy * xy, axis=-1)
+                radial = (1 + r2 * (k1 + r2 * (k2 + r2 * k3))) / (1 + r2 * (k4 + r2 * (k5 + r2 * k6)))
+                unfolded &= radial > 0
+        return converged & unfolded & np.all(np.isfinite(xy), axis=-1)
 
     def to_dict(self) -> dict[str, Any]:
         """The ``intrinsics:`` mapping of the calibration file (CameraInfo names)."""
@@ -330,8 +269,8 @@ class CameraCalibration:
         return self.intrinsics.undistort_px(points_px) if self.intrinsics else _points("points_px", points_px)
 
     def image_to_floor(self, points_px: Any) -> np.ndarray:
-        """Pixels (..., 2) -> floor metres (..., 2)."""
-        return apply_homography(self.homography_image_to_floor, self.undistort_px(points_px))
+        """Pixels (..., 2) -> floor metres (..., 2); NaN for a pixel the lens model cannot undistort."""
+        return apply_homography_keeping_nan(self.homography_image_to_floor, self.undistort_px(points_px))
 
     def floor_to_image(self, points_m: Any) -> np.ndarray:
         """Floor metres (..., 2) -> pixels (..., 2)."""
@@ -345,8 +284,22 @@ def calibration_from_pairs(image_px: Any, floor_m: Any, image_size_px: tuple[int
     """Fit a :class:`CameraCalibration` from n >= 4 (pixel, floor metre) pairs (pixels undistorted first)."""
     image_px = _points("image_px", image_px).reshape(-1, 2)
     floor_m = _points("floor_m", floor_m).reshape(-1, 2)
-    h = fit_homography(intrinsics.undistort_px(image_px) if intrinsics else image_px, floor_m)
+    h = fit_homography(_ideal_pixels(image_px, intrinsics), floor_m)
     return CameraCalibration(h, image_px, floor_m, image_size_px, frame_id, intrinsics=intrinsics)
+
+
+def _ideal_pixels(image_px: np.ndarray, intrinsics: CameraIntrinsics | None) -> np.ndarray:
+    """The pairs' pixels undistorted (as given without intrinsics); a pixel the lens cannot undistort is refused."""
+    if intrinsics is None:
+        return image_px
+    ideal = intrinsics.undistort_px(image_px)
+    lost = np.flatnonzero(~np.all(np.isfinite(ideal), axis=-1))
+    if len(lost):
+        raise InvalidInputError(
+            f"pixel {image_px[lost[0]].tolist()} (pair {lost[0] + 1}) cannot be undistorted: the lens model "
+            f"({intrinsics.model}, d {intrinsics.to_dict()['d']}) has no inverse there; check the intrinsics "
+            "or leave that pair out.")
+    return ideal
 
 
 def calibration_from_dict(data: Any, source: str = "<dict>") -> CameraCalibration:
@@ -368,7 +321,7 @@ def calibration_from_dict(data: Any, source: str = "<dict>") -> CameraCalibratio
         if stored is not None:
             h = _stored_homography(stored, source, key)
         elif len(image_px) >= MIN_POINT_PAIRS:
-            h = fit_homography(intrinsics.undistort_px(image_px) if intrinsics else image_px, floor_m)
+            h = fit_homography(_ideal_pixels(image_px, intrinsics), floor_m)
         else:
             raise missing(source, key, f"{CALIBRATION_TABLE['homography_image_to_floor'].expected}, or at least "
                           f"{MIN_POINT_PAIRS} point_pairs to fit it from; run srs_calibrate_camera to create them")

@@ -172,6 +172,40 @@ class ArucoMarkerDetector:
         self._last_box = search_window(corners, self.roi_margin_px, shape[1], shape[0])
 
 
+#: Largest hue of OpenCV's 8-bit HSV (degrees / 2: 0..179); saturation and value run to 255.
+HUE_MAX = 179
+#: Largest saturation and value of OpenCV's 8-bit HSV.
+SV_MAX = 255
+
+
+def _whole(value) -> bool:
+    """True for an integer (or a float with an integer value), False for NaN, inf, booleans and others."""
+    return isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, bool) \
+        and float(value).is_integer()
+
+
+def hsv_range_problem(low_hsv, high_hsv) -> tuple[str, str] | None:
+    """What is wrong with the HSV box ``low_hsv`` .. ``high_hsv``, or None when it is a usable box.
+
+    The problem is (``"low_hsv"`` or ``"high_hsv"``, what is expected); OpenCV scale, only the hue may wrap
+    (low > high going through red).
+    """
+    bounds = {"low_hsv": low_hsv, "high_hsv": high_hsv}
+    for name, value in bounds.items():
+        if len(value) != 3 or not all(_whole(v) for v in value):
+            return name, f"three integers [h, s, v] (OpenCV scale: h 0..{HUE_MAX}, s and v 0..{SV_MAX})"
+        if not 0 <= value[0] <= HUE_MAX:
+            return name, (f"a hue in 0..{HUE_MAX} (OpenCV's H is degrees / 2; hue {value[0]} would match no pixel), "
+                          f"then s and v in 0..{SV_MAX}")
+        if not all(0 <= v <= SV_MAX for v in value[1:]):
+            return name, f"a hue in 0..{HUE_MAX}, then s and v in 0..{SV_MAX}"
+    for index, channel in ((1, "saturation"), (2, "value")):
+        if low_hsv[index] > high_hsv[index]:
+            return "high_hsv", (f"a {channel} at least the low bound's {low_hsv[index]} (low above high matches no "
+                                "pixel; only the hue wraps, low > high going through red)")
+    return None
+
+
 @dataclass(frozen=True)
 class ColorRange:
     """An HSV box (OpenCV scale: H 0-179, S and V 0-255); ``low[0] > high[0]`` wraps through red."""
@@ -180,10 +214,11 @@ class ColorRange:
     high_hsv: tuple[int, int, int]
 
     def __post_init__(self):
-        for name in ("low_hsv", "high_hsv"):
-            value = getattr(self, name)
-            if len(value) != 3 or not all(0 <= int(v) <= 255 for v in value):
-                raise ConfigurationError(f"colour range {name} is {value!r}; expected three integers in 0..255 (HSV).")
+        problem = hsv_range_problem(self.low_hsv, self.high_hsv)
+        if problem is not None:
+            name, expected = problem
+            raise ConfigurationError(f"colour range {self.low_hsv!r} .. {self.high_hsv!r}: {name} is "
+                                     f"{getattr(self, name)!r}; expected {expected}.")
 
 
 class ColorBlobDetector:
@@ -219,13 +254,13 @@ class ColorBlobDetector:
         low, high = np.array(rng.low_hsv, np.uint8), np.array(rng.high_hsv, np.uint8)
         if rng.low_hsv[0] <= rng.high_hsv[0]:
             return cv2.inRange(hsv, low, high)
-        upper = cv2.inRange(hsv, low, np.array([179, high[1], high[2]], np.uint8))
+        upper = cv2.inRange(hsv, low, np.array([HUE_MAX, high[1], high[2]], np.uint8))
         lower = cv2.inRange(hsv, np.array([0, low[1], low[2]], np.uint8), high)
         return cv2.bitwise_or(upper, lower)
 
     def detect(self, bgr: np.ndarray) -> dict[str, MarkerDetection]:
         """Blobs found in a BGR image, by name; the centre is the blob's centroid."""
-        if bgr.ndim != 3:
+        if bgr.ndim != 3 or bgr.shape[2] != 3:
             raise InvalidInputError(f"colour-blob detection needs a 3-channel BGR image; got shape {bgr.shape}.")
         height, width = bgr.shape[:2]
         found: dict[str, MarkerDetection] = {}

@@ -26,17 +26,21 @@ import numpy as np
 
 from srs_ros.core.errors import ConfigurationError, InvalidInputError
 from srs_ros.core.schema import Field, Table, refusal
+from srs_ros.core.vision import aruco as aruco_ids
 from srs_ros.core.vision.aruco import dictionary as aruco_dictionary  # noqa: F401 (public name)
-from srs_ros.core.vision.camera_calibration import CameraCalibration, apply_homography
+from srs_ros.core.vision.camera_calibration import CameraCalibration
 from srs_ros.core.vision.detectors import (  # noqa: F401 (also public here)
     DEFAULT_ARUCO_DICTIONARY,
+    SV_MAX,
     ArucoMarkerDetector,
     ColorBlobDetector,
     ColorRange,
     MarkerDetection,
+    hsv_range_problem,
     quad_centre,
     to_gray,
 )
+from srs_ros.core.vision.homography import apply_homography_keeping_nan
 
 
 # ------------------------------------------------------------------------------------------
@@ -186,7 +190,7 @@ def traveling_velocity(time_s: Any, x_m: Any, y_m: Any, end_window_s: float = 0.
 # ------------------------------------------------------------------------------------------
 #: The detectors a tracker can use.
 DETECTORS = ("aruco", "color")
-_HSV = {"item": int, "length": 3, "minimum": 0, "maximum": 255}
+_HSV = {"item": int, "length": 3, "minimum": 0, "maximum": SV_MAX}  # hue: at most HUE_MAX (hsv_range_problem)
 
 #: The tracker's options (the ``camera_tracker`` node's tracking parameters), with their defaults and ranges.
 TRACKER_TABLE = Table("", (
@@ -242,24 +246,38 @@ class TrackerConfig:
     def __post_init__(self):
         if self.detector not in DETECTORS:
             raise refusal("the tracker settings", "detector", self.detector, f"one of {list(DETECTORS)}")
-        if self.tail_marker_id == self.head_marker_id:
-            raise refusal("the tracker settings", "head_marker_id", self.head_marker_id,
-                          f"an id other than tail_marker_id {self.tail_marker_id} (the two markers must differ)")
+        _check_markers(vars(self), "the tracker settings")
 
     @classmethod
     def from_dict(cls, data: Mapping[str, Any], where: str = "the tracker settings") -> TrackerConfig:
         """Build from a flat mapping of options (node parameters: keys the table does not know are left alone).
 
-        Each option is checked against :data:`TRACKER_TABLE` (colours as ``[h, s, v]`` lists); a refusal names
-        ``where``, the option, its value and what is expected.
+        Each option is checked against :data:`TRACKER_TABLE` (colours as ``[h, s, v]`` lists, hue 0..179), the
+        ArUco ids against the dictionary's; a refusal names ``where``, the option, its value and what is expected.
         """
         values = TRACKER_TABLE.read({key: value for key, value in data.items() if key in TRACKER_TABLE}, where)
-        if values["tail_marker_id"] == values["head_marker_id"]:
-            raise refusal(where, "head_marker_id", values["head_marker_id"],
-                          f"an id other than tail_marker_id {values['tail_marker_id']} (the two markers must differ)")
+        _check_markers(values, where)
+        for end in ("tail", "head"):
+            problem = hsv_range_problem(values[f"{end}_color_hsv_low"], values[f"{end}_color_hsv_high"])
+            if problem is not None:
+                key = f"{end}_color_hsv_{problem[0].split('_')[0]}"
+                raise refusal(where, key, values[key], problem[1])
         colors = {f"{end}_color": ColorRange(values.pop(f"{end}_color_hsv_low"), values.pop(f"{end}_color_hsv_high"))
                   for end in ("tail", "head")}
         return cls(**values, **colors)
+
+
+def _check_markers(values: Mapping[str, Any], where: str) -> None:
+    """Refuse equal tail and head ids and, for the ArUco detector, ids its dictionary does not hold."""
+    if values["tail_marker_id"] == values["head_marker_id"]:
+        raise refusal(where, "head_marker_id", values["head_marker_id"],
+                      f"an id other than tail_marker_id {values['tail_marker_id']} (the two markers must differ)")
+    if values["detector"] != "aruco":
+        return
+    for key in ("tail_marker_id", "head_marker_id"):
+        expected = aruco_ids.expected_marker_id(values["aruco_dictionary"], values[key])
+        if expected is not None:
+            raise refusal(where, key, values[key], expected)
 
 
 @dataclass(frozen=True)
@@ -311,24 +329,51 @@ class Tracker:
         if calibration.intrinsics is None or not isinstance(self.detector, ArucoMarkerDetector):
             return calibration.image_to_floor(detection.centre_px)
         centre = quad_centre(calibration.undistort_px(detection.corners_px))
-        return apply_homography(calibration.homography_image_to_floor, centre)
+        return apply_homography_keeping_nan(calibration.homography_image_to_floor, centre)
 
     def _reject(self) -> None:
         """No pose from this frame: the velocity starts afresh and the next frame is searched whole."""
         self.velocity_filter.reset()
         self.detector.forget()
 
-    def process(self, image: np.ndarray, time_s: float) -> TrackResult:
-        """Track one frame (BGR or mono uint8) taken at ``time_s``; no pose unless both markers are seen."""
+    def check_frame(self, image: np.ndarray) -> None:
+        """Refuse (:class:`InvalidInputError`, with the reason) a frame this tracker cannot track.
+
+        A frame must be uint8, non-empty, mono ``(h, w)`` / ``(h, w, 1)`` or BGR ``(h, w, 3)`` (BGR only for the
+        colour detector), and the size the calibration was made at (``image_size_px``): the homography maps
+        that image's pixels, so a frame of another size would give wrong poses.
+        """
+        image = np.asarray(image)
         if image.dtype != np.uint8:
             raise InvalidInputError(f"image dtype is {image.dtype}; expected uint8.")
+        colour = isinstance(self.detector, ColorBlobDetector)
+        channels = image.shape[2] if image.ndim == 3 else 1 if image.ndim == 2 else 0
+        if image.ndim not in (2, 3) or channels not in ((3,) if colour else (1, 3)) or 0 in image.shape[:2]:
+            expected = "a BGR (h, w, 3) image (the colour detector needs colour)" if colour else \
+                "a mono (h, w) or BGR (h, w, 3) image"
+            raise InvalidInputError(f"image has shape {image.shape}; expected {expected} of at least 1 x 1 px.")
+        size = self.calibration.image_size_px
+        if size is not None and (image.shape[1], image.shape[0]) != tuple(size):
+            raise InvalidInputError(
+                f"image is {image.shape[1]} x {image.shape[0]} px but the calibration {self.calibration.source} is "
+                f"for {size[0]} x {size[1]} px (image_size_px); set the camera to {size[0]} x {size[1]} or "
+                "calibrate it at the new size (srs_calibrate_camera).")
+
+    def process(self, image: np.ndarray, time_s: float) -> TrackResult:
+        """Track one frame (BGR or mono uint8) taken at ``time_s``; no pose unless both markers are seen.
+
+        A frame :meth:`check_frame` refuses raises :class:`InvalidInputError` naming what is wrong.
+        """
+        self.check_frame(image)
         if isinstance(self.detector, ArucoMarkerDetector):
             found = self.detector.detect(to_gray(image))
         else:
             found = self.detector.detect(image)
-        markers_px = {k: d.centre_px for k, d in found.items()}
         markers_m = {k: self._floor_centre(d) for k, d in found.items()}
-        missing = [k for k in ("tail", "head") if k not in found]
+        # A marker the lens model cannot undistort (NaN on the floor) counts as not seen, never as a guess.
+        markers_m = {k: xy for k, xy in markers_m.items() if np.all(np.isfinite(xy))}
+        markers_px = {k: found[k].centre_px for k in markers_m}
+        missing = [k for k in ("tail", "head") if k not in markers_m]
         if missing:
             self._reject()
             return TrackResult(time_s, None, None, markers_px, markers_m, f"not seen: {', '.join(missing)}")

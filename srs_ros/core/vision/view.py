@@ -24,11 +24,12 @@ class ViewState(enum.Enum):
     OUT_OF_VIEW = "out_of_view"      # frames without a pose for ``lost_after_s`` or longer
     NO_IMAGES = "no_images"          # no frame yet, for less than ``image_timeout_s`` since the start
     CAMERA_SILENT = "camera_silent"  # no frame for ``image_timeout_s``: the camera or its driver stopped
+    IMAGES_REFUSED = "images_refused"  # frames arrive but cannot be tracked (wrong size, encoding, empty)
 
     @property
     def level(self) -> str:
-        """``"OK"``, ``"WARN"`` or ``"ERROR"``: only a silent camera is a fault; a robot out of view is not."""
-        return {"tracking": "OK", "camera_silent": "ERROR"}.get(self.value, "WARN")
+        """``"OK"``, ``"WARN"`` or ``"ERROR"``: a silent camera and refused images are faults, an unseen robot not."""
+        return {"tracking": "OK", "camera_silent": "ERROR", "images_refused": "ERROR"}.get(self.value, "WARN")
 
 
 @dataclass(frozen=True)
@@ -73,6 +74,8 @@ class ViewStatus:
             return f"camera silent: no images{silent}; robot {self.last_seen_text()}"
         if self.state is ViewState.NO_IMAGES:
             return "no camera images yet"
+        if self.state is ViewState.IMAGES_REFUSED:
+            return f"{self.message}; robot {self.last_seen_text()}"
         return ""
 
     def aged(self, seconds: float) -> ViewStatus:
@@ -118,8 +121,10 @@ class ViewWatch:
     Frames arriving without a pose for ``lost_after_s`` or longer: the robot is out of the camera's view
     (WARN, with where and how long ago it was last seen); for a shorter time its markers are only lost
     (WARN naming them). No frame for longer than ``image_timeout_s``: the camera is silent (ERROR), whatever
-    was seen before. Times are the caller's clock in seconds (``camera_tracker``: the steady clock at
-    arrival, so a video's or a simulation's stamps do not matter). ``source`` names the images in messages.
+    was seen before. Frames that arrive but cannot be tracked (:meth:`refused`: a wrong size or encoding) are
+    not silence: while the newest frame was refused the images are refused (ERROR, with the reason). Times are
+    the caller's clock in seconds (``camera_tracker``: the steady clock at arrival, so a video's or a
+    simulation's stamps do not matter). ``source`` names the images in messages.
     """
 
     def __init__(self, lost_after_s: float = 0.5, image_timeout_s: float = 1.0, start_s: float = 0.0,
@@ -135,15 +140,24 @@ class ViewWatch:
         self._last_seen: tuple[float, float, float] | None = None  # (time s, x m, y m)
         self._unseen_since_s: float | None = None  # first frame without a pose since the last pose
         self._missing = ""
+        self._refused = ""  # why the newest frame was refused ('' when it was tracked)
 
     def frame(self, now_s: float, result: TrackResult) -> None:
         """One frame arrived at ``now_s`` and gave ``result``."""
         self._last_frame_s = now_s
+        self._refused = ""
         if result.tracked:
             self._last_seen = (now_s, float(result.pose[0]), float(result.pose[1]))
             self._unseen_since_s = None
             return
         self._missing = result.message
+        if self._unseen_since_s is None:
+            self._unseen_since_s = now_s
+
+    def refused(self, now_s: float, reason: str) -> None:
+        """A frame arrived at ``now_s`` but could not be tracked, for ``reason`` (no pose from it)."""
+        self._last_frame_s = now_s
+        self._refused = reason.rstrip(". ") or "unknown reason"
         if self._unseen_since_s is None:
             self._unseen_since_s = now_s
 
@@ -164,6 +178,8 @@ class ViewWatch:
         if silent_s > self.image_timeout_s:
             return say(state=ViewState.CAMERA_SILENT, message=f"no images from {self.source} for {silent_s:.1f} s "
                                                               f"(camera silent); robot {base.last_seen_text()}")
+        if self._refused:
+            return say(state=ViewState.IMAGES_REFUSED, message=f"images refused: {self._refused}; no pose published")
         if self._unseen_since_s is None:
             return base
         unseen_s = now_s - self._unseen_since_s

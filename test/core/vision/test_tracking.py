@@ -44,16 +44,6 @@ POSITION_TOL_M = 0.002
 YAW_TOL_RAD = math.radians(1.0)
 
 
-@pytest.fixture(scope="module")
-def scene():
-    return SyntheticScene()
-
-
-@pytest.fixture(scope="module")
-def calibration(scene):
-    return scene.camera.calibration()
-
-
 def yaw_error(a, b):
     return abs(float(wrap_angle(a - b)))
 
