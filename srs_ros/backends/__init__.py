@@ -34,8 +34,9 @@ def create_backend(name: str, robot: RobotDescription | None = None,
 
     ``source``: the rig file the name and options came from, named in a refusal of them.
     """
+    chosen = backend_class(name, source)  # an unknown name is refused naming the file once
     try:
-        return backend_class(name, source)(robot=robot, options=options)
+        return chosen(robot=robot, options=options)
     except ConfigurationError as exc:
         if not source:
             raise
