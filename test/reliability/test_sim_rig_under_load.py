@@ -19,6 +19,7 @@ autogroup, niceness would shield the nodes from the load, so they run at normal 
 cgroup that is not the host's root, it cannot tell, and the processes would be niced there too.
 """
 
+import signal
 import subprocess
 import sys
 import time
@@ -28,7 +29,7 @@ import numpy as np
 import pytest
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from geometry_msgs.msg import PoseStamped
-from srs_testing import ros_args
+from srs_testing import note_killed, ros_args
 
 from srs_ros.core.robot import config_dir
 from srs_ros.ros.interfaces import diagnostic_values, stamp_to_seconds
@@ -94,9 +95,7 @@ def test_the_launch_layout_keeps_moving_for_a_minute_beside_busy_processes_and_p
     diagnostics = ros_client.subscribe(DiagnosticArray, "/diagnostics")
     ros_client.spin_until(lambda: len(truth) > 10, 60.0, "the simulated robot's ground truth")
     ros_client.spin_until(lambda: _moved_m(truth, 2.0) > 0.02, 60.0, "the robot rolling")
-    # Every client this test calls is made now, before the load: creating one just after the minute of processes
-    # coming and going (SIGKILLed at the end) hung in Fast DDS 2.14 for good (a lock-order deadlock inside
-    # create_client, with the GIL held; seen once, 2026-11-29, on a machine 1.75x slower than before).
+    # Every client this test calls is made now, before the load (a habit, not the cure: see end_all).
     assert ros_client.lifecycle_state("/hardware_node") == "active"
     ros_client.get_parameters("/gait_player", ["rate_hz"])
     nice = load_prefix()
@@ -112,9 +111,7 @@ def test_the_launch_layout_keeps_moving_for_a_minute_beside_busy_processes_and_p
             reads += 1
             ros_client.spin_for(max(0.0, start_s + reads * 0.1 - time.monotonic()))
     finally:
-        for proc in busy + getters:
-            proc.kill()
-            proc.wait()
+        end_all(busy, getters)
     windows_m = [_moved_m(truth, 20.0, end_s=start_s + k * 20.0) for k in (1, 2, 3)]
     hardware = [s for m in diagnostics for s in m.status if s.name.startswith("hardware_node")]
     values = diagnostic_values(hardware[-1])
@@ -131,6 +128,29 @@ def test_the_launch_layout_keeps_moving_for_a_minute_beside_busy_processes_and_p
         assert proc.alive(), f"{name} exited:\n{proc.output()[-2000:]}"
         assert "unexpected error" not in proc.output() and "Traceback" not in proc.output(), proc.output()[-3000:]
     assert min(windows_m) > 0.05, f"the robot stopped moving: travel per 20 s window {windows_m} m"
+
+
+def end_all(busy: list[subprocess.Popen], getters: list[subprocess.Popen]) -> None:
+    """SIGKILL the busy loops (no DDS in them); Ctrl-C the `ros2 param get` processes still running and wait.
+
+    A getter SIGKILLed mid-DDS can die holding its shared-memory port's lock: the next write of this process to it
+    waits for ever, with the GIL held. Twice in a day (2026-11-29, a VM 1.75x slower than usual) the test's next
+    service call hung so, once in ``create_client``, once in ``call_async`` (gdb: every Fast DDS thread waiting on a
+    mutex); the watchdog in conftest.py ended the second after 420 s. A getter left to end by Ctrl-C releases it.
+    """
+    for proc in busy:
+        proc.kill()
+        proc.wait()
+    running = [proc for proc in getters if proc.poll() is None]
+    for proc in running:
+        proc.send_signal(signal.SIGINT)
+    for proc in running:
+        try:
+            proc.wait(10.0)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            proc.wait()
+            note_killed()  # its shared memory is cleaned once the test's domain is given back
 
 
 def _sim_world_summary(diagnostics) -> str:
