@@ -23,7 +23,6 @@ from srs_testing import (
     fastdds_shm_clean,
     fastdds_shm_clean_if_killed,
     release_domain,
-    stop_all,
 )
 
 _LOG_DIR = tempfile.mkdtemp(prefix="srs_ros_test_logs_")
@@ -155,7 +154,8 @@ def launch_node(ros_env, tmp_path):
         return proc
 
     yield _launch
-    stop_all(started)
+    for proc in started:
+        proc.stop()
 
 
 @pytest.fixture(scope="module")

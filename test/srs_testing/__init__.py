@@ -48,7 +48,6 @@ from srs_testing.ros import (
     release_domain,
     ros_args,
     script_path,
-    stop_all,
 )
 
 __all__ = [
@@ -56,5 +55,5 @@ __all__ = [
     "allocate_domain",
     "camera_profile_env", "fastdds_shm_clean", "fastdds_shm_clean_if_killed", "launch_sim_loop", "note_killed",
     "recorded_rig",
-    "release_domain", "rolling_cycle", "ros_args", "script_path", "stop_all", "trajectory",
+    "release_domain", "rolling_cycle", "ros_args", "script_path", "trajectory",
 ]

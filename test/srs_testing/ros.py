@@ -155,9 +155,13 @@ class NodeProcess:
 
     def stop(self, timeout_s: float = 10.0) -> int | None:
         """Ctrl-C (SIGINT), then SIGTERM, then SIGKILL; return the exit code."""
-        return stop_all([self], timeout_s)[0]
-
-    def _stopped(self) -> int | None:
+        for sig, wait_s in ((signal.SIGINT, timeout_s), (signal.SIGTERM, 3.0), (signal.SIGKILL, 3.0)):
+            if self.process.poll() is not None:
+                break
+            with contextlib.suppress(ProcessLookupError):
+                os.killpg(self.process.pid, sig)
+            with contextlib.suppress(subprocess.TimeoutExpired):
+                self.process.wait(wait_s)
         self._log.close()
         code = self.process.poll()
         if code is None or code < 0:  # died by a signal (or outlived SIGKILL): shared memory left behind
@@ -170,25 +174,6 @@ class NodeProcess:
         with contextlib.suppress(ProcessLookupError):
             os.killpg(self.process.pid, signal.SIGKILL)
         self.process.wait(5.0)
-
-
-def stop_all(processes: Iterable[NodeProcess], timeout_s: float = 10.0) -> list[int | None]:
-    """Stop node processes together, as ``ros2 launch`` does at Ctrl-C: SIGINT to all, then SIGTERM and SIGKILL to
-    those still running; their exit codes. (One at a time, a test's five nodes took 16-28 s to stop on a slow
-    machine.)"""
-    processes = list(processes)
-    for sig, wait_s in ((signal.SIGINT, timeout_s), (signal.SIGTERM, 3.0), (signal.SIGKILL, 3.0)):
-        running = [p for p in processes if p.process.poll() is None]
-        if not running:
-            break
-        for proc in running:
-            with contextlib.suppress(ProcessLookupError):
-                os.killpg(proc.process.pid, sig)
-        deadline_s = time.monotonic() + wait_s
-        for proc in running:
-            with contextlib.suppress(subprocess.TimeoutExpired):
-                proc.process.wait(max(0.0, deadline_s - time.monotonic()))
-    return [proc._stopped() for proc in processes]
 
 
 # ------------------------------------------------------------------------------------------
@@ -385,7 +370,8 @@ class RosSession:
     def close(self) -> None:
         """Stop every process started here (pass or fail), close the client and give the domain back."""
         try:
-            stop_all(self.started)
+            for proc in self.started:
+                proc.stop()
             self.client.close()
         finally:
             release_domain(self.domain)

@@ -42,7 +42,7 @@ from srs_ros.sim.scene import (
 )
 from srs_testing.backend import recorded_rig
 from srs_testing.netns import NetnsLab
-from srs_testing.ros import NodeProcess, allocate_domain, fastdds_shm_clean, release_domain, ros_args, stop_all
+from srs_testing.ros import NodeProcess, allocate_domain, fastdds_shm_clean, release_domain, ros_args
 
 PROBE = Path(__file__).resolve().with_name("stream_probe.py")
 
@@ -198,7 +198,8 @@ def run_stream(placement: Placement, rate_hz: float, duration_s: float, *, log_d
         published = int(re.search(r"published (\d+) setpoints", player.output()).group(1))
     finally:
         sampler.close()
-        stop_all([probe, *procs.values()])
+        for proc in (probe, *procs.values()):
+            proc.stop()
     result["published"] = published
     result["record"] = vents_in(record, result["playing_s"], result["measured_s"])
     result["processes"] = sampler.summary(result["playing_s"], result["measured_s"])
