@@ -339,9 +339,10 @@ class Tracker:
     def check_frame(self, image: np.ndarray) -> None:
         """Refuse (:class:`InvalidInputError`, with the reason) a frame this tracker cannot track.
 
-        A frame must be uint8, non-empty, mono ``(h, w)`` / ``(h, w, 1)`` or BGR ``(h, w, 3)`` (BGR only for the
-        colour detector), and the size the calibration was made at (``image_size_px``): the homography maps
-        that image's pixels, so a frame of another size would give wrong poses.
+        A frame (uint8, as cameras and cv_bridge give; the dtype is not checked) must be non-empty, mono
+        ``(h, w)`` / ``(h, w, 1)`` or BGR ``(h, w, 3)`` (BGR only for the colour detector), and the size the
+        calibration was made at (``image_size_px``): the homography maps that image's pixels, so a frame of
+        another size would give wrong poses.
         """
         image = np.asarray(image)
         if image.dtype != np.uint8:
