@@ -32,6 +32,7 @@ from collections import deque
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import PoseStamped
 from rcl_interfaces.msg import SetParametersResult
+from rclpy.duration import Duration
 from rclpy.experimental import EventsExecutor
 from rclpy.node import Node
 from rosgraph_msgs.msg import Clock
@@ -267,15 +268,24 @@ class SimWorldNode(Node):
     # The outputs read the world under the lock and get None once it has stopped: the physics thread sets
     # ``failure`` under the same lock, so a world that diverged between an output's own check and its read is
     # seen here, not met as an exception that ended the process (a helper's review: 1-3 runs in 5).
-    def tracked_pose(self):
-        """The reference point (m) and heading (rad) now (None: the world stopped): the 50 Hz pose needs no state."""
-        with self._lock:
-            return None if self.failure else self.world.tracked_pose()
+    def _stepped(self, read):
+        """``read()`` of the world and the stamp of the instant the world was so (None: the world stopped).
 
-    def nodes_m(self):
-        """The simulated body's nodes now (m; None: the world stopped): what the camera draws."""
+        A camera stamps its exposure, so the pose and the image are stamped at the physics step that made the state
+        they show, not when the executor gets round to them: after a stall of the executor thread (0.2-0.4 s on a busy
+        machine) ``now`` dated a state up to that much late, and the tracked pose against the ground truth, each
+        stamped by a different timer, moved apart by the robot's speed times the difference (a median of 6.3 mm
+        against under 5 in a full suite run). On use_sim_time the clock is the world's own (its /clock, published at
+        each step's tick): ``now`` is that instant already.
+        """
         with self._lock:
-            return None if self.failure else self.world.node_positions_m()
+            if self.failure:
+                return None
+            value, stepped_s = read(), self._last_step[0]
+        now = self.get_clock().now()
+        if self._clock_pub is None:
+            now = now - Duration(nanoseconds=int(max(0.0, time.monotonic() - stepped_s) * 1e9))
+        return value, now.to_msg()
 
     def state(self):
         """The world's state now (None: the world stopped), computed once per world time step for the outputs."""
@@ -320,12 +330,12 @@ class SimWorldNode(Node):
 
     # -- outputs -----------------------------------------------------------------------------
     def _publish_pose(self) -> None:
-        pose = self.tracked_pose()
-        if pose is None:
+        stepped = self._stepped(self.world.tracked_pose)
+        if stepped is None:
             return
-        reference_xy_m, heading_rad = pose
+        (reference_xy_m, heading_rad), stamp = stepped
         msg = PoseStamped()
-        msg.header.stamp = self.get_clock().now().to_msg()
+        msg.header.stamp = stamp
         msg.header.frame_id = FLOOR_FRAME
         msg.pose.position.x, msg.pose.position.y = (float(v) for v in reference_xy_m)
         qx, qy, qz, qw = (float(v) for v in yaw_to_quaternion(heading_rad))
@@ -336,9 +346,10 @@ class SimWorldNode(Node):
     def _publish_image(self) -> None:
         # Stamped at the instant of the state shown, as a camera stamps its exposure: not after the render, which
         # a busy machine can stall for 0.2-0.4 s (a rolling robot's pose would be dated centimetres late).
-        nodes_m, stamp = self.nodes_m(), self.get_clock().now().to_msg()
-        if nodes_m is None:
+        stepped = self._stepped(self.world.node_positions_m)
+        if stepped is None:
             return
+        nodes_m, stamp = stepped
         image = self.camera.render(nodes_m)  # outside the lock: the physics goes on meanwhile
         self._image_pub.publish(array_to_image_msg(image, stamp, "camera", self._camera_encoding))
 
