@@ -176,37 +176,41 @@ def test_a_silent_tracker_is_a_lost_pose_the_gait_stops_and_vents_and_waits_for_
         wrong_frame.publish(pose)
         sent_s.append(time.monotonic())
 
+    def sending(predicate, goals: bool = False):
+        """``predicate`` while the wrong-frame poses go on every 0.25 s (and the goal, as `ros2 topic pub -r 4
+        goal_pose ...`, which once hid the loss)."""
+        def check() -> bool:
+            if time.monotonic() - sent_s[-1] >= 0.25:
+                if goals:
+                    robot.goal(*goal)
+                send_a_wrong_frame_pose()
+            return predicate()
+        return check
+
     # The navigator has them before the tracker hangs (discovering the new publisher takes up to 1.5 s, and a pose
     # published before it is lost: the loss came first, 1 in 5 runs alone).
     ignored = robot.navigator.output().count("robot_pose ignored")
-
-    def one_ignored() -> bool:
-        if time.monotonic() - sent_s[-1] >= 0.25:
-            send_a_wrong_frame_pose()
-        return robot.navigator.output().count("robot_pose ignored") > ignored
-
-    robot.wait(one_ignored, 10.0, "the navigator's log: a pose in frame 'camera' ignored")
+    robot.wait(sending(lambda: robot.navigator.output().count("robot_pose ignored") > ignored), 10.0,
+               "the navigator's log: a pose in frame 'camera' ignored")
     os.killpg(robot.tracker.process.pid, signal.SIGSTOP)  # the tracker hangs: no pose any more
     stopped_s = time.monotonic()
-
-    def lost_while_the_goal_is_sent_again() -> bool:  # as `ros2 topic pub -r 4 goal_pose ...`: it hid the loss
-        if time.monotonic() - sent_s[-1] >= 0.25:
-            robot.goal(*goal)
-            send_a_wrong_frame_pose()
-        return robot.state()["state"] == "pose_lost"
-
+    named = "poses came but were ignored: robot_pose in frame 'camera'; expected 'floor'"
     try:
-        robot.wait(lost_while_the_goal_is_sent_again, 5.0, "state pose_lost while the goal is sent again")
+        robot.wait(sending(lambda: robot.state()["state"] == "pose_lost", goals=True), 5.0,
+                   "state pose_lost while the goal is sent again")
         lost = robot.state()
         lost_s = time.monotonic() - stopped_s
-        robot.wait(robot.vented, 5.0, "every muscle vented after the pose was lost")
+        robot.wait(sending(robot.vented), 5.0, "every muscle vented after the pose was lost")
         vent_s = time.monotonic() - stopped_s
         # The goal sent last may reach the navigator just after the loss (3 ms after it, 2 runs in 8 alone): a new
         # goal, which waits for a pose and drives once the robot is tracked again. With the tracker still silent it is
-        # lost again within pose_timeout_s, so the robot rests lost before the tracker comes back.
-        robot.client.spin_for(0.5)
-        robot.wait(lambda: robot.state()["state"] == "pose_lost" and robot.vented(), 5.0,
-                   "pose_lost and vented with the tracker still silent")
+        # lost again within pose_timeout_s, so the robot rests lost before the tracker comes back. The loss names
+        # the ignored poses: at once, or once those a stall queued behind the navigator's timer are taken (its first
+        # progress said "out of view" 1 run in 32 alone; the controller now names them after the loss too).
+        drained_s = time.monotonic() + 0.5
+        robot.wait(sending(lambda: time.monotonic() > drained_s and robot.state()["state"] == "pose_lost"
+                           and robot.vented() and named in robot.state()["message"]), 5.0,
+                   "pose_lost naming the poses in frame 'camera', vented, with the tracker still silent")
     finally:
         os.killpg(robot.tracker.process.pid, signal.SIGCONT)
     print(f"tracker stopped -> pose_lost after {lost_s:.2f} s, vented after {vent_s:.2f} s")
@@ -214,8 +218,6 @@ def test_a_silent_tracker_is_a_lost_pose_the_gait_stops_and_vents_and_waits_for_
     # may be older than the SIGSTOP: the bound that matters is the upper one)
     silent = re.search(r"no pose from the camera for ([0-9.]+) s", lost["message"])
     assert silent and float(silent.group(1)) >= 1.0, lost["message"]
-    assert "poses came but were ignored: robot_pose in frame 'camera'; expected 'floor'" in lost["message"], (
-        lost, sent_s, stopped_s, robot.logs())
     assert lost_s < 2.5
     # gait_player answered the stop: the navigator's state says so on its next publication (a loaded machine
     # delays it past the vent, seen once in a full suite run); a gait that went on playing fails here

@@ -62,14 +62,15 @@ WEAK_TURN_DEG_PER_CYCLE = 8.0
 BACK_UNLESS_MISS_WITHIN = 0.5
 #: Three-point turns in a row that each begin with the goal no nearer the bearing (deg) than the one before did,
 #: after which the goal is driven at with the tightest turn toward it. A weak turner gains 2-3 deg per turn and
-#: reaches side goals by a dozen; over DDS on the anisotropic floor a robot whose map got its turns wrong lost
-#: 7-11 deg per turn, backed away and drove at the goal by turns for a minute and ended 1 m farther away. A level
-#: changed every second or two is never measured, so its map was never corrected (docs/studies/navigation.md,
-#: "Three-point turns that turn nothing").
+#: reaches side goals by a dozen; over DDS on the anisotropic floor a robot whose map got its turns wrong lost 7-11
+#: deg per turn, backed away and drove at the goal by turns for a minute and ended 1 m farther away: a level changed
+#: every second or two is never measured (docs/studies/navigation.md, "Three-point turns that turn nothing").
 FUTILE_BACK_AWAYS = 2
 BACK_AWAY_GAIN_DEG = 1.0
 #: The most waypoints a path may have: each is a goal of seconds to a minute; 20000 blocked the navigator for 1.5 s.
 MAX_WAYPOINTS = 1000
+#: A lost pose's cause when no pose was ignored near the loss.
+UNSEEN_CAUSE = "the robot may be out of the camera's view or the tracker silent"
 
 
 class NavigationController(CruiseStopping, FineDriving, EdgeGuard):
@@ -150,15 +151,15 @@ class NavigationController(CruiseStopping, FineDriving, EdgeGuard):
         try:
             points = [(float(x), float(y)) for x, y in waypoints]
         except (TypeError, ValueError):
-            return self._refuse("a path is a list of waypoints, each (x_m, y_m)")
+            return self.refuse("a path is a list of waypoints, each (x_m, y_m)")
         if not 1 <= len(points) <= MAX_WAYPOINTS:
-            return self._refuse(f"a path of {len(points)} waypoints; expected 1 to {MAX_WAYPOINTS}" + (
+            return self.refuse(f"a path of {len(points)} waypoints; expected 1 to {MAX_WAYPOINTS}" + (
                 " (split a longer route into paths sent one after the other)" if points else ""))
         for i, (x, y) in enumerate(points):
             reason = self.area.refusal(x, y) if self.area is not None else (
                 "" if math.isfinite(x) and math.isfinite(y) else f"goal ({x}, {y}) is not a finite floor position (m)")
             if reason:
-                return self._refuse(reason if len(points) == 1 else f"waypoint {i + 1} of {len(points)}: {reason}")
+                return self.refuse(reason if len(points) == 1 else f"waypoint {i + 1} of {len(points)}: {reason}")
         goals = points * max(1, int(rounds))
         if self.state.active and goals == self._goals and self._waypoint_count == len(points):
             # The same goal again (`ros2 topic pub` re-sends it every second): nothing restarts, the pose and
@@ -194,10 +195,7 @@ class NavigationController(CruiseStopping, FineDriving, EdgeGuard):
         return "driving to {} at ({:.3f}, {:.3f}) m".format(self._which_goal(), *self.goal)
 
     def refuse(self, reason: str) -> GoalDecision:
-        """A goal refused before it reached the controller (its frame, say): said as any refusal, the goal kept."""
-        return self._refuse(reason)
-
-    def _refuse(self, reason: str) -> GoalDecision:
+        """A goal refused (here, or before it reached the controller: its frame, say); the goal driven to kept."""
         still = self._message.partition("; still ")[2] if self._message.startswith("goal refused: ") else self._message
         self._message = f"goal refused: {reason}" + (f"; still {still}" if self.state.active and still else "")
         return GoalDecision(False, reason)
@@ -232,14 +230,16 @@ class NavigationController(CruiseStopping, FineDriving, EdgeGuard):
             self.history.clear()
             ignored, ignored_s = self._pose_ignored  # named if one came within the timeout
             cause = (f"poses came but were ignored: {ignored.rstrip('.')}" if now_s - ignored_s <= self.settings.
-                     pose_timeout_s else "the robot may be out of the camera's view or the tracker silent")
+                     pose_timeout_s else UNSEEN_CAUSE)
             self._finish(NavigationState.POSE_LOST, f"no pose from the camera for {silent_s:.1f} s{where}: stopped; "
                          f"{cause}; send a new goal once it is tracked again")
         return self._command
 
     def pose_ignored(self, reason: str, now_s: float) -> None:
-        """A pose came at ``now_s`` and was not usable (its frame, a NaN): a pose lost soon after names ``reason``."""
+        """A pose came at ``now_s`` and was not usable (its frame, a NaN): a loss just after or before names it."""
         self._pose_ignored = (reason, float(now_s))
+        if self.state is NavigationState.POSE_LOST and UNSEEN_CAUSE in self._message:  # queued behind a stall
+            self._message = self._message.replace(UNSEEN_CAUSE, f"poses came but were ignored: {reason.rstrip('.')}")
 
     def update_gait_phase(self, phase: float) -> None:
         """The gait player's phase in [0, 1) now (feed it with every pose: the robot is stopped at set phases)."""
