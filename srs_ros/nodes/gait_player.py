@@ -71,14 +71,16 @@ from srs_ros.ros.interfaces import (
 from srs_ros.ros.parameters import REALTIME_PRIORITY, ParameterSpec, check_parameters, declare_parameters
 from srs_ros.ros.process import request_realtime_priority, run_node, steady_timer
 
-#: Largest phase step per tick: a stalled process resumes where it was instead of jumping ahead.
+#: Largest phase step per tick, or two tick periods at a rate under 40 Hz: a stalled process resumes where it was
+#: instead of jumping ahead (capped at 0.05 s, a 10 Hz stream played every gait at half its frequency).
 MAX_STEP_S = 0.05
 #: A setpoint's stamp and its phase time are read again when more than this apart (s): the process was paused.
 CLOCK_PAIR_S = 1e-3
 #: Largest serialized trajectory taken (bytes): MAX_TRAJECTORY_POINTS points of up to four arrays of nine
-#: doubles and a duration each (CDR), plus the header. Checked before deserializing, which for a
-#: 100k-point message would hold the interpreter for 0.7 s and starve the setpoint stream.
-MAX_TRAJECTORY_BYTES = MAX_TRAJECTORY_POINTS * 320 + 4096
+#: doubles (CDR: a 4-byte length, 4 bytes of padding, 72 bytes) and a duration (8 bytes) each, plus the header.
+#: Checked before deserializing, which for a 100k-point message would hold the interpreter for 0.7 s and starve the
+#: setpoint stream. (320 bytes a point refused a full 2049-point trajectory of 672,204 bytes.)
+MAX_TRAJECTORY_BYTES = MAX_TRAJECTORY_POINTS * (4 * 80 + 8) + 4096
 
 PARAMETERS = (
     # 10 Hz = two setpoints per 0.2 s, the shipped rigs' setpoint timeout (a slower stream makes the valves pulse).
@@ -136,6 +138,7 @@ class GaitPlayer(Node):
         self.create_service(Trigger, "~/start", self._on_start)
         self.create_service(Trigger, "~/stop", self._on_stop)
         self._timer = steady_timer(self, 1.0 / self._param("rate_hz"), self._on_tick)
+        self._max_step_s = max(MAX_STEP_S, 2.0 / self._param("rate_hz"))
         self.get_logger().info(
             f"streaming {SETPOINT_TOPIC} at {self._param('rate_hz'):g} Hz once started; waiting for "
             f"{TRAJECTORY_TOPIC} (autostart={self._param('autostart')})")
@@ -145,7 +148,12 @@ class GaitPlayer(Node):
 
     # ------------------------------------------------------------- parameters
     def _check_parameters(self, params) -> SetParametersResult:
-        return check_parameters(self._specs, params)
+        result = check_parameters(self._specs, params)
+        for param in params if result.successful else ():
+            if param.name == "stop_at_phase" and -1.0 < float(param.value) < 0.0:  # (-1, 0) meant "none" silently
+                return SetParametersResult(successful=False, reason=f"stop_at_phase {param.value:g}: expected a phase "
+                                                                    "in [0, 1], or -1 for none")
+        return result
 
     def _apply_parameters(self, params) -> None:
         for param in params:
@@ -166,6 +174,7 @@ class GaitPlayer(Node):
             elif param.name == "rate_hz":
                 self.destroy_timer(self._timer)
                 self._timer = steady_timer(self, 1.0 / float(param.value), self._on_tick)
+                self._max_step_s = max(MAX_STEP_S, 2.0 / float(param.value))
 
     def _stop_at_phase(self, phase: float) -> None:
         playing = self._playback.state in (PlaybackState.STARTING, PlaybackState.RUNNING)
@@ -261,7 +270,7 @@ class GaitPlayer(Node):
 
     def _on_tick(self) -> None:
         stamp, now, phase_s = self._read_clocks()  # the instant this setpoint is computed for, on every clock
-        dt_s = min(max(phase_s - self._last_tick, 0.0), MAX_STEP_S)
+        dt_s = min(max(phase_s - self._last_tick, 0.0), self._max_step_s)
         self._last_tick = phase_s
         if not self._playback.has_cycle:
             return

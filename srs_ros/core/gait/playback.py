@@ -64,6 +64,10 @@ class SmoothTransition:
         if self._duration_s == 0.0:
             self.value = target
 
+    def finish(self) -> None:
+        """Reach the target at once."""
+        self.value = self._start = self.target
+
     def step(self, dt_s: float) -> float:
         """Advance by ``dt_s`` seconds; return the new value."""
         if not self.settled:
@@ -197,6 +201,9 @@ class GaitPlayback:
             self._phase, self._cycles_done = phase, 0.0
             self._stop_at_phase = None
             self._retarget_frequency(0.0)
+            # A scale set while idle (or still ramping at the last stop) is where the ramp-in goes, not a ramp of its
+            # own beside it: the two multiplied overshot (scale 0 gave a quarter of the gait, 1 bar, at 0.5 s).
+            self._amplitude.finish()
         self._stop_after_cycles = self._cycles_done + cycles if cycles > 0 else None
         if self.state is not PlaybackState.RUNNING:
             self.state = PlaybackState.STARTING
@@ -230,7 +237,7 @@ class GaitPlayback:
         return self._stop_at_phase
 
     def set_amplitude_scale(self, scale: float) -> None:
-        """Scale every length by ``scale`` in [0, 1], reached smoothly over ``ramp_time_s``."""
+        """Scale every length by ``scale`` in [0, 1], reached smoothly over ``ramp_time_s`` (at the start if idle)."""
         scale = float(scale)
         if not (0.0 <= scale <= 1.0):
             raise InvalidInputError(f"amplitude_scale: expected a value in [0, 1], got {scale!r}.")

@@ -193,6 +193,28 @@ def test_live_amplitude_change_is_smooth():
         player.set_amplitude_scale(1.5)
 
 
+@pytest.mark.parametrize("scale", [0.0, 0.2])
+def test_a_scale_set_while_idle_or_still_ramping_at_the_stop_is_never_overshot_by_the_next_start(scale):
+    """The scale's ramp and the ramp-in multiplied: set to 0 while idle, the next start gave a gain of 0.25 (1 bar of a
+    4 bar gait) at 0.5 s; set to 0.2, 0.31 (a helper's review)."""
+    player = GaitPlayback(ramp_time_s=1.0)
+    player.load(rolling_cycle(), 1.0)
+    player.set_amplitude_scale(scale)  # idle, as the node does at start-up with -p amplitude_scale:=...
+    player.start()
+    trace = run(player, 2.0)
+    assert max(s.gain for s in trace) <= scale + 1e-12 and trace[-1].gain == pytest.approx(scale)
+    assert np.max(positions(trace)) <= scale * MAX_M + 1e-12
+    player.set_amplitude_scale(1.0)
+    run(player, 1.0)
+    player.stop()
+    run(player, 0.5)
+    player.set_amplitude_scale(scale)  # while ramping out: its 1 s ramp is half done when the playback goes idle
+    run(player, 0.6)
+    assert player.state is PlaybackState.IDLE
+    player.start()
+    assert max(s.gain for s in run(player, 2.0)) <= scale + 1e-12
+
+
 def test_new_cycle_takes_over_without_a_jump():
     player = started(blend_time_s=0.3)
     trace = run(player, 1.0)
