@@ -41,15 +41,17 @@ starts the same nodes as separate processes on a stock ROS install.
 from __future__ import annotations
 
 import argparse
+import math
 import os
 import sys
 import tempfile
 import threading
+import traceback
 from typing import Any
 
 import rclpy
 import yaml
-from rclpy.executors import MultiThreadedExecutor, SingleThreadedExecutor
+from rclpy.executors import ExternalShutdownException, MultiThreadedExecutor, SingleThreadedExecutor
 from rclpy.experimental import EventsExecutor
 from rclpy.logging import LoggingSeverity, set_logger_level
 from rclpy.node import Node
@@ -171,10 +173,12 @@ def main(argv: list[str] | None = None) -> int:
     try:
         with outcome:
             system.create_nodes(args)
-            _check_hardware(system.hardware, args)
+            _check_hardware(system.hardware, system.player, args)
             outcome.started = True
             system.start()
             spin_until_shutdown(system.realtime, args.duration_s)
+            if system.failure:
+                outcome.exit_code = 1
     finally:
         system.stop(outcome)
         SHUTDOWN.ignore_from_now()
@@ -187,10 +191,21 @@ def _parse_arguments(argv: list[str] | None) -> tuple[argparse.Namespace, list[s
     ros_args = argv[argv.index("--ros-args"):] if "--ros-args" in argv else []
     parser = build_parser()
     args = parser.parse_args(argv[:len(argv) - len(ros_args)])
+    if not (math.isfinite(args.status_period_s) and args.status_period_s > 0.0):
+        parser.error(f"--status-period-s {args.status_period_s:g}: expected seconds > 0")
+    if not (math.isfinite(args.duration_s) and args.duration_s >= 0.0):
+        parser.error(f"--duration-s {args.duration_s:g}: expected seconds >= 0 (0 = until Ctrl-C)")
+    if args.video and not os.access(os.path.dirname(os.path.abspath(args.video)), os.W_OK):
+        parser.error(f"--video {args.video}: its folder does not exist or is not writable; expected a .avi path in a "
+                     "writable folder")
     if args.waypoint and not args.patrol:
         parser.error("--waypoint X_M Y_M is a patrol waypoint: add --patrol (or send goals on goal_path)")
     if args.patrol and not args.waypoint:
-        if not _simulated(args):
+        try:
+            simulated = _rig_backend(args) == "sim"
+        except SrsError as exc:  # a misspelled --rig: said as such, not as a rig without waypoints
+            parser.error(str(exc))
+        if not simulated:
             parser.error("--patrol on a rig other than the simulated robot needs its waypoints (--waypoint X_M Y_M, "
                          "inside your camera's calibrated floor area)")
         args.waypoint = [list(p) for p in SIM_PATROL_XY_M]
@@ -229,8 +244,9 @@ class System:
         self.world = SingleThreadedExecutor()  # sim_world, camera_tracker, the video recorder
         self._world_stop = threading.Event()
         self._threads = (
-            threading.Thread(target=_spin_quietly, args=(self.fitting,), name="trajectory_server", daemon=True),
-            threading.Thread(target=_spin_until, args=(self.world, self._world_stop), name="sim_world", daemon=True))
+            threading.Thread(target=self._spin, args=(self.fitting.spin,), name="trajectory_server", daemon=True),
+            threading.Thread(target=self._spin, args=(self._spin_world,), name="sim_world", daemon=True))
+        self.failure = ""  # a worker thread's error, which stops the bringup
         self.server: TrajectoryServer | None = None
         self.player: GaitPlayer | None = None
         self.hardware: HardwareNode | None = None
@@ -299,6 +315,26 @@ class System:
         if self.world_nodes:
             self._threads[1].start()
 
+    def _spin(self, spin) -> None:
+        """A worker thread: ``spin()`` until shutdown; an error in it stops the whole bringup (vent, exit status 1).
+
+        Before, an unwritable --video ended the world thread while the status line went on printing, and exited 0.
+        """
+        try:
+            spin()
+        except (KeyboardInterrupt, ExternalShutdownException):
+            pass
+        except Exception as exc:
+            traceback.print_exc()
+            self.failure = f"the {threading.current_thread().name} thread stopped: {type(exc).__name__}: {exc}"
+            print(f"srs_bringup: {self.failure}; venting and exiting with status 1", file=sys.stderr, flush=True)
+            SHUTDOWN.request(self.failure)
+
+    def _spin_world(self) -> None:
+        """A timed spin_once loop until the bringup stops (or rclpy's shutdown)."""
+        while not self._world_stop.is_set() and rclpy.ok():
+            self.world.spin_once(timeout_sec=0.05)
+
     def stop(self, outcome: CleanExit) -> None:
         """Vent first; then let a fit finish, stop the threads, finish the video, destroy the nodes, shut down."""
         self.realtime.shutdown()
@@ -325,24 +361,18 @@ def _rig_backend(args: argparse.Namespace) -> str:
     return args.backend or load_rig(args.rig or None).backend
 
 
-def _spin_until(executor, stop: threading.Event) -> None:
-    """A timed spin_once loop on its own thread until ``stop`` (or rclpy's shutdown)."""
-    with CleanExit():
-        while not stop.is_set() and rclpy.ok():
-            executor.spin_once(timeout_sec=0.05)
-
-
-def _check_hardware(hardware: HardwareNode, args: argparse.Namespace) -> None:
+def _check_hardware(hardware: HardwareNode, player: GaitPlayer, args: argparse.Namespace) -> None:
     """Refuse to run without a working hardware node or with too slow a stream; arm on ``--arm``."""
     state = hardware.lifecycle_label()
     if state != "active":
         raise ConfigurationError(f"hardware_node could not start (it is {state}): "
                                  f"{hardware.status.last_error or 'see the log above'}")
     slowest_hz = min_setpoint_rate_hz(hardware.gate.setpoint_timeout_s)
-    if args.rate_hz < slowest_hz:
-        raise ConfigurationError(f"--rate-hz {args.rate_hz:g} is too slow for the rig's setpoint timeout of "
-                                 f"{hardware.gate.setpoint_timeout_s:g} s (the valves would pulse); expected at "
-                                 f"least {slowest_hz:g} Hz.")
+    rate_hz = player.get_parameter("rate_hz").value  # --rate-hz, or a -p rate_hz:= or params file that beat it
+    if rate_hz < slowest_hz:
+        raise ConfigurationError(f"gait_player's rate_hz {rate_hz:g} (--rate-hz) is too slow for the rig's setpoint "
+                                 f"timeout of {hardware.gate.setpoint_timeout_s:g} s (the valves would pulse); "
+                                 f"expected at least {slowest_hz:g} Hz.")
     if not hardware.gate.requires_arm:
         return
     if args.arm:
@@ -355,11 +385,6 @@ def _check_hardware(hardware: HardwareNode, args: argparse.Namespace) -> None:
         print(f"srs_bringup: the {hardware.backend.name} rig drives real regulators: holding 0 bar until the "
               f"operator arms it: ros2 service call {hardware.get_fully_qualified_name()}/arm "
               "std_srvs/srv/Trigger (or start with --arm)", flush=True)
-
-
-def _spin_quietly(executor) -> None:
-    with CleanExit():
-        executor.spin()
 
 
 if __name__ == "__main__":

@@ -141,7 +141,11 @@ class ShutdownSignals:
             signal.signal(sig, self._handle)
 
     def _handle(self, signum: int, _frame) -> None:
-        self.requested = self.requested or signal.Signals(signum).name
+        self.request(signal.Signals(signum).name)
+
+    def request(self, reason: str) -> None:
+        """Ask for the shutdown from the process itself (a worker thread that failed), as a signal would."""
+        self.requested = self.requested or reason
 
     @staticmethod
     def ignore_from_now() -> None:

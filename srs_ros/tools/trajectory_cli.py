@@ -18,9 +18,12 @@ import warnings
 from pathlib import Path
 
 from srs_ros.core.errors import SrsError
-from srs_ros.core.gait.request import MIN_SAMPLES, SAMPLES_FIELD
+from srs_ros.core.gait.request import FREQUENCY_FIELD, MIN_SAMPLES, SAMPLES_FIELD
 from srs_ros.core.gait.trajectory import PoorFitWarning, generate_cycle, list_gaits
 from srs_ros.core.robot import default_robot, load_robot
+
+#: Most cycles the joint plot shows (200 points a cycle and joint: a million asked for 14 GB after the CSV was written).
+MAX_PLOT_CYCLES = 1000
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -32,14 +35,16 @@ def _parser() -> argparse.ArgumentParser:
     parser.add_argument("--list", action="store_true", help="print the gaits and their parameters and exit")
     parser.add_argument("--amplitude-bar", type=float, default=None,
                         help="largest pressure of the cycle, bar (0 < A <= max_pressure_bar, 4 bar)")
-    parser.add_argument("--frequency-hz", type=float, default=None, help="cycle frequency, Hz (> 0)")
+    parser.add_argument("--frequency-hz", type=float, default=None,
+                        help=f"cycle frequency: {FREQUENCY_FIELD.expected}")
     parser.add_argument("--samples", type=int, default=SAMPLES_FIELD.default,
                         help=f"samples per cycle (>= {MIN_SAMPLES}, default {SAMPLES_FIELD.default})")
     parser.add_argument("--param", action="append", default=[], metavar="NAME=VALUE",
                         help="gait parameter override, repeatable (see --list)")
     parser.add_argument("--out", type=Path, help="CSV file to write (a <out>.yaml sidecar holds the metadata)")
     parser.add_argument("--plot", type=Path, help="PNG path: writes <stem>_shapes.png and <stem>_joints.png")
-    parser.add_argument("--plot-cycles", type=int, default=3, help="cycles shown in the joint plot (default 3)")
+    parser.add_argument("--plot-cycles", type=int, default=3,
+                        help=f"cycles shown in the joint plot, 1 to {MAX_PLOT_CYCLES} (default 3)")
     parser.add_argument("--robot", type=Path, help="robot description YAML (default: the package's robot.yaml)")
     parser.add_argument("--strict", action="store_true", help="exit with 3 if any sample fits poorly")
     return parser
@@ -86,8 +91,8 @@ def main(argv: list[str] | None = None) -> int:
         parser.error(f"missing {', '.join(missing)} (or use --list to see the gaits)")
     if args.plot is not None and args.plot.suffix.lower() != ".png":
         parser.error(f"--plot {args.plot}: expected a .png path")
-    if args.plot_cycles < 1:
-        parser.error("--plot-cycles: expected an integer >= 1")
+    if not 1 <= args.plot_cycles <= MAX_PLOT_CYCLES:
+        parser.error(f"--plot-cycles {args.plot_cycles}: expected an integer from 1 to {MAX_PLOT_CYCLES}")
     try:
         params = _parse_params(args.param)
         robot = load_robot(args.robot) if args.robot else default_robot()
@@ -96,6 +101,13 @@ def main(argv: list[str] | None = None) -> int:
             cycle = generate_cycle(args.gait, args.amplitude_bar, args.frequency_hz, args.samples, robot, params)
         for warning in caught:
             print(f"srs_trajectory: warning: {warning.message}", file=sys.stderr)
+    except (SrsError, ValueError) as exc:
+        print(f"srs_trajectory: error: {exc}", file=sys.stderr)
+        return 2
+    except OSError as exc:  # said as "cannot write output" before
+        print(f"srs_trajectory: error: cannot read --robot {args.robot} ({exc})", file=sys.stderr)
+        return 2
+    try:
         if args.out:
             cycle.to_csv(args.out)
         if args.plot:

@@ -2,6 +2,7 @@
 
 import dataclasses
 from pathlib import Path
+from types import SimpleNamespace
 
 import pytest
 import yaml
@@ -82,3 +83,54 @@ def test_patrol_options_that_cannot_work_are_refused_with_what_to_do(capsys):
         with pytest.raises(SystemExit) as refused:
             bringup._parse_arguments(argv)
         assert refused.value.code == 2 and reason in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("argv, reason", [
+    (["--status-period-s", "0"], "--status-period-s 0: expected seconds > 0"),
+    (["--status-period-s", "nan"], "--status-period-s nan: expected seconds > 0"),
+    (["--duration-s", "-5"], "--duration-s -5: expected seconds >= 0 (0 = until Ctrl-C)"),
+    (["--duration-s", "nan"], "--duration-s nan: expected seconds >= 0"),
+    (["--video", "/no/such/folder/run.avi"], "--video /no/such/folder/run.avi: its folder does not exist"),
+    (["--patrol", "--rig", "config/rigs/simm.yaml"], "simm.yaml"),
+])
+def test_options_that_cannot_work_are_refused_before_anything_starts(argv, reason, capsys):
+    """A helper's review: a 0 s status period made a timer always due on the real-time executor; a negative or NaN
+    duration meant "until Ctrl-C"; an unwritable --video ended the world thread later; a misspelled rig with --patrol
+    was said to be "a rig other than the simulated robot"."""
+    with pytest.raises(SystemExit) as refused:
+        bringup._parse_arguments(argv)
+    err = capsys.readouterr().err
+    assert refused.value.code == 2 and reason in err, err
+    assert "needs its waypoints" not in err
+
+
+def test_the_rate_check_reads_the_players_rate_however_it_was_given():
+    """``-p rate_hz:=10`` beats --rate-hz's 200 (the params file leaves it out): the check read --rate-hz only."""
+    hardware = SimpleNamespace(lifecycle_label=lambda: "active",
+                               gate=SimpleNamespace(setpoint_timeout_s=0.1, requires_arm=False))
+    player = SimpleNamespace(get_parameter=lambda name: SimpleNamespace(value={"rate_hz": 10.0}[name]))
+    args, _ = bringup._parse_arguments(["--ros-args", "-p", "rate_hz:=10"])
+    assert args.rate_hz == 200.0
+    with pytest.raises(bringup.ConfigurationError, match=r"gait_player's rate_hz 10 \(--rate-hz\) is too slow for the "
+                                                         r"rig's setpoint timeout of 0.1 s .*at least 20 Hz"):
+        bringup._check_hardware(hardware, player, args)
+
+
+def test_an_error_in_a_worker_thread_stops_the_whole_bringup(monkeypatch, capfd):
+    """The world thread ended by an error (an unwritable video file) left the status line printing and exit 0."""
+    import threading
+
+    from srs_ros.ros.process import SHUTDOWN
+
+    monkeypatch.setattr(SHUTDOWN, "requested", "")
+    system = SimpleNamespace(failure="")  # the System's own state that its threads' spin writes
+
+    def fails():
+        raise bringup.ConfigurationError("--video /proc/run.avi: OpenCV cannot write this file")
+
+    thread = threading.Thread(target=bringup.System._spin, args=(system, fails), name="sim_world")
+    thread.start()
+    thread.join(5.0)
+    assert "the sim_world thread stopped: ConfigurationError: --video /proc/run.avi" in system.failure
+    assert SHUTDOWN.requested == system.failure  # the main loop's spin ends on it, and main() exits 1
+    assert "venting and exiting with status 1" in capfd.readouterr().err

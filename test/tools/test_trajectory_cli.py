@@ -74,3 +74,21 @@ def test_strict_exits_3_on_poor_samples(tmp_path, capsys):
                  "--param", "body_wavelengths=2", "--param", "poor_fit_mm=1", "--strict"])
     assert code == 3
     assert "warning" in capsys.readouterr().err
+
+
+def test_a_robot_file_that_cannot_be_read_is_said_so_and_plot_cycles_is_bounded(tmp_path, capsys):
+    """A helper's review: an unreadable --robot was "cannot write output"; --plot-cycles 1000000 asked for 14 GB."""
+    robot = tmp_path / ("r" * 300 + ".yaml")  # a name too long for the file system
+    assert main(["--gait", "serpentine", "--amplitude-bar", "2", "--frequency-hz", "1", "--robot", str(robot)]) == 2
+    err = capsys.readouterr().err
+    assert f"cannot read --robot {robot}" in err and "cannot write" not in err, err
+    with pytest.raises(SystemExit) as exit_info:
+        main(["--gait", "serpentine", "--amplitude-bar", "2", "--frequency-hz", "1", "--plot-cycles", "1000000"])
+    assert exit_info.value.code == 2
+    assert "--plot-cycles 1000000: expected an integer from 1 to 1000" in capsys.readouterr().err
+
+
+def test_the_frequency_help_gives_the_range_taken(capsys):
+    with pytest.raises(SystemExit):
+        main(["--help"])
+    assert "cycle frequency: a number in [0.01, 5] (Hz)" in " ".join(capsys.readouterr().out.split())
