@@ -325,8 +325,10 @@ class System:
         except (KeyboardInterrupt, ExternalShutdownException):
             pass
         except Exception as exc:
-            traceback.print_exc()
-            self.failure = f"the {threading.current_thread().name} thread stopped: {type(exc).__name__}: {exc}"
+            if not isinstance(exc, SrsError):  # an unexpected error: its traceback too
+                traceback.print_exc()
+            reason = str(exc).rstrip(".")
+            self.failure = f"the {threading.current_thread().name} thread stopped: {type(exc).__name__}: {reason}"
             print(f"srs_bringup: {self.failure}; venting and exiting with status 1", file=sys.stderr, flush=True)
             SHUTDOWN.request(self.failure)
 

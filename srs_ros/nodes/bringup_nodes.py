@@ -320,6 +320,7 @@ class VideoRecorder(Node):
             self._writer = cv2.VideoWriter(self.path, cv2.VideoWriter_fourcc(*"MJPG"), self.fps,
                                            (frame.shape[1], frame.shape[0]))
             if not self._writer.isOpened():
+                self._writer = None  # nothing saved: close() says nothing
                 raise ConfigurationError(f"--video {self.path}: OpenCV cannot write this file (use a .avi path in "
                                          "a writable folder).")
         self._writer.write(frame)
