@@ -118,8 +118,8 @@ NODE_PARAMETERS = (
                   "namespace)", read_only=True),
     ParameterSpec("gait_keepalive_s", 2.0, "dead man's handle: gait_player's cycles are set so that it plays this "
                   "long after each ~/start, which the navigator repeats every quarter of it while driving; a navigator "
-                  "that dies or hangs lets the gait ramp out by itself after this plus one cycle; 0 = off (the gait "
-                  "plays until stopped)", 0.0, 60.0, read_only=True),
+                  "that dies or hangs lets the gait ramp out by itself after at most this plus two cycles; 0 = off "
+                  "(the gait plays until stopped)", 0.0, 60.0, read_only=True),
     ParameterSpec("update_rate_hz", 10.0, "rate of the lost-pose check, the gait calls and navigation_progress, Hz",
                   1.0, 100.0, read_only=True),
     ParameterSpec("diagnostics_period_s", 1.0, "period of the /diagnostics report, s (and at every state change)",

@@ -16,7 +16,8 @@ would make (relative names, resolved in the navigator's namespace)::
 A dead man's handle made of the player's own interface: the driver sets gait_player's ``cycles`` so that a
 ``~/start`` lets it play ``keepalive_s`` (2 s by default) more, and calls ``~/start`` again every quarter of
 that while the robot is to move ("already running" only pushes the end on). A navigator that dies or hangs
-stops calling: the player ramps out by itself after at most ``keepalive_s`` plus one cycle.
+stops calling: the player ramps out by itself after at most ``keepalive_s`` plus two cycles
+(:meth:`GaitDriver._player_values`).
 
 So every pressure still goes through gait_player's ramps and the hardware node's one clamp; the driver never
 arms, never touches the e-stop and never publishes a setpoint. Calls are asynchronous (a callback never
@@ -82,6 +83,7 @@ class GaitDriver:
         self._sent_key: tuple | None = None  # parameters set, regenerate not yet answered
         self._player_key: tuple | None = None  # gait_player's (frequency_hz, reverse, cycles, stop_at_phase) as set
         self._playing = False
+        self._phase_stopped = False  # stop_at_phase sent: the player ramps out by itself at the phase
         self._stop_owed = False  # stop() called: a ~/stop is sent once no ~/start is in flight
         self._pending: dict[str, tuple[Any, float]] = {}  # what -> (future, sent at)
         self._retry_at = 0.0
@@ -107,7 +109,7 @@ class GaitDriver:
         once it is answered.
         """
         self.wanted = command
-        self._playing = False
+        self._playing = self._phase_stopped = False
         self._stop_owed = True
         self.pump()
 
@@ -148,7 +150,7 @@ class GaitDriver:
             return
         self._stop_owed = False
         keepalive = self.keepalive_s > 0 and now - self._started_s >= self.keepalive_s / 4
-        if self._playing and keepalive and "start" not in self._pending:
+        if self._playing and not self._phase_stopped and keepalive and "start" not in self._pending:
             self._start(now)  # the dead man's handle, whatever else is pending
         if self._pending or now < self._retry_at:
             return
@@ -156,28 +158,35 @@ class GaitDriver:
             self._set_gait(command)
         elif self._player_key != self._player_values(command):
             self._set_player(self._player_values(command))
-        elif not self._playing:
-            self._playing = True
+        elif not self._playing or self._phase_stopped:
+            # After a stop at a phase the player ramps out by itself: driving on starts it again once the new cycle
+            # and its parameters are set (before, the keepalive's start ramped the old gait in first, and with no
+            # keepalive nothing started it at all: the robot lay still while the navigator said "driving").
+            self._playing, self._phase_stopped = True, False
             self._start(now)
 
     def _player_values(self, command) -> tuple[float, bool, int, float]:
         """gait_player's (frequency_hz, reverse, cycles, stop_at_phase) for a moving ``command``.
 
-        cycles: keepalive_s of them (0 = none); no stop at a phase pending.
+        cycles: keepalive_s of them (0 = none), and at least enough that a stop at a phase set up to a quarter of
+        keepalive_s after the last start still comes first, a cycle later (1 cycle at 0.5 Hz ramped out at phase 0
+        before the phase asked for); no stop at a phase pending.
         """
-        cycles = max(1, math.ceil(self.keepalive_s * command.frequency_hz)) if self.keepalive_s > 0 else 0
+        wanted = self.keepalive_s * command.frequency_hz
+        cycles = max(math.ceil(wanted), math.floor(wanted / 4) + 2) if self.keepalive_s > 0 else 0
         return (float(command.frequency_hz), bool(command.reverse), cycles, NO_STOP_PHASE)
 
     def _stop_at_phase(self, phase: float, now: float) -> None:
         """A stop at a gait phase: gait_player's ``stop_at_phase`` set (it ramps out as the phase passes it).
 
         No ``~/start`` meanwhile (a start after the ramp-out began would ramp in again): the ``cycles`` of the
-        last start (``keepalive_s`` of them) outlast the one cycle to the phase at 1 Hz, and a navigator that
-        dies now leaves a gait that ramps out by itself at the phase.
+        last start outlast the one cycle to the phase (:meth:`_player_values`), and a navigator that dies now leaves a
+        gait that ramps out by itself at the phase.
         """
         key = (*(self._player_key or (math.nan, False, 0, NO_STOP_PHASE))[:3], phase)
         if self._player_key == key or "set_player" in self._pending or now < self._retry_at:
             return
+        self._phase_stopped = True
         self._set_player(key, names=("stop_at_phase",))
 
     # ------------------------------------------------------------- the calls

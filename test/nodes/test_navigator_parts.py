@@ -59,7 +59,8 @@ def test_the_dead_mans_handle_sets_cycles_for_keepalive_s_at_the_commanded_frequ
     driver = GaitDriver.__new__(GaitDriver)  # only its arithmetic here; the calls are tested over DDS
     driver.keepalive_s = 2.0
     assert driver._player_values(GaitCommand("inward_rolling", 0.2, 4.0, 1.0)) == (1.0, False, 2, -1.0)
-    assert driver._player_values(GaitCommand("outward_rolling", 0.2, 4.0, 0.3)) == (0.3, True, 1, -1.0)
+    # at 0.3 Hz 1 cycle (ceil(0.6)) ran out before a stop at a phase set a cycle ahead: 2 (floor(0.6 / 4) + 2)
+    assert driver._player_values(GaitCommand("outward_rolling", 0.2, 4.0, 0.3)) == (0.3, True, 2, -1.0)
     assert driver._player_values(GaitCommand("outward_rolling", 0.2, 4.0, 1.6)) == (1.6, True, 4, -1.0)
     driver.keepalive_s = 0.0
     assert driver._player_values(GaitCommand("inward_rolling", 0.2, 4.0, 1.0)) == (1.0, False, 0, -1.0)  # off
