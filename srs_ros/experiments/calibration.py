@@ -331,7 +331,7 @@ def calibrate(reference: MeasuredTable, config: SimConfig, parameters: Sequence[
               f"{best.values}")
         after = runner.run(cells, duration_s, fitted, on_result=on_result)
     error_before, error_after = table_error(before, reference), table_error(after, reference)
-    accepted = error_after <= error_before
+    accepted = error_after < error_before  # a fit that does not lower the error is not taken (an equal one was)
     if not accepted:  # the search's short runs misled it: keep what was there
         fitted, after, error_after = config, before, error_before
     return CalibrationResult(parameters=space.parameters, initial_values=space.initial,

@@ -48,8 +48,10 @@ from trajectory_msgs.msg import JointTrajectory
 
 from srs_ros.core.actuation.operator import REAL_ARM_PREFIX
 from srs_ros.core.errors import SrsError
+from srs_ros.core.gait.library import list_gaits
 from srs_ros.experiments.recording import BagRecorder, bag_qos
 from srs_ros.experiments.table import ROS_SETTLE_S, Cell, RunRecord
+from srs_ros.nodes import gait_player
 from srs_ros.ros.interfaces import (
     ACTUATOR_STATE_TOPIC,
     BUSY_RETRY_S,
@@ -84,6 +86,9 @@ VENTED_BAR = 0.01
 POSE_WINDOW_S = 0.5
 #: Spin period of the waits, s.
 SPIN_S = 0.02
+#: gait_player's plain playback, set for every run: these parameters at their defaults (its rate and ramps stay).
+PLAIN_PLAYBACK = {spec.name: spec.default for spec in gait_player.PARAMETERS
+                  if spec.name in ("amplitude_scale", "reverse", "cycles", "stop_at_phase")}
 
 
 def type_name(msg_class) -> str:
@@ -355,15 +360,21 @@ class RosSweep:
 
     # -- one run ----------------------------------------------------------------------------
     def prepare(self, cell: Cell) -> None:
-        """Fit and latch the cell's trajectory and set the player's frequency (nothing moves yet)."""
+        """Fit and latch the cell's trajectory and set the player (nothing moves yet).
+
+        As the offline sweep plays them: the gait's own parameters at their defaults and the player's plain
+        playback, whatever was set before (a navigator's turn, reverse, cycles or stop phase, an operator's
+        ``amplitude_scale`` 0.5: each played a cell other than the one recorded).
+        """
         gait, amplitude_bar, frequency_hz = cell
+        defaults = {f"{gait}.{p.name}": p.default for p in list_gaits()[gait].parameters}
         self.set_parameters("trajectory_server", {"gait": gait, "amplitude_bar": float(amplitude_bar),
-                                                  "frequency_hz": float(frequency_hz)})
+                                                  "frequency_hz": float(frequency_hz), **defaults})
         before = self._trajectories
         self.regenerate()
         if not self.spin_until(lambda: self._trajectories > before, self.options.service_timeout_s):
             raise RunAborted(f"the new trajectory did not arrive on {self.node.resolve_topic_name(TRAJECTORY_TOPIC)}")
-        self.set_parameters("gait_player", {"frequency_hz": float(frequency_hz)})
+        self.set_parameters("gait_player", {"frequency_hz": float(frequency_hz), **PLAIN_PLAYBACK})
 
     def regenerate(self) -> None:
         """Have trajectory_server fit the parameters set; while it is busy with another fit, wait and ask again.
@@ -457,6 +468,8 @@ class RosSweep:
             self.spin_for(self.options.settle_s)
             end_pose = self._wait_pose(stopped, "after the settle")
             track = [(t - started, x, y, yaw) for t, x, y, yaw in self._poses[first:]]
+            if armed:  # unanswered, a failed record like any abort (it escaped before: no table at all)
+                self.call("hardware_node", "disarm")
         except RunAborted as exc:
             self._vent_after_abort(armed)
             return RunRecord.failed(cell, str(exc), _array(track))
@@ -470,8 +483,6 @@ class RosSweep:
             if self.recorder is not None:
                 self.recorder.close()
                 self.recorder = None
-        if armed:
-            self.call("hardware_node", "disarm")
         dx, dy = end_pose[0] - start_pose[0], end_pose[1] - start_pose[1]
         return RunRecord(cell[0], cell[1], cell[2], 100.0 * dx / duration_s, 100.0 * dy / duration_s, dx, dy,
                          track=_array(track))

@@ -136,7 +136,7 @@ def default_workers() -> int:
 # ------------------------------------------------------------------------------------------
 #: The code a run executes (folders and files of srs_ros; their .py files are hashed) and the files it reads.
 RUN_CODE = ("core", "sim", "experiments/sweep.py", "experiments/table.py")
-RUN_CONFIG_FILES = ("robot.yaml", "gaits.yaml")
+RUN_CONFIG_FILES = ("robot.yaml", "gaits.yaml", "rigs/mock.yaml")  # the mock rig: the command rate of a run
 
 
 def _files(root: Path, parts: Sequence[str]) -> list[Path]:

@@ -271,6 +271,11 @@ def _pair(values: tuple[float, float] | None, width: int) -> str:
     return f"{abs(vx):5.2f} / {abs(vy):5.2f}".center(width)
 
 
+def _label(value: float, decimals: int) -> str:
+    """``value`` with ``decimals`` as the paper prints it, or all its digits where those would round it (2.25)."""
+    return f"{value:.{decimals}f}" if round(value, decimals) == value else f"{value:g}"
+
+
 def format_table(records: Sequence[RunRecord], reference: MeasuredTable | None, label: str = "sim") -> str:
     """Text in Table I's layout: rows amplitude x frequency, per gait ``v_x / v_y`` of the runs and the table's.
 
@@ -296,7 +301,7 @@ def format_table(records: Sequence[RunRecord], reference: MeasuredTable | None, 
                 ours = None if record is None else (record.vx_cm_s, record.vy_cm_s)
                 theirs = reference.velocity(gait, amplitude, frequency) if reference else None
                 cells.append(f" {_pair(ours, width)} {_pair(theirs, width)} ")
-            lines.append(f"{amplitude:>7.1f} {frequency:>6.2f} |" + "|".join(cells) + "|")
+            lines.append(f"{_label(amplitude, 1):>7} {_label(frequency, 2):>6} |" + "|".join(cells) + "|")
         lines.append(rule)
     failures = [r for r in records if not r.ok]
     for r in failures:

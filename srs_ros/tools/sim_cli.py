@@ -83,6 +83,8 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     if args.gait not in list_gaits():
         parser.error(f"--gait {args.gait!r}: expected one of {', '.join(sorted(list_gaits()))}")
+    if not 0.0 < args.duration_s <= MAX_RUN_S:  # before any file is made (an empty video was left behind)
+        parser.error(f"--duration-s {args.duration_s:g}: expected seconds in (0, {MAX_RUN_S:g}]")
     sink = None
     try:
         for path, flag in ((args.out, "--out"), (args.plot, "--plot"), (args.video, "--video")):

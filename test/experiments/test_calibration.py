@@ -9,6 +9,7 @@ from srs_ros.core.errors import ConfigurationError, InvalidInputError
 from srs_ros.experiments.calibration import (
     FAILED_RESIDUAL,
     apply_values,
+    calibrate,
     cell_errors,
     default_fit,
     fit_parameters,
@@ -111,3 +112,16 @@ def test_model_limits_name_the_gaits_whose_distance_per_cycle_the_model_cannot_f
     assert len(notes) == 6
     assert notes[0].startswith("inward_rolling 2 bar: distance per cycle 9.9 cm at 0.25 Hz -> 5.5 cm at 1 Hz")
     assert "12.6 -> 12.6 cm simulated (2 pi r = 12.6 cm)" in notes[0]
+
+
+def test_a_fit_that_does_not_lower_the_error_is_not_taken_an_equal_one_neither():
+    """A runner whose runs come out alike whatever the configuration: the fit's error equals the one before, and
+    the configuration must stay (an equal error was taken, and "fitted: a -> b" printed; a helper's review)."""
+    class AlikeRunner:
+        def run(self, cells, duration_s, config, **_options):
+            return [RunRecord(*cell, 2.0, 1.0, 0.3, 0.15) for cell in cells]
+
+    config = load_sim_config()
+    result = calibrate(paper_table(), config, max_evaluations=3, runner=AlikeRunner())
+    assert result.error_after == result.error_before
+    assert not result.accepted and result.config is config and result.fitted_values == result.initial_values

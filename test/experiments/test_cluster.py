@@ -229,6 +229,25 @@ def test_a_worker_with_other_code_refuses_the_run_it_is_given(config):
         sweep._run_task(CELLS[0], DURATION_S, config, False, other, 0)
 
 
+@pytest.mark.parametrize("name", ["robot.yaml", "gaits.yaml", "rigs/mock.yaml"])
+def test_every_config_file_a_run_reads_is_in_the_code_fingerprint(name, tmp_path, monkeypatch):
+    """A worker whose config/rigs/mock.yaml had another command rate ran other numbers under the same fingerprint
+    (inward rolling 4 bar 1 Hz, 2 s: v_x -3.20 against -2.52 cm/s at 200 and 50 Hz; a helper's review)."""
+    import shutil
+
+    copy = tmp_path / "config"
+    shutil.copytree(sweep.config_dir(), copy)
+    with (copy / name).open("a") as stream:
+        stream.write("\n# changed on this worker\n")
+    here = sweep.code_fingerprint()
+    sweep.code_fingerprint.cache_clear()
+    monkeypatch.setattr(sweep, "config_dir", lambda: copy)
+    try:
+        assert sweep.code_fingerprint()["srs_ros"] != here["srs_ros"]
+    finally:
+        sweep.code_fingerprint.cache_clear()
+
+
 def test_dask_not_installed_is_a_clear_error(monkeypatch):
     monkeypatch.setitem(sys.modules, "distributed", None)  # as if it were not installed: import fails
     with pytest.raises(ClusterError, match=r"needs Dask distributed, which is not installed here .* pip install "

@@ -145,3 +145,11 @@ def test_the_printed_table_has_the_papers_layout():
     assert " 4.00 /  0.50 " in row and " 0.76 /  0.36 " in row and " 3.12 /  7.55 " in row
     assert "failed" in next(line for line in lines if line.startswith("    4.0   1.00"))
     assert lines[-1] == "inward_rolling 4 bar 1 Hz: failed: no pose"
+
+
+def test_cells_that_the_papers_decimals_would_round_are_printed_with_all_their_digits():
+    """2.25 bar 0.125 Hz and 2.2 bar 0.12 Hz printed alike as "2.2 0.12" (a helper's review)."""
+    records = [RunRecord("serpentine", a, f, 1.0, 1.0, 0.1, 0.1) for a, f in ((2.25, 0.125), (2.2, 0.12))]
+    lines = format_table(records, None).splitlines()
+    assert any(line.startswith("   2.25  0.125 |") for line in lines), lines
+    assert any(line.startswith("    2.2   0.12 |") for line in lines), lines

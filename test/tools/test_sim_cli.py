@@ -79,3 +79,13 @@ def test_the_console_script_shows_progress_on_long_runs(tmp_path):
     assert result.returncode == 0, result.stderr
     assert "simulated   6.0 / 6 s" in result.stderr
     assert "traveling velocity" in result.stdout
+
+
+def test_a_duration_out_of_range_is_refused_before_any_file_is_made(tmp_path, capsys):
+    """--duration-s 4000 --video run.avi exited 2 after making an empty video file (a helper's review)."""
+    video = tmp_path / "run.avi"
+    with pytest.raises(SystemExit) as refused:
+        sim_cli.main(["--gait", "inward_rolling", "--amplitude-bar", "3", "--frequency-hz", "1", "--duration-s", "4000",
+                      "--video", str(video), "--out", str(tmp_path / "r.csv")])
+    assert refused.value.code == 2 and "--duration-s 4000: expected seconds in (0, 3600]" in capsys.readouterr().err
+    assert not video.exists()
