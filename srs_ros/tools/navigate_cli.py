@@ -21,12 +21,19 @@ from pathlib import Path
 
 import numpy as np
 
-from srs_ros.core.errors import SrsError
+from srs_ros.core.errors import InvalidInputError, SrsError
 from srs_ros.core.navigation.commands import NavigationState
 from srs_ros.core.navigation.settings import NAVIGATION_TABLE, load_navigation_settings
 from srs_ros.core.schema import parse_assignments
 from srs_ros.sim.config import load_sim_config, with_friction
-from srs_ros.sim.navigation import COLUMNS, DEFAULT_GOAL_TIMEOUT_S, DIRECTION_CODES, STATE_CODES, run_navigation
+from srs_ros.sim.navigation import (
+    COLUMNS,
+    DEFAULT_GOAL_TIMEOUT_S,
+    DIRECTION_CODES,
+    STATE_CODES,
+    default_area,
+    run_navigation,
+)
 from srs_ros.tools.output import prepare_output_file
 
 
@@ -148,6 +155,10 @@ def main(argv: list[str] | None = None) -> int:
         config = load_sim_config(args.sim_config)
         if args.friction:
             config = with_friction(config, args.friction)
+        area = default_area(config, settings)
+        for index, (x_m, y_m) in enumerate(args.goal):  # all of them before any run (a refusal came minutes in)
+            if refusal := area.refusal(x_m, y_m):
+                raise InvalidInputError(f"--goal {index + 1} of {len(args.goal)}: {refusal}")
         video = _Video(args.video, config) if args.video else None
         result = run_navigation(args.goal, config, settings, camera=args.camera, as_path=args.path,
                                 goal_timeout_s=args.timeout_s, on_frame=video, render=video is not None,

@@ -111,7 +111,11 @@ def candidate_runs(config, amplitude_bar: float, frequency_hz: float, cycles: in
 
 def main(argv: list[str] | None = None) -> int:
     """Console entry point."""
-    args = _parser().parse_args(argv)
+    parser = _parser()
+    args = parser.parse_args(argv)
+    if args.cycles <= turning.DEFAULT_SKIP_CYCLES:  # -1 ended in a traceback, 0-2 in NaN rows and a refused map
+        parser.error(f"--cycles {args.cycles}: expected more than the {turning.DEFAULT_SKIP_CYCLES} cycles each run "
+                     "leaves out before it measures")
     try:
         prepare_output_file(args.write_map, "--write-map")  # before the runs, not after them
         config = load_sim_config(args.sim_config)

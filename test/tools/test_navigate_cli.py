@@ -7,13 +7,16 @@ import pytest
 from srs_ros.tools.navigate_cli import main
 
 
-def test_a_goal_outside_the_view_exits_1_with_the_reason(tmp_path, capsys):
-    code = main(["--goal", "4", "0", "--out", str(tmp_path / "run.csv")])
-    out = capsys.readouterr().out
-    assert code == 1
-    assert "refused: goal (4.000, 0.000) m is" in out and "0 of 1 goals reached" in out
-    with (tmp_path / "run.csv").open() as stream:
-        assert next(csv.reader(stream))[:4] == ["time_s", "x_m", "y_m", "yaw_rad"]
+def test_a_goal_outside_the_view_is_refused_with_the_reason_before_any_run(tmp_path, capsys):
+    """Checked when its turn came, after every goal before it was driven (minutes), it exited 1; with every goal
+    refused, --plot ended in a traceback (a helper's review). Now exit 2 before anything runs."""
+    for goals in (["--goal", "4", "0"], ["--goal", "0.3", "0", "--goal", "4", "0"], ["--goal", "nan", "0"]):
+        code = main([*goals, "--out", str(tmp_path / "run.csv"), "--plot", str(tmp_path / "run.png")])
+        captured = capsys.readouterr()
+        assert code == 2, captured
+        assert f"srs_navigate: error: --goal {len(goals) // 3} of {len(goals) // 3}: goal (" in captured.err
+        assert ("outside the camera's calibrated floor area" in captured.err) != ("nan" in goals), captured.err
+        assert captured.out == ""
 
 
 def test_a_short_run_writes_the_track_and_the_plot(tmp_path, capsys):

@@ -37,3 +37,12 @@ def test_sidewinding_turns_the_calibrated_body_one_way_and_its_mirror_image_the_
     (ccw, ccw_travel), (cw, cw_travel) = rows[-0.6], rows[0.6]
     assert ccw > 12.0 and cw < -12.0, printed  # deg per cycle, counter-clockwise positive
     assert ccw_travel > 8.0 and cw_travel > 8.0, printed  # cm per cycle: a circle, not a turn in place
+
+
+@pytest.mark.parametrize("cycles", ["-1", "0", "2"])
+def test_too_few_cycles_to_measure_are_refused_before_any_run(cycles, capsys):
+    """-1 ended in a traceback, 0-2 in rows of NaN and, with --write-map, a map refused after minutes of runs."""
+    with pytest.raises(SystemExit) as refused:
+        turning_cli.main(["--cycles", cycles])
+    assert refused.value.code == 2
+    assert f"--cycles {cycles}: expected more than the 2 cycles each run leaves out" in capsys.readouterr().err
