@@ -47,7 +47,8 @@ def test_integer_boolean_and_list_settings_are_taken_as_ros2_param_set_reads_the
                  "--setting", "stop_cycle_ahead=false", "--setting", "turn_levels_rad=[-0.5, 0.0, 0.5]",
                  "--setting", "goal_tolerance_m=3e-2"])  # YAML 1.1 reads 3e-2 as text: still a number
     captured = capsys.readouterr()
-    assert code == 1 and "refused: goal (4.000, 0.000) m is" in captured.out, captured.err  # the settings taken
+    # the settings taken: the goal is what is refused, after them and before any run
+    assert code == 2 and "--goal 1 of 1: goal (4.000, 0.000) m is" in captured.err, captured.err
     assert main(["--goal", "0", "0.5", "--out", "x.csv", "--setting", "stop_cycle_ahead=[1"]) == 2
     assert "--setting 'stop_cycle_ahead=[1': the value cannot be read" in capsys.readouterr().err
 
