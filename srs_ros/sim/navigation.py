@@ -215,11 +215,17 @@ def run_navigation(goals: Sequence[Sequence[float]], config: SimConfig | None = 
     Raises :class:`InvalidInputError` for bad arguments, :class:`~srs_ros.core.errors.SimulationError` if the
     physics diverges.
     """
-    goals = [tuple(float(v) for v in g) for g in goals]
+    try:  # a flat (x, y) was a TypeError, rounds NaN a ValueError, and a goal timeout was not checked at all
+        goals = [tuple(float(v) for v in g) for g in goals]
+        whole = float(rounds).is_integer() and rounds >= 1
+    except (TypeError, ValueError):
+        goals, whole = [], False
     if not goals or any(len(g) != 2 for g in goals):
-        raise InvalidInputError(f"goals: expected one or more (x_m, y_m) pairs, got {goals!r}.")
-    if int(rounds) != rounds or rounds < 1:
+        raise InvalidInputError("goals: expected one or more (x_m, y_m) pairs of numbers.")
+    if not whole:
         raise InvalidInputError(f"rounds: expected a whole number of rounds >= 1, got {rounds!r}.")
+    if not (math.isfinite(goal_timeout_s) and goal_timeout_s > 0.0):
+        raise InvalidInputError(f"goal_timeout_s: expected simulated seconds > 0, got {goal_timeout_s!r}.")
     rounds = int(rounds) if as_path else 1
     robot = robot or default_robot()
     config = config or load_sim_config(robot=robot)

@@ -18,7 +18,7 @@ what was recorded.
 and write ``DIR/sim.yaml`` (on the local pool, or on a Dask cluster with ``--scheduler``).
 
 Exit status: 0 done, 1 done with failed runs, 2 bad input or a rig that cannot be driven (nothing
-written), 130 interrupted (what was done is written).
+written), 130 interrupted (a sweep writes what was done; ``--calibrate`` writes nothing).
 """
 
 from __future__ import annotations

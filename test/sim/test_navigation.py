@@ -4,6 +4,8 @@ Whether it reaches random goals is the slow test at the end and benchmarks/bench
 """
 
 
+import math
+
 import numpy as np
 import pytest
 
@@ -49,6 +51,18 @@ def test_a_path_in_rounds_is_given_to_the_controller_as_the_navigator_patrols_it
     assert len(result.outcomes) == 1 and "gave up after 0.6 s" in result.outcomes[0].message  # 0.1 s a point
     with pytest.raises(InvalidInputError, match="rounds"):
         run_navigation([(0.3, 0.0)], as_path=True, rounds=0)
+
+
+@pytest.mark.parametrize("kwargs, match", [
+    ({"goals": (0.3, 0.0)}, r"goals: expected one or more \(x_m, y_m\) pairs"),  # a flat pair: a TypeError before
+    ({"goals": [(0.3, 0.0)], "rounds": math.nan}, "rounds: expected a whole number"),  # a ValueError before
+    ({"goals": [(0.3, 0.0)], "goal_timeout_s": math.nan}, "goal_timeout_s: expected simulated seconds > 0"),
+    ({"goals": [(0.3, 0.0)], "goal_timeout_s": 0.0}, "goal_timeout_s: expected simulated seconds > 0"),
+])
+def test_bad_arguments_are_refused_as_such_before_the_world_is_built(kwargs, match):
+    """A NaN goal timeout never gave a goal up, 0 cancelled it at the first frame (a helper's review)."""
+    with pytest.raises(InvalidInputError, match=match):
+        run_navigation(**kwargs)
 
 
 def test_a_robot_the_camera_does_not_see_is_stopped_with_the_reason():
