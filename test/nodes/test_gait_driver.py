@@ -38,11 +38,18 @@ def test_a_trajectory_server_busy_with_another_fit_is_asked_again_soon_and_is_no
     ros_client.spin_until(lambda: not driver.missing_services(), 30.0, "the gait services")
     regenerate = ros_client.client(Trigger, "trajectory_server/regenerate")
     ros_client.spin_until(regenerate.service_is_ready, 30.0, "trajectory_server/regenerate")
-    fits = [regenerate.call_async(Trigger.Request()) for _ in range(2)]  # 256 samples: about a second each
-    ros_client.spin_until(lambda: any(f.done() for f in fits), 10.0, "an answer")
-    answered = [f for f in fits if f.done()]
-    assert len(answered) == 1 and answered[0].result().message.startswith(FIT_BUSY_PREFIX), \
-        [f.result().message for f in answered]  # the other one fits meanwhile
+    seen = []
+    for _attempt in range(3):  # a fit still running while the driver drives: the scenario, set up again if missed
+        fits = [regenerate.call_async(Trigger.Request()) for _ in range(2)]  # 256 samples: about a second each
+        ros_client.spin_until(lambda fits=fits: any(f.done() for f in fits), 10.0, "an answer")
+        answered = [f for f in fits if f.done()]
+        seen.append([f.result().message for f in answered])
+        if len(answered) == 1 and answered[0].result().message.startswith(FIT_BUSY_PREFIX):
+            break  # the other one fits meanwhile
+        # Under a full suite's load the busy answer once came after the other fit's (2.1 s): no fit left to meet
+        ros_client.spin_until(lambda fits=fits: all(f.done() for f in fits), 30.0, "both answers")
+    else:
+        raise AssertionError(f"no busy answer while a fit ran, in three tries: {seen}")
     other_fit = next(f for f in fits if f is not answered[0])
     errors, regenerate_calls = [], []
 
