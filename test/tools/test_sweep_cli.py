@@ -202,3 +202,21 @@ def test_ctrl_c_before_a_runs_bag_is_opened_does_not_say_the_bag_keeps_anything(
         said[open_bag] = records[0].status
     assert said[False] == "failed: interrupted (Ctrl-C); before its bag was opened: no bag", said
     assert said[True] == "failed: interrupted (Ctrl-C); its bag keeps what was recorded", said
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["--calibrate", "config/paper_table1.yaml", "--gait", "bogus_gait"],
+     "--gait: --calibrate does not read it (only --ros and the offline sweep); leave it out"),
+    (["--calibrate", "config/paper_table1.yaml", "--duration-s", "-5"], "--duration-s: --calibrate does not read it"),
+    (["--ros", "--friction", "garbage"], "--friction: --ros does not read it (only --calibrate and the offline sweep)"),
+    (["--ros", "--workers", "64"], "--workers: --ros does not read it"),
+    (["--ros", "--settle-s", "-3"], "--settle-s -3: expected seconds >= 0"),
+    (["--settle-s", "1"], "--settle-s: the offline sweep does not read it (only --ros)"),
+    (["--max-evaluations", "5"], "--max-evaluations: the offline sweep does not read it (only --calibrate)"),
+])
+def test_options_the_chosen_mode_would_ignore_are_refused_before_anything_runs(argv, message, tmp_path, capsys):
+    """Each was ignored without a word, even an invalid value; --calibrate then ran its 48 cells (a helper's review)."""
+    with pytest.raises(SystemExit) as refused:
+        main([*argv, "--out", str(tmp_path / "out")])
+    assert refused.value.code == 2 and message in capsys.readouterr().err
+    assert not (tmp_path / "out").exists()
