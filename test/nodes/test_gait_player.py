@@ -186,10 +186,15 @@ def test_live_changes_and_takeover_never_jump_and_bad_parameters_are_rejected(pl
     # reverse: the same cycle played backward (the signed frequency ramps through 0 over ramp_time_s)
     ros_client.spin_for(0.5)  # past the cross-fade
     forward = phase_rate_hz(setpoints[-100:], rolling_cycle(shift=0.5, amplitude_m=0.05), 0.4)
+    reversed_s = ros_client.node.get_clock().now().nanoseconds * 1e-9  # the player's stamps: the same system clock
     assert ros_client.set_parameters("gait_player", {"reverse": True})[0].successful
     count = len(setpoints)
-    ros_client.spin_until(lambda: len(setpoints) > count + 200, 10.0, "a second of reversed setpoints")
-    backward = phase_rate_hz(setpoints[-100:], rolling_cycle(shift=0.5, amplitude_m=0.05), 0.4)
+    # Judged by the setpoints' stamps, not their count: a loaded client once took 200 setpoints late, most of them
+    # from before the 0.3 s ramp through 0 ended (-0.79 Hz measured in a fresh clone's full run).
+    ros_client.spin_until(lambda: len(setpoints) > count and stamps_s(setpoints[-1:])[0] > reversed_s + 1.0, 10.0,
+                          "a second of reversed setpoints")
+    after = [m for m in setpoints[count:] if stamp_to_seconds(m.header.stamp) > reversed_s + 0.5]
+    backward = phase_rate_hz(after[-100:], rolling_cycle(shift=0.5, amplitude_m=0.05), 0.4)
     assert forward == pytest.approx(2.0, abs=0.3) and backward == pytest.approx(-2.0, abs=0.3), (forward, backward)
     # gait_phase (50 Hz while streaming): the phase in [0, 1) and the signed frequency, for the navigator
     recent = [m for m in phases if stamp_to_seconds(m.header.stamp) > stamps_s(setpoints[-100:])[0]]
