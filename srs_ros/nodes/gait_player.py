@@ -137,8 +137,8 @@ class GaitPlayer(Node):
         self.create_subscription(JointTrajectory, TRAJECTORY_TOPIC, self._on_trajectory, latched_qos(), raw=True)
         self.create_service(Trigger, "~/start", self._on_start)
         self.create_service(Trigger, "~/stop", self._on_stop)
-        self._timer = steady_timer(self, 1.0 / self._param("rate_hz"), self._on_tick)
-        self._max_step_s = max(MAX_STEP_S, 2.0 / self._param("rate_hz"))
+        self._timer = None
+        self._set_rate(self._param("rate_hz"))
         self.get_logger().info(
             f"streaming {SETPOINT_TOPIC} at {self._param('rate_hz'):g} Hz once started; waiting for "
             f"{TRAJECTORY_TOPIC} (autostart={self._param('autostart')})")
@@ -172,15 +172,20 @@ class GaitPlayer(Node):
             elif param.name == "phase_rate_hz":
                 self._phase_period_s, self._phase_due = self._period(param.value), 0.0
             elif param.name == "rate_hz":
-                self.destroy_timer(self._timer)
-                self._timer = steady_timer(self, 1.0 / float(param.value), self._on_tick)
-                self._max_step_s = max(MAX_STEP_S, 2.0 / float(param.value))
+                self._set_rate(float(param.value))
 
     def _stop_at_phase(self, phase: float) -> None:
         playing = self._playback.state in (PlaybackState.STARTING, PlaybackState.RUNNING)
         self._playback.stop_at_phase(phase % 1.0 if phase >= 0.0 and playing else None)
         if phase >= 0.0 and playing:
             self.get_logger().info(f"ramping out as the phase passes {phase % 1.0:g} (at most one cycle from now)")
+
+    def _set_rate(self, rate_hz: float) -> None:
+        """The setpoint timer at ``rate_hz``, and the largest phase step of a tick with it (:data:`MAX_STEP_S`)."""
+        if self._timer is not None:
+            self.destroy_timer(self._timer)
+        self._timer = steady_timer(self, 1.0 / rate_hz, self._on_tick)
+        self._max_step_s = max(MAX_STEP_S, 2.0 / rate_hz)
 
     @staticmethod
     def _period(rate_hz: float) -> float:
