@@ -41,6 +41,7 @@ import time
 from collections import deque
 from typing import Any
 
+import numpy as np
 import rclpy
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import PoseStamped
@@ -129,17 +130,23 @@ PARAMETERS = (*SETTING_PARAMETERS, *NODE_PARAMETERS)
 
 
 class StampClock:
-    """Message stamps on the steady clock: stamp + the smallest delay seen in the last ``window`` messages.
+    """Message stamps on the steady clock: stamp + the low delay of the last ``window`` messages, along its drift.
 
     The controller measures motion over the camera's own frame times (no delivery jitter) and checks for a
     lost pose against the steady clock; a stamp clock that jumps (a restarted simulation, a looped video) is
-    re-based at once. "Smallest" leaves out the smallest tenth: one stamp from the future (0.7 s ahead) set the
-    delay of every later pose 0.7 s short, which dropped them as not newer and ended a healthy run in a false
-    pose_lost (a helper's review); a time is never later than its own arrival.
+    re-based at once. "Low" is the smallest tenth: one stamp from the future (0.7 s ahead) set the delay of
+    every later pose 0.7 s short, which dropped them as not newer and ended a healthy run in a false pose_lost
+    (a helper's review); a time is never later than its own arrival. The delay drifts when the stamps run on
+    a simulated clock that is behind (or ahead of) real time: at 0.6x it grows 0.4 s a second, and a plain
+    low delay dated every pose up to 1 s early, a false pose loss after one stall (a helper's review). The
+    drift is the change of the low delay from the window's older half to its newer half.
     """
 
+    LOW_SHARE = 0.1  # the share of the delays left out below "low"
+    MIN_DRIFT_SAMPLES = 20  # fewer messages since the last jump: no drift is estimated
+
     def __init__(self, window: int = 100, jump_s: float = 1.0):
-        self._delays: deque[float] = deque(maxlen=window)
+        self._samples: deque[tuple[float, float]] = deque(maxlen=window)  # (stamp s, delay s)
         self._jump_s = jump_s
 
     def steady_s(self, stamp_s: float, arrival_s: float) -> float:
@@ -147,11 +154,25 @@ class StampClock:
         if stamp_s <= 0.0:
             return arrival_s
         delay = arrival_s - stamp_s
-        if self._delays and abs(delay - min(self._delays)) > self._jump_s:
-            self._delays.clear()
-        self._delays.append(delay)
-        ordered = sorted(self._delays)
-        return stamp_s + min(ordered[len(ordered) // 10], delay)
+        if self._samples and abs(delay - self._low_delay_s(stamp_s)) > self._jump_s:
+            self._samples.clear()
+        self._samples.append((stamp_s, delay))
+        return stamp_s + min(self._low_delay_s(stamp_s), delay)
+
+    def _low_delay_s(self, stamp_s: float) -> float:
+        """The low delay of the window, carried to ``stamp_s`` along its drift (s of delay per s of stamp)."""
+        stamps, delays = np.array(self._samples).T
+        drift = 0.0
+        half = len(stamps) // 2
+        if len(stamps) >= self.MIN_DRIFT_SAMPLES:
+            span_s = np.median(stamps[half:]) - np.median(stamps[:half])
+            if span_s > 0.0:
+                drift = (self._low(delays[half:]) - self._low(delays[:half])) / span_s
+        return self._low(delays - drift * (stamps - stamps[-1])) + drift * (stamp_s - stamps[-1])
+
+    @classmethod
+    def _low(cls, values: np.ndarray) -> float:
+        return float(np.partition(values, int(len(values) * cls.LOW_SHARE))[int(len(values) * cls.LOW_SHARE)])
 
 
 def yaw_from_quaternion(z: float, w: float, x: float = 0.0, y: float = 0.0) -> float:

@@ -4,6 +4,7 @@ progress fields, the JSON message and the gait driver's dead man's handle values
 import json
 import math
 
+import numpy as np
 import pytest
 
 from srs_ros.core.navigation import NavigationProgress, NavigationState
@@ -34,6 +35,24 @@ def test_one_stamp_from_the_future_does_not_move_the_times_of_the_poses_after_it
     clock.steady_s(100.0 + 60 / 30 + 0.7, 5000.0 + 60 / 30 + 0.03)  # one frame stamped 0.7 s ahead
     later = [clock.steady_s(100.0 + i / 30, 5000.0 + i / 30 + 0.03) for i in range(61, 120)]
     assert later == pytest.approx([5000.0 + i / 30 + 0.03 for i in range(61, 120)])  # it shifted them 0.7 s back
+
+
+@pytest.mark.parametrize("rate", [0.6, 0.3, 2.0])
+def test_stamps_on_a_simulated_clock_behind_or_ahead_of_real_time_keep_their_arrival_delay(rate):
+    """A world on use_sim_time at 0.6x: its stamps gain 0.6 s a second, so the delay grows 0.4 s a second.
+    Before the drift was followed, the poses were dated up to 1 s before they came: one stall then lost them."""
+    clock = StampClock()
+    rng = np.random.default_rng(3)
+    lags = []
+    for i in range(3000):  # 100 s of 30 Hz frames, 20-60 ms late, every 5 s a 0.3 s stall of the subscriber
+        arrival = 5000.0 + i / 30
+        stall = 0.3 - (i % 150) / 30 if i % 150 < 9 else 0.0
+        delivered = arrival + rng.uniform(0.02, 0.06) + stall
+        mapped = clock.steady_s(10.0 + rate * i / 30, delivered)
+        assert mapped <= delivered  # never later than its arrival
+        lags.append(delivered - mapped)
+    lags = np.array(lags[300:])  # after the first 10 s
+    assert np.median(lags) < 0.06 and np.percentile(lags, 99) < 0.36  # the old mapping: up to 0.95 s
 
 
 @pytest.mark.parametrize("yaw", [0.0, 1.0, -2.5, math.pi - 1e-6])
