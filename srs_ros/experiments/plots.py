@@ -20,7 +20,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from srs_ros.experiments.table import MeasuredTable, RunRecord, cell_key, write_atomically  # noqa: E402
+from srs_ros.experiments.table import FAILED, MeasuredTable, RunRecord, cell_key, write_atomically  # noqa: E402
 
 DPI = 100
 #: Bar colours: this sweep, the measured table.
@@ -57,7 +57,7 @@ def plot_table(path: str | Path, records: Sequence[RunRecord], reference: Measur
         ax.bar(x - 0.2, np.nan_to_num(ours), 0.4, color=SWEEP_COLOUR, label=label)
         if reference is not None:
             ax.bar(x + 0.2, np.nan_to_num(theirs), 0.4, color=MEASURED_COLOUR, label=ref_label)
-        failed = [i for i, c in enumerate(cells) if c in by_cell and not by_cell[c].ok]
+        failed = [i for i, c in enumerate(cells) if c in by_cell and by_cell[c].outcome == FAILED]
         if failed:
             ax.plot(x[failed] - 0.2, np.zeros(len(failed)), "x", color="tab:red", markersize=9, label="failed run")
         ax.set_xticks(x, [f"{c[1]:g} bar\n{c[2]:g} Hz" for c in cells], fontsize="x-small")
@@ -98,7 +98,7 @@ def plot_paths(path: str | Path, records: Sequence[RunRecord], gait: str) -> Pat
                 ax.plot(xy_cm[:, 0], xy_cm[:, 1], "-", color=SWEEP_COLOUR, lw=1.2)
                 ax.plot(0.0, 0.0, "o", color="tab:green", markersize=4)
                 ax.plot(xy_cm[-1, 0], xy_cm[-1, 1], "s", color="tab:red", markersize=4)
-            note = f"{record.speed_cm_s:.2f} cm/s" if record.ok else "failed"
+            note = f"{record.speed_cm_s:.2f} cm/s" if record.ok else record.outcome
             ax.set_title(f"{title}: {note}", fontsize="small", color="black" if record.ok else "tab:red")
             if i == len(amplitudes) - 1:
                 ax.set_xlabel("X (cm)", fontsize="small")

@@ -426,7 +426,8 @@ class RosSweep:
             ) -> RunRecord:
         """One run of ``cell``, recorded into ``bag_path``; a failed record (with the reason) if it aborts.
 
-        ``go(cell)`` is asked on a rig with real regulators before anything is armed; False skips the run.
+        ``go(cell)`` is asked on a rig with real regulators before anything is armed; False skips the run (a
+        record with the status ``skipped: ...``, not a failure).
         Raises :class:`SweepStopped` when the valves do not vent, ``KeyboardInterrupt`` after venting on Ctrl-C.
         """
         if self.rig is None:
@@ -443,7 +444,7 @@ class RosSweep:
             # Read again for every run: the node may have been configured (or reconfigured) on another rig since.
             self.rig = self._rig_now(self.rig.simulated)
             if self.rig.requires_arm and (go is None or not go(cell)):
-                return RunRecord.failed(cell, "skipped: no go from the operator")
+                return RunRecord.skipped(cell, "no go from the operator")
             answer = self.trigger("hardware_node", "arm")  # also a simulated rig: the vent at discovery disarmed it
             armed = True
             if not self.rig.requires_arm and answer.startswith(REAL_ARM_PREFIX):  # switched since its last status

@@ -38,11 +38,11 @@ PAPER_TABLE_FILE = "paper_table1.yaml"
 #: Columns of a measured table's rows.
 MEASURED_COLUMNS = ("gait", "amplitude_bar", "frequency_hz", "vx_cm_s", "vy_cm_s")
 #: Columns of a sweep's ``table.csv``: the run, its velocity and displacement, the measured velocity of the
-#: cell (empty where the measured table has none) and the run's status ("ok" or the reason it failed).
+#: cell (empty where the measured table has none) and the run's status ("ok", or "failed: " or "skipped: " and why).
 TABLE_COLUMNS = ("gait", "amplitude_bar", "frequency_hz", "vx_cm_s", "vy_cm_s", "dx_m", "dy_m",
                  "paper_vx_cm_s", "paper_vy_cm_s", "status")
-#: Status of a run that went through.
-OK = "ok"
+#: Status of a run that went through; the words that begin the status of one that failed or was not made by choice.
+OK, FAILED, SKIPPED = "ok", "failed", "skipped"
 
 Cell = tuple[str, float, float]
 
@@ -172,6 +172,11 @@ class RunRecord:
         return self.status == OK
 
     @property
+    def outcome(self) -> str:
+        """``ok``, ``skipped`` (the operator said no: not a failure) or ``failed``."""
+        return OK if self.ok else SKIPPED if self.status.startswith(f"{SKIPPED}:") else FAILED
+
+    @property
     def speed_cm_s(self) -> float:
         """Resultant speed (cm/s); NaN for a failed run."""
         return math.hypot(self.vx_cm_s, self.vy_cm_s)
@@ -180,7 +185,12 @@ class RunRecord:
     def failed(cls, cell: Cell, reason: str, track: np.ndarray | None = None) -> RunRecord:
         """A run that gave no velocity, with the reason (one line)."""
         text = " ".join(str(reason).split()) or "unknown failure"
-        return cls(*cell, status=f"failed: {text}", track=track)
+        return cls(*cell, status=f"{FAILED}: {text}", track=track)
+
+    @classmethod
+    def skipped(cls, cell: Cell, reason: str) -> RunRecord:
+        """A run not made by choice (the operator's "no"): no figures, and not a failure."""
+        return cls(*cell, status=f"{SKIPPED}: {' '.join(str(reason).split())}")
 
     def without_track(self) -> RunRecord:
         return replace(self, track=None)
@@ -262,12 +272,12 @@ def read_table_csv(path: str | Path) -> list[RunRecord]:
 # ------------------------------------------------------------------------------------------
 # The paper's layout
 # ------------------------------------------------------------------------------------------
-def _pair(values: tuple[float, float] | None, width: int) -> str:
+def _pair(values: tuple[float, float] | None, width: int, no_figure: str = FAILED) -> str:
     if values is None:
         return "--".center(width)
     vx, vy = values
     if not (math.isfinite(vx) and math.isfinite(vy)):
-        return "failed".center(width)
+        return no_figure.center(width)
     return f"{abs(vx):5.2f} / {abs(vy):5.2f}".center(width)
 
 
@@ -280,7 +290,7 @@ def format_table(records: Sequence[RunRecord], reference: MeasuredTable | None, 
     """Text in Table I's layout: rows amplitude x frequency, per gait ``v_x / v_y`` of the runs and the table's.
 
     Magnitudes (cm/s), as the paper prints them; the CSV keeps the signs. Failed runs show ``failed`` and
-    are listed under the table with their reasons.
+    are listed under the table with their reasons; so are runs the operator skipped (``skipped``).
     """
     gaits = list(dict.fromkeys(r.gait for r in records))
     by_cell = {r.cell: r for r in records}
@@ -300,7 +310,8 @@ def format_table(records: Sequence[RunRecord], reference: MeasuredTable | None, 
                 record = by_cell.get(cell_key(gait, amplitude, frequency))
                 ours = None if record is None else (record.vx_cm_s, record.vy_cm_s)
                 theirs = reference.velocity(gait, amplitude, frequency) if reference else None
-                cells.append(f" {_pair(ours, width)} {_pair(theirs, width)} ")
+                no_figure = FAILED if record is None else record.outcome
+                cells.append(f" {_pair(ours, width, no_figure)} {_pair(theirs, width)} ")
             lines.append(f"{_label(amplitude, 1):>7} {_label(frequency, 2):>6} |" + "|".join(cells) + "|")
         lines.append(rule)
     failures = [r for r in records if not r.ok]

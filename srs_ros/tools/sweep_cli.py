@@ -51,7 +51,9 @@ from srs_ros.experiments.cluster import add_runner_arguments, runner_from_args
 from srs_ros.experiments.plots import plot_paths, plot_table
 from srs_ros.experiments.sweep import OfflineRunner, SweepGrid
 from srs_ros.experiments.table import (
+    FAILED,
     ROS_SETTLE_S,
+    SKIPPED,
     MeasuredTable,
     RunRecord,
     format_table,
@@ -167,8 +169,10 @@ def _finish(records: Sequence[RunRecord], reference: MeasuredTable, out: Path, l
             how: str) -> int:
     written = _write_outputs(out, records, reference, label)
     print(format_table(records, reference, label="sim" if label == "simulated" else label))
-    failed = sum(not r.ok for r in records)
-    print(f"\n{len(records)} runs ({how}) in {wall_s:.1f} s wall time; {failed} failed")
+    failed = sum(r.outcome == FAILED for r in records)
+    skipped = sum(r.outcome == SKIPPED for r in records)
+    print(f"\n{len(records)} runs ({how}) in {wall_s:.1f} s wall time; {failed} failed"
+          + (f", {skipped} skipped by the operator" if skipped else ""))
     print("written: " + ", ".join(str(p) for p in written))
     return EXIT_FAILED_RUNS if failed else EXIT_OK
 
@@ -322,7 +326,7 @@ def _run_cells(sweep, grid: SweepGrid, bags: Path, args: argparse.Namespace,
         bar.update()
         text = f"{record.speed_cm_s:.2f} cm/s" if record.ok else record.status
         tqdm.write(f"{PROG}: {cell[0]} {cell[1]:g} bar {cell[2]:g} Hz: {text}", file=sys.stderr)
-        if not record.ok and args.on_failure == "stop":
+        if record.outcome == FAILED and args.on_failure == "stop":  # an operator's "no" is not a failure
             tqdm.write(f"{PROG}: stopping at the first failed run (--on-failure stop)", file=sys.stderr)
             break
     return records, EXIT_OK

@@ -170,7 +170,7 @@ def test_on_a_rig_with_real_regulators_nothing_is_armed_without_the_operators_go
                            go=lambda cell: asked.append(cell) or False)
     finally:
         sweep.close()
-    assert asked == [("inward_rolling", 2.0, 1.0)] and record.status == "failed: skipped: no go from the operator"
+    assert asked == [("inward_rolling", 2.0, 1.0)] and record.status == "skipped: no go from the operator"
     assert "True" not in armed_seen()
 
     def catch_up(what: str) -> None:
@@ -181,14 +181,16 @@ def test_on_a_rig_with_real_regulators_nothing_is_armed_without_the_operators_go
 
     out = tmp_path / "real"
     # The operator says no to the first run and quits at the second: nothing is ever armed or pressurised.
+    # A "no" is not a failure: --on-failure stop goes on to ask the second (it stopped there before).
     done = _sweep(ros_env, ["--gait", "inward_rolling", "--amplitudes", "2", "3", "--frequencies", "1",
-                            "--duration-s", "1", "--out", str(out)], stdin="n\nq\n")
+                            "--duration-s", "1", "--on-failure", "stop", "--out", str(out)], stdin="n\nq\n")
     catch_up("the diagnostics after the first sweep")
     assert done.returncode == 1, done.stdout + done.stderr
     assert "real regulators: each run needs the operator's go" in done.stderr
     assert done.stdout.count("on the real rig?") + done.stderr.count("on the real rig?") == 2
     statuses = [r.status for r in read_table_csv(out / "table.csv")]
-    assert statuses == ["failed: skipped: no go from the operator", "failed: the operator stopped the sweep"]
+    assert statuses == ["skipped: no go from the operator", "failed: the operator stopped the sweep"]
+    assert "1 failed, 1 skipped by the operator" in done.stdout and "   skipped   " in done.stdout
     assert "True" not in armed_seen() and pressures and max(max(m.data) for m in pressures) == 0.0
 
     # With the go the hardware is armed for the run; with no camera there is no pose: the run fails and the
