@@ -220,3 +220,17 @@ def test_options_the_chosen_mode_would_ignore_are_refused_before_anything_runs(a
         main([*argv, "--out", str(tmp_path / "out")])
     assert refused.value.code == 2 and message in capsys.readouterr().err
     assert not (tmp_path / "out").exists()
+
+
+def test_runs_the_operator_skipped_are_not_failures_in_the_summary_the_table_or_the_exit_code(tmp_path, capsys):
+    from srs_ros.experiments.table import RunRecord
+
+    made = RunRecord("inward_rolling", 2.0, 1.0, 1.5, 0.5, 0.15, 0.05)
+    skipped = RunRecord.skipped(("inward_rolling", 3.0, 1.0), "no go from the operator")
+    code = sweep_cli._finish([made, skipped], paper_table(), tmp_path, "tracked", 1.0, "over ROS")
+    out = capsys.readouterr().out
+    assert code == sweep_cli.EXIT_OK and "2 runs (over ROS) in 1.0 s wall time; 0 failed, 1 skipped" in out
+    assert "    skipped    " in out and "inward_rolling 3 bar 1 Hz: skipped: no go from the operator" in out
+    assert [r.outcome for r in read_table_csv(tmp_path / "table.csv")] == ["ok", "skipped"]
+    failed = RunRecord.failed(("inward_rolling", 3.0, 1.0), "no pose")
+    assert sweep_cli._finish([made, failed], paper_table(), tmp_path, "tracked", 1.0, "") == sweep_cli.EXIT_FAILED_RUNS
