@@ -2,8 +2,8 @@
 
 :func:`run_experiment` fits the gait's joint-space cycle (:func:`srs_ros.core.gait.trajectory.generate_cycle`),
 samples its pressures ``P = 100 l`` at the command rate, sends them to a fresh :class:`SimWorld` and
-records the tracked reference point at the camera's frame rate. The traveling velocity is the paper's:
-X and Y displacement of the reference point divided by the run time, in cm/s, floor frame
+records the tracked reference point at the camera's frame rate and at the run's end. The traveling velocity is
+the paper's: X and Y displacement of the reference point divided by the run time, in cm/s, floor frame
 (:func:`srs_ros.core.vision.tracking.traveling_velocity`). The run starts from rest with the cycle at phase 0
 and is deterministic for a given configuration. A sweep calls this function once per run.
 """
@@ -110,14 +110,17 @@ def run_experiment(gait: str, amplitude_bar: float, frequency_hz: float, duratio
     world = SimWorld(config, robot)
     command_count = int(math.floor(duration_s * rate + 1e-9)) + 1
     pressures = command_pressures_bar(cycle, np.arange(command_count) / rate)
-    record_count = int(math.floor(duration_s * record_rate_hz + 1e-9)) + 1
+    record_times_s = np.arange(int(math.floor(duration_s * record_rate_hz + 1e-9)) + 1) / record_rate_hz
+    if record_times_s[-1] < duration_s - 1e-9:  # the rate does not divide the run: its end is recorded too
+        record_times_s = np.append(record_times_s, float(duration_s))
+    record_count = len(record_times_s)
     rows = np.empty((record_count, 4))
     peak_target = peak_body = 0.0
     next_command = next_record = 0
     next_progress_s = 1.0
     while next_record < record_count:
         t_command = next_command / rate if next_command < command_count else math.inf
-        t_record = next_record / record_rate_hz
+        t_record = record_times_s[next_record]
         now = min(t_command, t_record)
         world.advance_to(now)
         if t_command <= now:

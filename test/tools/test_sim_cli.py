@@ -41,6 +41,16 @@ def test_a_run_writes_the_track_prints_the_velocity_and_saves_plot_and_video(tmp
     assert ok and frame.shape == (480, 640, 3) and frames == 61
 
 
+def test_a_record_rate_that_does_not_divide_the_run_still_records_and_measures_its_end(tmp_path, capsys):
+    out = tmp_path / "run.csv"  # 1.1 s at 7 Hz: frames at 0, 1/7 ... 7/7 s, then the end; it stopped at 1 s
+    code = sim_cli.main(["--gait", "inward_rolling", "--amplitude-bar", "3", "--frequency-hz", "1",
+                         "--duration-s", "1.1", "--record-rate-hz", "7", "--out", str(out)])
+    printed = capsys.readouterr().out
+    _, rows = read_rows(out)
+    assert code == 0 and len(rows) == 9 and rows[-1, 0] == pytest.approx(1.1, abs=1e-3)
+    assert rows[-2, 0] == pytest.approx(1.0, abs=1e-3) and "over 1.10 s" in printed
+
+
 def test_friction_and_sim_config_options_reach_the_world(tmp_path, capsys):
     data = yaml.safe_load(default_sim_config_path().read_text())
     data["sim"]["contact"]["friction_along_body"] = 0.25
