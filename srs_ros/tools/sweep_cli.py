@@ -15,10 +15,12 @@ what was recorded.
 
 ``--calibrate TABLE``: fit the simulation's uncertain parameters to a measured table
 (``config/paper_table1.yaml`` or a lab's own in that format), print each cell's error before and after,
-and write ``DIR/sim.yaml`` (on the local pool, or on a Dask cluster with ``--scheduler``).
+and write ``DIR/sim.yaml`` and each evaluation of the search, ``DIR/evaluations.csv`` (on the local pool, or
+on a Dask cluster with ``--scheduler``).
 
 Exit status: 0 done, 1 done with failed runs, 2 bad input or a rig that cannot be driven (nothing
-written), 130 interrupted (a sweep writes what was done; ``--calibrate`` writes nothing).
+written), 130 interrupted (a sweep writes what was done; ``--calibrate`` its evaluations so far,
+``evaluations.csv``, and no ``sim.yaml``).
 """
 
 from __future__ import annotations
@@ -40,6 +42,7 @@ from srs_ros.experiments.calibration import (
     DEFAULT_FIT_BEYOND_FRICTION,
     DEFAULT_MAX_EVALUATIONS,
     FIT_PARAMETERS,
+    Evaluation,
     calibrate,
     fit_parameters,
     format_cell_errors,
@@ -208,6 +211,7 @@ def _calibrate(args: argparse.Namespace, out: Path, runner: OfflineRunner) -> in
     reference = load_measured_table(args.calibrate)
     config = _sim_config(args)
     bar: tqdm | None = None
+    evaluations: list[Evaluation] = []
 
     def stage(text: str) -> None:
         nonlocal bar
@@ -218,7 +222,8 @@ def _calibrate(args: argparse.Namespace, out: Path, runner: OfflineRunner) -> in
         if text.startswith(("before", "after")):
             bar = _progress(len(reference.cells), args, text.split(":")[0])
 
-    def evaluation(e) -> None:
+    def evaluation(e: Evaluation) -> None:
+        evaluations.append(e)
         values = ", ".join(f"{k} {v:g}" for k, v in e.values.items())
         print(f"  evaluation {e.index}/{args.max_evaluations}: error {e.error:.4f}  ({values}; {e.wall_time_s:.1f} s)",
               file=sys.stderr, flush=True)
@@ -226,9 +231,31 @@ def _calibrate(args: argparse.Namespace, out: Path, runner: OfflineRunner) -> in
     try:
         result = calibrate(reference, config, args.fit, args.fit_duration_s, args.max_evaluations, runner=runner,
                            on_evaluation=evaluation, on_stage=stage, on_result=lambda _r: bar and bar.update())
+    except KeyboardInterrupt:  # the search so far is kept: hours of a cluster's work
+        if evaluations:
+            best = min(evaluations, key=lambda e: e.error)
+            path = _write_evaluations(out / "evaluations.csv", evaluations)
+            print(f"{PROG}: interrupted after {len(evaluations)} evaluations; the best so far, error {best.error:.4f} "
+                  f"at {best.values}, was not checked by full-length runs: no sim.yaml; written: {path}",
+                  file=sys.stderr)
+        raise
     finally:
         if bar is not None:
             bar.close()
+    report = _calibration_report(result, reference, config, runner)
+    sim_yaml = write_sim_yaml(out / "sim.yaml", result, reference)
+    written = [sim_yaml, write_table_csv(out / "table_before.csv", result.before, reference),
+               write_table_csv(out / "table_after.csv", result.after, reference),
+               _write_evaluations(out / "evaluations.csv", result.history),
+               write_atomically(out / "calibration.txt", report + "\n")]
+    print(report)
+    print("\nwritten: " + ", ".join(str(p) for p in written))
+    failed = sum(not r.ok for r in (*result.before, *result.after))
+    return EXIT_FAILED_RUNS if failed else EXIT_OK  # every run failed: exit 1, as the sweep (it said 0)
+
+
+def _calibration_report(result, reference: MeasuredTable, config: SimConfig, runner: OfflineRunner) -> str:
+    """calibration.txt: each cell's error before and after, the fitted values, the goals, the model's limits."""
     lines = [f"Calibration of {config.source} to {reference.name} ({len(reference.cells)} cells, "
              f"{reference.duration_s:g} s runs)", "", format_cell_errors(reference, result.before, result.after), ""]
     lines.append(f"RMS log speed error: {result.error_before:.4f} before, {result.error_after:.4f} after "
@@ -247,15 +274,16 @@ def _calibrate(args: argparse.Namespace, out: Path, runner: OfflineRunner) -> in
         lines.append("\nwhere the model cannot follow the measurements (a body rolling without slip covers "
                      "2 pi r per cycle at any frequency):")
         lines += [f"  {note}" for note in limits]
-    report = "\n".join(lines)
-    sim_yaml = write_sim_yaml(out / "sim.yaml", result, reference)
-    written = [sim_yaml, write_table_csv(out / "table_before.csv", result.before, reference),
-               write_table_csv(out / "table_after.csv", result.after, reference),
-               write_atomically(out / "calibration.txt", report + "\n")]
-    print(report)
-    print("\nwritten: " + ", ".join(str(p) for p in written))
-    failed = sum(not r.ok for r in (*result.before, *result.after))
-    return EXIT_FAILED_RUNS if failed else EXIT_OK  # every run failed: exit 1, as the sweep (it said 0)
+    return "\n".join(lines)
+
+
+def _write_evaluations(path: Path, evaluations: Sequence[Evaluation]) -> Path:
+    """``evaluations.csv``: the search's evaluations in order, their parameter values, RMS log error and time."""
+    names = list(evaluations[0].values) if evaluations else []
+    rows = [",".join(["index", *names, "error", "wall_time_s"])]
+    rows += [",".join([str(e.index), *(f"{e.values[n]:.6g}" for n in names), f"{e.error:.6g}", f"{e.wall_time_s:.3f}"])
+             for e in evaluations]
+    return write_atomically(path, "\n".join(rows) + "\n")
 
 
 def _ros(args: argparse.Namespace, grid: SweepGrid, reference: MeasuredTable, out: Path) -> int:

@@ -78,6 +78,8 @@ def test_calibration_on_a_tiny_table_writes_a_loadable_sim_yaml_and_the_error_do
     for line in ("inward_rolling       4     1 |    11.56 |", "serpentine           1     1 |     0.00 |"):
         assert line in printed.out  # each cell's error before and after
     assert "RMS log speed error:" in printed.out and "[met] 1 bar cells do not move" in printed.out
+    evaluations = (out / "evaluations.csv").read_text().splitlines()
+    assert evaluations[0] == "index,friction_coefficient,error,wall_time_s" and len(evaluations) == 3
     assert (out / "calibration.txt").read_text().startswith("Calibration of ")
 
 
@@ -161,6 +163,32 @@ def test_a_calibration_whose_runs_failed_exits_1_and_ctrl_c_writes_the_runs_done
     assert main(["--gait", "inward_rolling", "--amplitudes", "2", "3", "4", "--frequencies", "1", "--duration-s", "1",
                  "--workers", "1", "--no-progress", "--out", str(out)]) == 130
     assert [r.cell for r in read_table_csv(out / "table.csv")] == calls  # the two runs done, in the grid's order
+
+
+def test_a_calibration_stopped_by_ctrl_c_writes_its_evaluations_so_far_and_no_sim_yaml(tmp_path, capsys,
+                                                                                       monkeypatch):
+    """Ctrl-C during --calibrate wrote nothing: an hour of a cluster's search lost (a helper's review)."""
+    from srs_ros.experiments import sweep as sweep_module
+    from srs_ros.experiments.table import RunRecord
+
+    def interrupted_at_the_fourth(cell, duration_s, config, *_args, **_kwargs):
+        calls.append(cell)  # the full-length run before, then one run an evaluation
+        if len(calls) == 4:
+            raise KeyboardInterrupt
+        speed_cm_s = 10.0 * config.contact.friction_coefficient
+        return RunRecord(*cell, speed_cm_s, 0.0, speed_cm_s * duration_s / 100, 0.0)
+
+    calls = []
+    monkeypatch.setattr(sweep_module, "run_cell", interrupted_at_the_fourth)
+    out = tmp_path / "cal"
+    assert main(["--calibrate", str(_lab_table(tmp_path, [["inward_rolling", 4.0, 1.0, 5.61, 10.11]])), "--fit",
+                 "friction_coefficient", "--max-evaluations", "6", "--fit-duration-s", "1", "--workers", "1",
+                 "--no-progress", "--out", str(out)]) == 130
+    rows = (out / "evaluations.csv").read_text().splitlines()
+    assert rows[0] == "index,friction_coefficient,error,wall_time_s"
+    assert [r.split(",")[0] for r in rows[1:]] == ["1", "2"]
+    assert float(rows[1].split(",")[1]) == 0.8 and not (out / "sim.yaml").exists()
+    assert "interrupted after 2 evaluations; the best so far, error" in capsys.readouterr().err
 
 
 def test_an_unwritable_output_folder_exits_2(tmp_path, capsys):
