@@ -38,10 +38,12 @@ from collections.abc import Callable
 from typing import Any
 
 from rcl_interfaces.srv import SetParameters, SetParametersAtomically
+from rclpy.exceptions import NameValidationException
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from std_srvs.srv import Trigger
 
+from srs_ros.core.errors import ConfigurationError
 from srs_ros.ros.interfaces import BUSY_RETRY_S, fit_busy
 
 #: Wait before a failed call is made again (s).
@@ -71,13 +73,20 @@ class GaitDriver:
         self._clock = clock
         self.keepalive_s = float(keepalive_s)  # 0: no dead man's handle (the gait plays until stopped)
         self._started_s = -math.inf  # when the last ~/start was sent
-        self._clients = {
-            "set_gait": node.create_client(SetParametersAtomically, f"{trajectory_server}/set_parameters_atomically"),
-            "regenerate": node.create_client(Trigger, f"{trajectory_server}/regenerate"),
-            "set_player": node.create_client(SetParameters, f"{gait_player}/set_parameters"),
-            "start": node.create_client(Trigger, f"{gait_player}/start"),
-            "stop": node.create_client(Trigger, f"{gait_player}/stop"),
-        }
+        try:
+            self._clients = {
+                "set_gait": node.create_client(SetParametersAtomically,
+                                               f"{trajectory_server}/set_parameters_atomically"),
+                "regenerate": node.create_client(Trigger, f"{trajectory_server}/regenerate"),
+                "set_player": node.create_client(SetParameters, f"{gait_player}/set_parameters"),
+                "start": node.create_client(Trigger, f"{gait_player}/start"),
+                "stop": node.create_client(Trigger, f"{gait_player}/stop"),
+            }
+        except NameValidationException as exc:  # a traceback before (a helper's review)
+            raise ConfigurationError(
+                f"trajectory_server {trajectory_server!r} or gait_player {gait_player!r} is not a node name: "
+                f"{str(exc).splitlines()[0].rstrip(':')}; expected letters, digits and '_' (e.g. gait_player, or "
+                "/snake1/gait_player in another namespace)") from None
         self.wanted = None  # the newest GaitCommand
         self._cycle_key: tuple | None = None  # latched by trajectory_server (its regenerate answered success)
         self._sent_key: tuple | None = None  # parameters set, regenerate not yet answered

@@ -1,4 +1,4 @@
-"""ROS parameters of the srs_ros nodes: declared once per node from specs, integers taken as doubles, guarded."""
+"""ROS parameters of the srs_ros nodes: declared once per node from specs, typed as ros2cli types them, guarded."""
 
 from __future__ import annotations
 
@@ -90,10 +90,12 @@ def _item_type(default: Any) -> type | None:
 def declare_parameters(node: Node, specs: Iterable[ParameterSpec]) -> dict[str, ParameterSpec]:
     """Declare every spec on ``node`` with its descriptor; return them by name. Once per node: all of them.
 
-    A double parameter also takes an integer, converted to a double: at start-up
-    (``-p rate_hz:=500``, a launch argument ``amplitude_bar:=3``) and at run time
-    (``ros2 param set /gait_player rate_hz 500``). rclpy types parameters strictly and would refuse
-    both; the value stored, published and checked against the range is always the double.
+    Values are typed as ros2cli and rcl type them: ``3`` is an INTEGER, ``0`` too. So a double parameter also
+    takes an integer, converted to a double, and a string parameter an integer as its text (``-p source:=0``,
+    a camera index): at start-up (``-p rate_hz:=500``, a launch argument ``amplitude_bar:=3``) and at run time
+    (``ros2 param set /gait_player rate_hz 500``). rclpy types parameters strictly and would refuse them.
+    Every start-up value is then checked as a set would be (choices, ``> 0``, list lengths: rclpy's
+    descriptor checks only type and range): a bad one raises ConfigurationError, the node does not start.
 
     The run-time conversion is a pre-set callback, and rclpy (7.1, Jazzy) concatenates the lists
     several such callbacks return: a second call would hand every parameter over twice, once still an
@@ -106,17 +108,31 @@ def declare_parameters(node: Node, specs: Iterable[ParameterSpec]) -> dict[str, 
                            "callbacks and integers for doubles would then be refused.")
     by_name = {spec.name: spec for spec in specs}
     node._srs_declared_parameters = by_name
-    doubles = frozenset(name for name, spec in by_name.items() if spec.is_double)
+    convert = partial(integers_as_declared, _types_taking_integers(by_name))
     # Start-up overrides are read by declare_parameter before any callback runs, so convert them here
     # (rclpy keeps them in Node._parameter_overrides and offers no public setter).
     overrides = getattr(node, "_parameter_overrides", {})
-    for name in doubles & set(overrides):
-        overrides[name] = integers_as_doubles(doubles, [overrides[name]])[0]
+    for name in set(by_name) & set(overrides):
+        overrides[name] = convert([overrides[name]])[0]
     for spec in by_name.values():
         node.declare_parameter(spec.name, spec.default, spec.descriptor())
-    if doubles:
-        node.add_pre_set_parameters_callback(partial(integers_as_doubles, doubles))
+    for spec in by_name.values():
+        reason = spec.check(node.get_parameter(spec.name).value)
+        if reason:
+            raise ConfigurationError(f"invalid start-up parameter: {reason}")
+    node.add_pre_set_parameters_callback(convert)
     return by_name
+
+
+def _types_taking_integers(specs: dict[str, ParameterSpec]) -> dict[str, Parameter.Type]:
+    """The parameters that take an INTEGER as another type: doubles (its value) and strings (its text)."""
+    kinds = {}
+    for name, spec in specs.items():
+        if spec.is_double:
+            kinds[name] = Parameter.Type.DOUBLE
+        elif isinstance(spec.default, str):
+            kinds[name] = Parameter.Type.STRING
+    return kinds
 
 
 def startup_value(node: Node, spec: ParameterSpec) -> Any:
@@ -126,6 +142,8 @@ def startup_value(node: Node, spec: ParameterSpec) -> Any:
     before the one :func:`declare_parameters` call. Raises ConfigurationError for a value of the wrong type.
     """
     override = getattr(node, "_parameter_overrides", {}).get(spec.name)
+    if override is not None:  # typed as declare_parameters will: 3 for a double is 3.0, for a string "3"
+        override = integers_as_declared(_types_taking_integers({spec.name: spec}), [override])[0]
     value = spec.default if override is None else override.value
     reason = spec.check(value)
     if reason:
@@ -133,10 +151,16 @@ def startup_value(node: Node, spec: ParameterSpec) -> Any:
     return float(value) if spec.is_double else value
 
 
-def integers_as_doubles(names: frozenset[str], params: list[Parameter]) -> list[Parameter]:
-    """``params`` with every integer value of a parameter in ``names`` turned into the equal double."""
-    return [Parameter(p.name, Parameter.Type.DOUBLE, float(p.value))
-            if p.name in names and p.type_ == Parameter.Type.INTEGER else p for p in params]
+def integers_as_declared(kinds: dict[str, Parameter.Type], params: list[Parameter]) -> list[Parameter]:
+    """``params`` with each integer value of a parameter in ``kinds`` as that type: a double or its decimal text."""
+
+    def converted(p: Parameter) -> Parameter:
+        kind = kinds.get(p.name)
+        if kind is None or p.type_ != Parameter.Type.INTEGER:
+            return p
+        return Parameter(p.name, kind, float(p.value) if kind == Parameter.Type.DOUBLE else str(p.value))
+
+    return [converted(p) for p in params]
 
 
 def params_file_key(node: str) -> str:

@@ -17,7 +17,7 @@ from collections.abc import Callable
 
 import rclpy
 from rclpy.clock import Clock, ClockType
-from rclpy.exceptions import InvalidParameterValueException, ParameterException
+from rclpy.exceptions import InvalidParameterValueException, NameValidationException, ParameterException
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
 from rclpy.node import Node
@@ -251,7 +251,7 @@ def spin_until_shutdown(executor, duration_s: float = 0.0) -> None:
 
 
 #: Errors that mean "the node cannot start with this configuration" (exit code 2, no traceback).
-STARTUP_ERRORS = (SrsError, InvalidParameterValueException, ParameterException)
+STARTUP_ERRORS = (SrsError, InvalidParameterValueException, ParameterException, NameValidationException)
 
 
 def startup_error_text(exc: BaseException) -> str:

@@ -1,6 +1,7 @@
 """Parameters of every node: integers are accepted for double parameters (start-up and ``ros2 param set``)."""
 
 import math
+import re
 
 import pytest
 import rclpy
@@ -87,9 +88,33 @@ def test_a_start_up_value_is_read_before_declaring(node):
     assert startup_value(node(), robot_file) == ""
     assert startup_value(node(robot_description_file="/tmp/robot.yaml"), robot_file) == "/tmp/robot.yaml"
     assert startup_value(node(rate_hz=500), SPECS[0]) == 500.0
-    with pytest.raises(ConfigurationError,
-                       match="invalid start-up parameter: robot_description_file is 3; expected a string; robot YAML."):
-        startup_value(node(robot_description_file=3), robot_file)
+    assert startup_value(node(robot_description_file=3), robot_file) == "3"  # as declare_parameters will take it
+    with pytest.raises(ConfigurationError, match="invalid start-up parameter: robot_description_file is 2.5; "
+                                                 "expected a string; robot YAML."):
+        startup_value(node(robot_description_file=2.5), robot_file)
+
+
+def test_an_integer_for_a_string_parameter_is_its_text_at_start_up_and_at_run_time(node):
+    """ros2cli and rcl type `-p source:=0` (a camera index) as an INTEGER: camera_tracker refused what its docs say."""
+    source = ParameterSpec("source", "", "a video file or a camera index (e.g. '0')")
+    made = node(source=0)
+    declare_parameters(made, (source,))
+    assert made.get_parameter("source").type_ == Parameter.Type.STRING and made.get_parameter("source").value == "0"
+    assert made.set_parameters([Parameter("source", value=2)])[0].successful
+    assert made.get_parameter("source").value == "2"
+
+
+@pytest.mark.parametrize(("spec", "value", "expected"), [
+    (ParameterSpec("camera_encoding", "bgr8", "encoding", choices=("bgr8", "mono8")), "foo",
+     "camera_encoding is 'foo'; expected one of"),
+    (ParameterSpec("gain", 1.0, "gain", 0.0, 10.0, above_minimum=True), 0.0, "gain is 0.0; expected"),
+    (ParameterSpec("levels", [0.0, 1.0], "levels", length=2), [1.0], "levels is [1.0]; expected"),
+])
+def test_a_start_up_value_is_checked_as_a_set_would_be_and_the_node_does_not_start(node, spec, value, expected):
+    """rclpy's descriptor checks a start-up value's type and range only: sim_world with camera_encoding:=foo started
+    and died at its first frame with a traceback; navigator took a misspelt calibration_preset silently."""
+    with pytest.raises(ConfigurationError, match=re.escape(f"invalid start-up parameter: {expected}")):
+        declare_parameters(node(**{spec.name: value}), (spec,))
 
 
 def test_wrong_type_reason_says_to_write_a_double():
@@ -152,3 +177,15 @@ def test_every_writable_double_of_every_node_takes_an_integer_as_ros2_param_set_
     assert {"rate_hz", "amplitude_scale"} <= taken["gait_player"]
     assert {"setpoint_timeout_s", "ramp_time_s"} <= taken["hardware_node"]
     assert {"goal_tolerance_m", "pose_timeout_s"} <= taken["navigator"]
+
+
+@pytest.mark.parametrize("names", [("trajectory_server", "gait-player"), ("1ts", "gait_player")])
+def test_a_gait_node_name_that_is_no_name_is_a_start_up_error_that_names_the_parameters(node, names):
+    """navigator -p gait_player:=gait-player ended in rclpy's traceback, exit 1 (a helper's review)."""
+    from srs_ros.ros.gait_driver import GaitDriver
+    from srs_ros.ros.process import STARTUP_ERRORS
+
+    with pytest.raises(ConfigurationError, match=re.escape(f"trajectory_server {names[0]!r} or gait_player "
+                                                           f"{names[1]!r} is not a node name: ")) as raised:
+        GaitDriver(node(), *names)
+    assert isinstance(raised.value, STARTUP_ERRORS)
