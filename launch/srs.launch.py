@@ -78,11 +78,14 @@ def generate_launch_description():
     config = os.path.join(get_package_share_directory("srs_ros"), "config")
     gait, amplitude = gait_field(list_gaits()), amplitude_field(default_robot())
     args = [
-        DeclareLaunchArgument("gait", default_value=gait.default, description=f"gait to stream, {gait.expected}"),
+        DeclareLaunchArgument("gait", default_value=gait.default, description=f"gait to stream, {gait.expected} "
+                              "(with navigate:=true the navigator chooses)"),
         DeclareLaunchArgument("amplitude_bar", default_value=str(amplitude.default),
-                              description=f"largest pressure of the cycle, {amplitude.expected} (3 or 3.0)"),
+                              description=f"largest pressure of the cycle, {amplitude.expected} (3 or 3.0); with "
+                                          "navigate:=true the navigator's cruise amplitude (0.5-4 bar)"),
         DeclareLaunchArgument("frequency_hz", default_value=str(FREQUENCY_FIELD.default),
-                              description=f"gait frequency, {FREQUENCY_FIELD.expected} (1 or 1.0)"),
+                              description=f"gait frequency, {FREQUENCY_FIELD.expected} (1 or 1.0); with "
+                                          "navigate:=true the navigator chooses (its cruise_frequency_hz)"),
         DeclareLaunchArgument("rig_file", default_value=os.path.join(config, "rigs", f"{rig.SYSTEM_RIG}.yaml"),
                               description="rig YAML (backend, channels, rates); rigs/sim.yaml = the simulated robot"),
         DeclareLaunchArgument("sim", default_value="true", choices=["true", "false"],
@@ -127,8 +130,9 @@ def generate_launch_description():
     )
     navigator = Node(
         package="srs_ros", executable="navigator", name="navigator", namespace=namespace, output="screen",
-        parameters=[os.path.join(config, "navigator.yaml"), common,
-                    {"calibration_preset": _typed("camera_preset", str)}],
+        parameters=[os.path.join(config, "navigator.yaml"), common,  # amplitude_bar:=3: it was 4 bar (a review)
+                    {"calibration_preset": _typed("camera_preset", str),
+                     "amplitude_bar": _typed("amplitude_bar", float)}],
         condition=IfCondition(LaunchConfiguration("navigate")),
     )
     sim_world = Node(

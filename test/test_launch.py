@@ -85,12 +85,14 @@ def test_navigate_adds_the_navigator_and_leaves_the_gait_to_it(ament_prefix):
     navigator = nodes["navigator"]
     assert navigator["executable"] == "navigator" and navigator["namespace"] == "snake1"
     assert navigator["parameters"]["calibration_preset"] == "sim_bands"  # the tracker's calibration, as its preset
+    assert navigator["parameters"]["amplitude_bar"] == 4.0  # the robot's limit, the navigator's default too
     assert [Path(f).name for f in navigator["parameter_files"]] == ["navigator.yaml"]
     assert all(Path(f).is_file() for f in navigator["parameter_files"])
     assert nodes["gait_player"]["parameters"]["autostart"] is False  # the navigator starts and stops it
     assert nodes["hardware_node"]["parameters"]["autostart"] is True
-    real = evaluate(ament_prefix, "navigate:=true", "camera_preset:=", "sim:=false")
+    real = evaluate(ament_prefix, "navigate:=true", "camera_preset:=", "sim:=false", "amplitude_bar:=3")
     assert real["navigator"]["parameters"]["calibration_preset"] == ""  # config/camera_calibration.yaml
+    assert real["navigator"]["parameters"]["amplitude_bar"] == 3.0  # a gentler launch: it cruised at 4 bar
 
 
 #: Run before the launch file in its process: every default the launch takes from srs_ros's specs changed.

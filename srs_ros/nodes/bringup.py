@@ -96,11 +96,14 @@ def spec_defaults() -> dict[str, Any]:
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="srs_bringup", description=__doc__.split("\n")[0])
     default = spec_defaults()
-    parser.add_argument("--gait", default=default["gait"], help=f"gait to stream (default {default['gait']})")
+    parser.add_argument("--gait", default=default["gait"], help=f"gait to stream (default {default['gait']}; "
+                        "with --navigate the navigator chooses)")
     parser.add_argument("--amplitude-bar", type=float, default=default["amplitude_bar"],
-                        help=f"largest pressure, bar (default: the robot's limit, {default['amplitude_bar']:g})")
+                        help=f"largest pressure, bar (default: the robot's limit, {default['amplitude_bar']:g}); "
+                        "with --navigate the navigator's cruise amplitude (0.5-4 bar)")
     parser.add_argument("--frequency-hz", type=float, default=default["frequency_hz"],
-                        help=f"gait frequency, Hz (default {default['frequency_hz']:g})")
+                        help=f"gait frequency, Hz (default {default['frequency_hz']:g}; with --navigate the "
+                        "navigator chooses: its cruise_frequency_hz)")
     parser.add_argument("--samples", type=int, default=default["samples"],
                         help=f"samples per fitted cycle (default {default['samples']})")
     parser.add_argument("--rate-hz", type=float, default=default["rate_hz"],
@@ -152,7 +155,7 @@ def _params_file(args: argparse.Namespace, ros_args: list[str]) -> str:
         "sim_world": {"sim_config_file": args.sim_config},
         "camera_tracker": {"color_preset": rig_config.SIM_COLOR_PRESET},
         "navigator": {"calibration_preset": rig_config.SIM_COLOR_PRESET if _simulated(args) else "",
-                      "loop_path": bool(args.patrol)},
+                      "loop_path": bool(args.patrol), "amplitude_bar": args.amplitude_bar},
     }
     params = {node: {k: v for k, v in values.items() if k not in given} for node, values in params.items()}
     with tempfile.NamedTemporaryFile("w", prefix="srs_bringup_", suffix=".yaml", delete=False) as stream:
