@@ -76,6 +76,23 @@ def node_specs(node: str) -> tuple[ParameterSpec, ...]:
     return tuple(PARAMETERS)
 
 
+def robot_dependent(node: str) -> frozenset[str]:
+    """The parameters whose default comes from the robot file (the trajectory server's ``amplitude_bar``).
+
+    Written as a comment: a value in the file refused a robot with a lower limit (a helper's review).
+    """
+    if node != "trajectory_server":
+        return frozenset()
+    from srs_ros.core.gait.library import list_gaits
+    from srs_ros.core.robot import default_robot
+    from srs_ros.nodes.trajectory_server import base_parameters
+
+    robot = default_robot()
+    lower = dataclasses.replace(robot, max_pressure_bar=robot.max_pressure_bar / 2)
+    gaits = sorted(list_gaits())
+    return frozenset(a.name for a, b in zip(base_parameters(robot, gaits), base_parameters(lower, gaits)) if a != b)
+
+
 def yaml_value(value) -> str:
     """``value`` as one YAML flow scalar or list (a double keeps its point: ``4.0``, so ROS types it double)."""
     return yaml.safe_dump(value, default_flow_style=True, width=10_000).splitlines()[0]
@@ -98,9 +115,12 @@ def config_text(node: str) -> str:
              "# edit this file. A lab's own values go in a params file of its own, passed after this one.",
              *(f"# {line}" for line in HEADERS[node]),
              f"{params_file_key(node)}:", "  ros__parameters:"]
-    entries = [f"{spec.name}: {yaml_value(spec.default)}" for spec in specs]
+    from_robot = robot_dependent(node)
+    entries = [f"{'# ' if spec.name in from_robot else ''}{spec.name}: {yaml_value(spec.default)}" for spec in specs]
     width = max(len(entry) for entry in entries) + 2
-    lines += [f"    {entry.ljust(width)}# {comment(spec)}" for entry, spec in zip(entries, specs)]
+    lines += [f"    {entry.ljust(width)}# {comment(spec)}"
+              + ("; default: the robot file's limit (config/robot.yaml's here), so not set" if spec.name in from_robot
+                 else "") for entry, spec in zip(entries, specs)]
     return "\n".join(lines) + "\n"
 
 
