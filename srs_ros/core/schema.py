@@ -237,7 +237,10 @@ class Field:
         if kind in (float, int):
             if not (_is_integer(value) if kind is int else _is_number(value)):
                 return False, None
-            number = kind(value)
+            try:
+                number = kind(value)
+            except OverflowError:  # an integer of 400 digits: no float holds it (a traceback before)
+                return False, None
             return (True, number) if self._in_range(number) else (False, None)
         if kind is dict:
             return (True, dict(value)) if isinstance(value, Mapping) else (False, None)
@@ -392,7 +395,7 @@ def read_csv_rows(path: str | Path, table: Table, error: type[Exception] = Confi
     if path.exists() and not path.is_file():  # a FIFO or a device would block the reader
         raise error(f"{path}: not a regular file (a directory, pipe or device); expected a CSV file {columns}.")
     try:
-        with path.open(newline="", encoding="utf-8") as stream:
+        with path.open(newline="", encoding="utf-8-sig") as stream:  # a spreadsheet's "CSV UTF-8" starts with a BOM
             reader = csv.reader(stream)
             header = next(reader, [])
             lines = [(reader.line_num, cells) for cells in reader if cells]

@@ -14,7 +14,7 @@ from srs_ros.core.gait import library
 from srs_ros.core.gait.fitting import FitSettings
 from srs_ros.core.rig import rig_from_dict
 from srs_ros.core.robot import config_dir, robot_from_dict
-from srs_ros.core.schema import REQUIRED, Field, Table, refusal
+from srs_ros.core.schema import REQUIRED, Field, Table, read_csv_rows, refusal
 from srs_ros.experiments.table import measured_table_from_dict
 from srs_ros.sim.config import sim_config_from_dict
 
@@ -37,7 +37,7 @@ def test_the_error_format_names_the_file_the_key_the_value_and_what_is_expected(
     (Field("n", int, minimum=1, maximum=20), [1, 20, np.int64(7)], [0, 21, 2.5, 3.0, True, "3", None]),
     (Field("x", float, minimum=0.0, maximum=1.0), [0, 1, 0.5, np.float32(0.25)], [-0.1, 1.1, float("nan"), True, "1"]),
     (Field("x", float, minimum=0.0, above_minimum=True), [1e-9, 1e9], [0.0, -1.0, float("inf")]),
-    (Field("x", float), [-1e300, 0, 3], [float("inf"), float("-inf"), float("nan"), None]),
+    (Field("x", float), [-1e300, 0, 3], [float("inf"), float("-inf"), float("nan"), None, 10 ** 400, -(10 ** 400)]),
     (Field("b", bool), [True, False, np.bool_(True)], [1, 0, "true", None]),
     (Field("s", str), ["", "a"], [1, None, b"a"]),
     (Field("s", str, nonempty=True), ["a"], [""]),
@@ -55,6 +55,14 @@ def test_a_field_accepts_its_type_in_its_range_and_refuses_the_rest(field, accep
         assert field.reason(value).startswith(f"{field.name} is "), value
         with pytest.raises(ConfigurationError):
             field.check(value, "test")
+
+
+def test_a_csv_saved_by_a_spreadsheet_with_a_byte_order_mark_is_read(tmp_path):
+    """Excel's "CSV UTF-8" begins with a BOM: the header was refused as '\\ufeffpressure_bar,...' (a review)."""
+    table = Table("ruler", (Field("pressure_bar", float), Field("length_m", float)))
+    path = tmp_path / "ruler.csv"
+    path.write_bytes("pressure_bar,length_m\r\n1,0.01\r\n".encode("utf-8-sig"))
+    assert read_csv_rows(path, table) == [{"pressure_bar": 1.0, "length_m": 0.01}]
 
 
 def test_a_field_converts_to_its_type():
