@@ -3,7 +3,7 @@
 - here, the foundation every domain shares: ``errors`` (the error tree), ``schema`` (the one schema of every
   config file, option table and node parameter: typed fields, one error format), ``robot`` (the robot
   description), ``rig`` (rig files), ``kinematics`` (paper eq. 1-2), ``validation`` (typed checks of array
-  inputs), ``ramp``;
+  inputs), ``files`` (files written whole or not at all), ``ramp``;
 - :mod:`srs_ros.core.gait`: the gait library, shape fitting, joint-space cycles, interpolation, playback;
 - :mod:`srs_ros.core.actuation`: lengths to pressures and the one clamp, the hardware node's safety rules,
   muscle models, per-muscle calibration, lag compensation, identification;

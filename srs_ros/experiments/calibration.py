@@ -34,9 +34,10 @@ import numpy as np
 import yaml
 
 from srs_ros.core.errors import InvalidInputError
+from srs_ros.core.files import write_atomically
 from srs_ros.core.robot import RobotDescription, default_robot
 from srs_ros.experiments.sweep import OfflineRunner
-from srs_ros.experiments.table import Cell, MeasuredTable, RunRecord, write_atomically
+from srs_ros.experiments.table import Cell, MeasuredTable, RunRecord
 from srs_ros.sim.config import SimConfig, sim_config_from_dict, to_dict
 
 #: Speed (cm/s) added to both sides of the log-ratio: a cell measured at 0 and simulated at 0.3 cm/s costs

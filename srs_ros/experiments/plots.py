@@ -20,7 +20,8 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from srs_ros.experiments.table import FAILED, MeasuredTable, RunRecord, cell_key, write_atomically  # noqa: E402
+from srs_ros.core.files import write_atomically  # noqa: E402
+from srs_ros.experiments.table import FAILED, MeasuredTable, RunRecord, cell_key  # noqa: E402
 
 DPI = 100
 #: Bar colours: this sweep, the measured table.

@@ -17,7 +17,6 @@ from __future__ import annotations
 import csv
 import io
 import math
-import os
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -25,6 +24,7 @@ from typing import Any
 
 import numpy as np
 
+from srs_ros.core.files import write_atomically
 from srs_ros.core.gait.library import list_gaits
 from srs_ros.core.gait.request import FREQUENCY_FIELD, MAX_RUN_S, amplitude_field, gait_field
 from srs_ros.core.robot import RobotDescription, config_dir, default_robot, read_yaml
@@ -212,22 +212,6 @@ def table_rows(records: Iterable[RunRecord], reference: MeasuredTable | None) ->
                      "" if measured is None else f"{measured[0]:.2f}", "" if measured is None else f"{measured[1]:.2f}",
                      r.status])
     return rows
-
-
-def write_atomically(path: str | Path, text: str | bytes) -> Path:
-    """Write a file through a temporary sibling and a rename: it is there whole or not at all."""
-    path = Path(path)
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    try:
-        if isinstance(text, bytes):
-            tmp.write_bytes(text)
-        else:
-            tmp.write_text(text, encoding="utf-8")
-        os.replace(tmp, path)
-    finally:
-        if tmp.exists():
-            tmp.unlink()
-    return path
 
 
 def write_table_csv(path: str | Path, records: Iterable[RunRecord], reference: MeasuredTable | None) -> Path:

@@ -37,6 +37,7 @@ from pathlib import Path
 from tqdm import tqdm
 
 from srs_ros.core.errors import ConfigurationError, SrsError
+from srs_ros.core.files import write_atomically
 from srs_ros.core.gait.request import MAX_RUN_S
 from srs_ros.experiments.calibration import (
     DEFAULT_FIT_BEYOND_FRICTION,
@@ -62,7 +63,6 @@ from srs_ros.experiments.table import (
     format_table,
     load_measured_table,
     paper_table,
-    write_atomically,
     write_table_csv,
 )
 from srs_ros.sim.config import SimConfig, load_sim_config, with_friction

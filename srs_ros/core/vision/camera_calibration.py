@@ -27,6 +27,7 @@ import numpy as np
 import yaml
 
 from srs_ros.core.errors import ConfigurationError, InvalidInputError
+from srs_ros.core.files import write_atomically
 from srs_ros.core.robot import config_dir, read_yaml
 from srs_ros.core.schema import REQUIRED, Field, Table, document, missing, read_csv_rows, refusal
 from srs_ros.core.vision.homography import (
@@ -389,7 +390,7 @@ def save_calibration(calibration: CameraCalibration, path: str | Path, comment: 
     path.parent.mkdir(parents=True, exist_ok=True)
     header = "".join(f"# {line}\n" for line in comment.splitlines()) if comment else ""
     text = yaml.safe_dump(data, sort_keys=False, default_flow_style=None)
-    path.write_text(header + text, encoding="utf-8")
+    write_atomically(path, header + text)  # a full disk mid-write left a good file cut short (a helper's review)
     return path
 
 

@@ -84,3 +84,23 @@ def test_a_bad_point_pair_csv_is_refused_with_file_line_and_column(tmp_path, tex
     with pytest.raises(ConfigurationError) as refused:
         read_point_pairs(pairs)
     assert str(refused.value) == f"{tmp_path}/{refusal}"
+
+
+def test_a_save_that_fails_mid_write_leaves_the_good_calibration_as_it_was(tmp_path, monkeypatch):
+    """A full disk cut a good calibration short while srs_calibrate_camera said it was unchanged (a review)."""
+    from srs_ros.core.vision.camera_calibration import save_calibration
+
+    good = save_calibration(load_calibration(SHIPPED), tmp_path / "cal.yaml")
+    before = good.read_bytes()
+    real_write = Path.write_text
+
+    def disk_full(self, text, *args, **kwargs):
+        real_write(self, text[: len(text) // 2], *args, **kwargs)
+        raise OSError(27, "File too large")
+
+    monkeypatch.setattr(Path, "write_text", disk_full)
+    with pytest.raises(OSError):
+        save_calibration(load_calibration(SHIPPED), good)
+    monkeypatch.undo()
+    assert good.read_bytes() == before and load_calibration(good).image_size_px == (640, 480)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["cal.yaml"]  # no temporary file left
