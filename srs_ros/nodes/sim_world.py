@@ -204,9 +204,11 @@ class SimWorldNode(Node):
             except Exception as exc:  # the context went down under us (process exit): stop stepping
                 if self._stop.is_set() or not self.context.ok():
                     return
-                self.get_logger().error(f"the physics thread stopped: {type(exc).__name__}: {exc}")
-                self.failure = self.failure or f"physics thread: {exc}"
-                return
+                # Else the world stops (no pose, no read-back: the hardware node faults and vents) and the thread
+                # waits for ~/reset: it ended here, and a reset answered "back" to a world nobody stepped any more
+                # (a helper's review).
+                with self._lock:
+                    self._stop_world(f"the physics step failed: {type(exc).__name__}: {exc}")
 
     def _step(self, now_s: float, tick: bool) -> None:
         """Advance the world as the pacer allows, apply the board's command; at a tick publish read-back and clock."""
@@ -253,8 +255,9 @@ class SimWorldNode(Node):
 
     def _stop_world(self, reason: str) -> None:
         self.failure = reason
-        self.get_logger().error(f"the simulation diverged and stopped (no pose, no images, no read-back: the "
-                                f"hardware node will fault and vent): {reason}; call ~/reset to restart it")
+        self.get_logger().error(f"the simulation stopped (no pose, no images, no read-back: the hardware node will "
+                                f"fault and vent): {reason}; call ~/reset to retry, or restart sim_world for a changed "
+                                "sim config (sim_config_file is read at start-up)")
 
     def destroy_node(self) -> None:
         """Stop the physics thread, then destroy the node."""

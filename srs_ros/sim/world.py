@@ -252,7 +252,8 @@ class SimWorld:
                           f"{self.config.physics.divergence_speed_m_s:g} m/s")
         if reason:
             self._diverged = (f"the simulation diverged at t = {self.time_s:.4f} s: {reason}. Lower "
-                              "sim.physics.time_step_s or the servo gains (config/sim.yaml), then reset().")
+                              "sim.physics.time_step_s or the servo gains, or raise sim.physics.divergence_speed_m_s "
+                              "if the body truly moves that fast (the sim config file)")
             raise SimulationError(self._diverged)
 
     def _body_speeds(self) -> np.ndarray:

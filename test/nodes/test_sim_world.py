@@ -378,3 +378,44 @@ def test_another_clock_publisher_beside_a_sim_world_on_use_sim_time_is_an_error_
     assert beside.level == DiagnosticStatus.ERROR, beside.message
     assert beside.message.startswith("1 other publisher(s) of /sim1/clock"), beside.message
     assert slow_on_sim_time == ("OK", "stepping at 0.50x real time (use_sim_time: every node follows /clock)")
+
+
+def test_an_unexpected_error_in_the_physics_step_stops_the_world_until_a_reset_that_brings_it_back(ros_domain,
+                                                                                                   monkeypatch):
+    """The physics thread ended at an error other than a divergence: ~/reset then answered "back" while nothing
+    stepped the world any more, and /diagnostics said OK (a helper's review). Now the world stops, says so, and
+    the reset steps it again."""
+    import rclpy
+    from std_srvs.srv import Trigger
+
+    from srs_ros.nodes.sim_world import SimWorldNode
+
+    rclpy.init(args=["sim_world", "--ros-args", "-p", "camera_rate_hz:=0.0", "-p", "markers_rate_hz:=0.0"],
+               domain_id=ros_domain)
+    try:
+        node = SimWorldNode()
+        try:
+            advance_to, failures = node.world.advance_to, []
+
+            def fails_once(*args, **kwargs):
+                if not failures:
+                    failures.append(1)
+                    raise RuntimeError("a stand-in for a MuJoCo fatal error")
+                return advance_to(*args, **kwargs)
+
+            monkeypatch.setattr(node.world, "advance_to", fails_once)
+            deadline = time.monotonic() + 10.0
+            while not node.failure and time.monotonic() < deadline:
+                time.sleep(0.02)
+            assert "the physics step failed: RuntimeError: a stand-in" in node.failure
+            assert node._summary()[0] == "ERROR"
+            answer = node._on_reset(Trigger.Request(), Trigger.Response())
+            assert answer.success and node.failure == ""
+            deadline = time.monotonic() + 10.0
+            while node.world.time_s < 0.3 and time.monotonic() < deadline:
+                time.sleep(0.02)
+            assert node.world.time_s >= 0.3 and node._thread.is_alive()  # stepped again after the reset
+        finally:
+            node.destroy_node()
+    finally:
+        rclpy.shutdown()
