@@ -239,8 +239,8 @@ class SimWorldNode(Node):
             clock_s = self._clock_base_s + self.world.time_s
         if self._clock_pub is not None:
             self._clock_pub.publish(Clock(clock=seconds_to_stamp(clock_s)))
-        msg = self._monitor
-        msg.header.stamp = self.get_clock().now().to_msg()
+        msg = self._monitor  # on use_sim_time stamped with the world time it shows, not the /clock last taken in
+        msg.header.stamp = seconds_to_stamp(clock_s) if self._clock_pub is not None else self.get_clock().now().to_msg()
         msg.effort = pressure_bar.tolist()
         msg.position = length_m.tolist()
         self._monitor_pub.publish(msg)
@@ -278,16 +278,17 @@ class SimWorldNode(Node):
         they show, not when the executor gets round to them: after a stall of the executor thread (0.2-0.4 s on a busy
         machine) ``now`` dated a state up to that much late, and the tracked pose against the ground truth, each
         stamped by a different timer, moved apart by the robot's speed times the difference (a median of 6.3 mm
-        against under 5 in a full suite run). On use_sim_time the clock is the world's own (its /clock, published at
-        each step's tick): ``now`` is that instant already.
+        against under 5 in a full suite run). On use_sim_time the stamp is the world's own time of the state: ``now``
+        there is the last /clock the executor took in, up to a few control periods behind, and 0 before the first
+        (a helper's review).
         """
         with self._lock:
             if self.failure:
                 return None
-            value, stepped_s = read(), self._last_step[0]
-        now = self.get_clock().now()
-        if self._clock_pub is None:
-            now = now - Duration(nanoseconds=int(max(0.0, time.monotonic() - stepped_s) * 1e9))
+            value, stepped_s, world_clock_s = read(), self._last_step[0], self._clock_base_s + self.world.time_s
+        if self._clock_pub is not None:
+            return value, seconds_to_stamp(world_clock_s)
+        now = self.get_clock().now() - Duration(nanoseconds=int(max(0.0, time.monotonic() - stepped_s) * 1e9))
         return value, now.to_msg()
 
     def state(self):

@@ -155,6 +155,40 @@ def test_the_pose_and_the_image_are_stamped_at_the_step_that_made_the_state_not_
         assert stamp_to_seconds(msg.header.stamp) == pytest.approx(stepped_s, abs=0.05), type(msg).__name__
 
 
+def test_on_use_sim_time_the_read_back_pose_and_image_carry_the_world_time_of_their_state(ros_domain, monkeypatch):
+    """On use_sim_time they were stamped with ``now()``, the last /clock the executor had taken in: 10-26 ms behind
+    the state they showed, and 0 before the first (a helper's review). Here the executor never spins: now() stays 0."""
+    import rclpy
+
+    from srs_ros.nodes.sim_world import SimWorldNode
+
+    rclpy.init(args=["sim_world", "--ros-args", "-p", "use_sim_time:=true", "-p", "camera_rate_hz:=1.0",
+                     "-p", "markers_rate_hz:=0.0"], domain_id=ros_domain)
+    try:
+        node = SimWorldNode()
+        read_backs, published = [], []
+        try:
+            monkeypatch.setattr(node._monitor_pub, "publish", lambda msg: read_backs.append(
+                (stamp_to_seconds(msg.header.stamp), node._clock_base_s + node.world.time_s)))
+            deadline = time.monotonic() + 10.0
+            while len(read_backs) < 20 and time.monotonic() < deadline:
+                time.sleep(0.02)
+            node._stop.set()
+            node._wake.set()
+            node._thread.join(5.0)
+            monkeypatch.setattr(node._pose_pub, "publish", published.append)
+            monkeypatch.setattr(node._image_pub, "publish", published.append)
+            node._publish_pose()
+            node._publish_image()
+            world_s = node._clock_base_s + node.world.time_s
+        finally:
+            node.destroy_node()
+    finally:
+        rclpy.shutdown()
+    assert len(read_backs) >= 20 and all(stamp == pytest.approx(world, abs=1e-6) for stamp, world in read_backs[:20])
+    assert world_s > 0.1 and [stamp_to_seconds(m.header.stamp) for m in published] == pytest.approx([world_s] * 2)
+
+
 @pytest.mark.slow(seconds=6)
 def test_a_stall_of_sim_worlds_own_executor_is_not_taken_for_a_silent_hardware_node(ros_domain):
     """The physics thread steps on while sim_world's executor is starved (here: not spun for 1.2 s) and the
