@@ -72,6 +72,21 @@ class ExperimentResult:
                 f"real-time factor: {self.realtime_factor:.1f}x ({self.wall_time_s:.2f} s wall clock)")
 
 
+def check_record_rate(record_rate_hz: float, config: SimConfig, name: str = "record_rate_hz") -> None:
+    """Refuse a record rate that is not a number > 0 or is above the physics' rate (InvalidInputError).
+
+    Above ``1 / time_step_s`` frames repeat the same step (a CSV of pairs of equal times); a rate of 1e12 Hz asked
+    for a 109 TiB array (a helper's review).
+    """
+    limit_hz = 1.0 / config.physics.time_step_s
+    value = record_rate_hz
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not (math.isfinite(value) and value > 0):
+        raise InvalidInputError(f"{name}: expected a number > 0, got {value!r}.")
+    if value > limit_hz * (1 + 1e-9):
+        raise InvalidInputError(f"{name}: {value:g} Hz is above the physics' rate, {limit_hz:g} Hz (1 / "
+                                f"sim.physics.time_step_s): no state changes between its frames; use at most that.")
+
+
 def command_pressures_bar(cycle: GaitCycle, times_s: np.ndarray) -> np.ndarray:
     """The cycle's commanded pressures ``(n, 9)`` (bar, through the one clamp) at ``times_s`` (phase ``f t``)."""
     return lengths_to_pressures_bar(cycle.lengths_at(np.asarray(times_s) * cycle.frequency_hz), cycle.robot)
@@ -95,9 +110,10 @@ def run_experiment(gait: str, amplitude_bar: float, frequency_hz: float, duratio
     """
     robot = robot or default_robot()
     config = config or load_sim_config(robot=robot)
-    for name, value in (("duration_s", duration_s), ("record_rate_hz", record_rate_hz)):
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or not (math.isfinite(value) and value > 0):
-            raise InvalidInputError(f"{name}: expected a number > 0, got {value!r}.")
+    if isinstance(duration_s, bool) or not isinstance(duration_s, (int, float)) or not (
+            math.isfinite(duration_s) and duration_s > 0):
+        raise InvalidInputError(f"duration_s: expected a number > 0, got {duration_s!r}.")
+    check_record_rate(record_rate_hz, config)
     if duration_s > MAX_RUN_S:
         raise InvalidInputError(f"duration_s: {duration_s:g} s is longer than a run may be ({MAX_RUN_S:g} s: its "
                                 "commands and record are held in memory); run it in parts.")

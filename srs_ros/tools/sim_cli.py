@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import os
 import sys
 from pathlib import Path
 
@@ -20,10 +21,11 @@ import cv2
 from srs_ros.core.errors import SrsError
 from srs_ros.core.gait.library import list_gaits
 from srs_ros.core.gait.request import MAX_RUN_S
+from srs_ros.core.gait.trajectory import generate_cycle
 from srs_ros.experiments.table import paper_table
 from srs_ros.sim.camera import OverheadCamera
 from srs_ros.sim.config import load_sim_config, with_friction
-from srs_ros.sim.experiment import DEFAULT_RECORD_RATE_HZ, run_experiment
+from srs_ros.sim.experiment import DEFAULT_RECORD_RATE_HZ, check_record_rate, run_experiment
 from srs_ros.tools.output import prepare_output_file
 from srs_ros.tools.track_cli import plot_track, write_track_csv
 
@@ -61,24 +63,37 @@ def _parser() -> argparse.ArgumentParser:
 
 
 class _VideoSink:
-    """Renders each recorded state into an MJPG video."""
+    """Renders each recorded state into an MJPG video, under a temporary name until :meth:`keep`.
+
+    A run that fails or is interrupted leaves no partial video, and the file at ``path`` is not touched until
+    the run has succeeded (a helper's review: a typo in the gait's arguments wiped an existing video).
+    """
 
     def __init__(self, path: str, camera: OverheadCamera, fps: float):
-        Path(path).parent.mkdir(parents=True, exist_ok=True)
+        self.path = Path(path)
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        self.partial = self.path.with_name(f".{self.path.stem}.partial{self.path.suffix}")
         self.camera = camera
-        self.writer = cv2.VideoWriter(path, cv2.VideoWriter_fourcc(*"MJPG"), fps, camera.size_px)
+        self.writer = cv2.VideoWriter(str(self.partial), cv2.VideoWriter_fourcc(*"MJPG"), fps, camera.size_px)
         if not self.writer.isOpened():
+            self.partial.unlink(missing_ok=True)
             raise SrsError(f"cannot open an MJPG video writer for {path}; use an .avi path.")
 
     def __call__(self, state) -> None:
         self.writer.write(self.camera.render(state.nodes_m))
 
-    def close(self) -> None:
+    def keep(self) -> None:
         self.writer.release()
+        os.replace(self.partial, self.path)
+
+    def close(self) -> None:
+        """Release the writer; a video not kept is removed."""
+        self.writer.release()
+        self.partial.unlink(missing_ok=True)
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Console script ``srs_sim``; exits 2 with the reason on a bad argument or configuration."""
+    """Console script ``srs_sim``; exits 2 with the reason on a bad argument or configuration, 130 on Ctrl-C."""
     parser = _parser()
     args = parser.parse_args(argv)
     if args.gait not in list_gaits():
@@ -92,23 +107,35 @@ def main(argv: list[str] | None = None) -> int:
         config = load_sim_config(args.sim_config)
         if args.friction:
             config = with_friction(config, args.friction)
+        check_record_rate(args.record_rate_hz, config, "--record-rate-hz")
+        cycle = generate_cycle(args.gait, args.amplitude_bar, args.frequency_hz)  # its arguments checked first
         if args.video:
             sink = _VideoSink(args.video, OverheadCamera(config), args.record_rate_hz)
-
-        def progress(now_s: float, total_s: float) -> None:
-            if total_s >= PROGRESS_AFTER_S:
-                print(f"\r  simulated {now_s:5.1f} / {total_s:g} s", end="", file=sys.stderr, flush=True)
-
         result = run_experiment(args.gait, args.amplitude_bar, args.frequency_hz, args.duration_s, config,
-                                record_rate_hz=args.record_rate_hz, on_frame=sink, progress=progress)
+                                record_rate_hz=args.record_rate_hz, on_frame=sink, progress=_progress, cycle=cycle)
         if args.duration_s >= PROGRESS_AFTER_S:
             print(file=sys.stderr)
+        if sink is not None:
+            sink.keep()
     except SrsError as exc:
-        print(f"srs_sim: {exc}", file=sys.stderr)
+        print(f"srs_sim: {exc}" + ("; no video written" if sink is not None else ""), file=sys.stderr)
         return 2
+    except KeyboardInterrupt:
+        print("\nsrs_sim: interrupted; nothing written", file=sys.stderr)
+        return 130
     finally:
         if sink is not None:
             sink.close()
+    _write_results(args, result)
+    return 0
+
+
+def _progress(now_s: float, total_s: float) -> None:
+    if total_s >= PROGRESS_AFTER_S:
+        print(f"\r  simulated {now_s:5.1f} / {total_s:g} s", end="", file=sys.stderr, flush=True)
+
+
+def _write_results(args: argparse.Namespace, result) -> None:
     write_track_csv(args.out, result.track)
     print(result.summary())
     print(f"track written to {args.out}")
@@ -119,7 +146,6 @@ def main(argv: list[str] | None = None) -> int:
                  f"{result.velocity.table_text()}")
         plot_track(args.plot, result.track, title)
         print(f"plot written to {args.plot}")
-    return 0
 
 
 if __name__ == "__main__":

@@ -99,3 +99,51 @@ def test_a_duration_out_of_range_is_refused_before_any_file_is_made(tmp_path, ca
                       "--video", str(video), "--out", str(tmp_path / "r.csv")])
     assert refused.value.code == 2 and "--duration-s 4000: expected seconds in (0, 3600]" in capsys.readouterr().err
     assert not video.exists()
+
+
+@pytest.mark.parametrize(("args", "said"), [
+    (["--amplitude-bar", "4.5"], "amplitude_bar is 4.5; expected a number in (0, 4]"),
+    (["--frequency-hz", "9"], "frequency_hz is 9"),
+    (["--record-rate-hz", "1e12"], "--record-rate-hz: 1e+12 Hz is above the physics' rate, 500 Hz"),
+    (["--record-rate-hz", "1000"], "--record-rate-hz: 1000 Hz is above the physics' rate, 500 Hz"),
+])
+def test_a_bad_gait_or_record_rate_leaves_an_existing_video_untouched(args, said, tmp_path, capsys):
+    """The video was opened (emptied) before the gait's arguments were checked; 1e12 Hz asked for 109 TiB in a
+    traceback, and 1000 Hz wrote pairs of frames of one step (a helper's review)."""
+    video = tmp_path / "keep.avi"
+    video.write_bytes(b"a video recorded yesterday")
+    options = {"--gait": "inward_rolling", "--amplitude-bar": "3", "--frequency-hz": "1", "--duration-s": "1"}
+    options.update(zip(args[::2], args[1::2]))
+    code = sim_cli.main([*(x for pair in options.items() for x in pair), "--video", str(video),
+                         "--out", str(tmp_path / "r.csv")])
+    assert code == 2 and said in capsys.readouterr().err
+    assert video.read_bytes() == b"a video recorded yesterday" and sorted(p.name for p in tmp_path.iterdir()) == [
+        "keep.avi"]
+
+
+@pytest.mark.parametrize("stop", [KeyboardInterrupt, "diverged"])
+def test_a_run_interrupted_or_diverged_leaves_no_partial_video_and_exits_130_or_2(stop, tmp_path, monkeypatch,
+                                                                                  capsys):
+    """Ctrl-C printed a traceback and left a 9 MB partial video; a divergence left one silently (a review)."""
+    from srs_ros.core.errors import SimulationError
+
+    real_run = sim_cli.run_experiment
+
+    def stopped_after_frames(*args, on_frame=None, **kwargs):
+        def frame(state):
+            on_frame(state)
+            frames.append(state)
+            if len(frames) == 5:
+                raise KeyboardInterrupt if stop is KeyboardInterrupt else SimulationError("the simulation diverged")
+        return real_run(*args, on_frame=frame, **kwargs)
+
+    frames = []
+    monkeypatch.setattr(sim_cli, "run_experiment", stopped_after_frames)
+    video = tmp_path / "run.avi"
+    video.write_bytes(b"an older video")
+    code = sim_cli.main(["--gait", "inward_rolling", "--amplitude-bar", "3", "--frequency-hz", "1", "--duration-s", "1",
+                         "--video", str(video), "--out", str(tmp_path / "r.csv")])
+    err = capsys.readouterr().err
+    assert (code, len(frames)) == ((130, 5) if stop is KeyboardInterrupt else (2, 5)), err
+    assert ("interrupted; nothing written" if stop is KeyboardInterrupt else "no video written") in err
+    assert video.read_bytes() == b"an older video" and sorted(p.name for p in tmp_path.iterdir()) == ["run.avi"]
