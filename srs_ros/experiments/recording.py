@@ -38,7 +38,11 @@ class BagRecorder:
             raise ConfigurationError(f"{self.path}: exists already; a bag is written into a new directory.")
         self._typestore = get_typestore(TYPESTORE)
         self._writer = Writer(self.path, version=BAG_VERSION, storage_plugin=StoragePlugin.MCAP)
-        self._writer.open()
+        try:
+            self._writer.open()
+        except OSError as exc:  # a bare FileNotFoundError before (a helper's review)
+            raise ConfigurationError(f"{self.path}: cannot create the bag directory ({exc.strerror or exc}); "
+                                     "choose a writable folder.") from None
         self._connections: dict[str, object] = {}
         self.counts: dict[str, int] = {}
         self.closed = False

@@ -43,3 +43,11 @@ def test_the_publishers_qos_is_recorded_as_rosbag2_does_once_per_topic(tmp_path)
     assert INFINITE_TIME == QosTime(9223372036, 854775807)  # as `ros2 bag record` of Jazzy writes it
     with pytest.raises(ConfigurationError, match="exists already"):
         BagRecorder(tmp_path / "bag")
+
+
+def test_a_bag_where_no_folder_can_be_made_is_a_configuration_error_naming_it(tmp_path):
+    """A bare FileNotFoundError before (a helper's review)."""
+    blocker = tmp_path / "a_file"
+    blocker.write_text("not a folder")
+    with pytest.raises(ConfigurationError, match=r"a_file/bag: cannot create the bag directory .*writable folder"):
+        BagRecorder(blocker / "bag")
