@@ -159,7 +159,7 @@ class TrajectoryServer(Node):
             try:
                 cycle, cached = self._cycle(request)
             except (SrsError, ValueError, ArithmeticError) as exc:
-                return False, f"fit of {what} failed: {exc}; {self._kept()}"
+                return False, f"fit of {what} failed: {str(exc).rstrip('.')}; {self._kept()}"
             elapsed_s = time.monotonic() - self._fit_started[0]
             errors = np.asarray(cycle.fit_error_mm, dtype=np.float64)
             quality = (f"{len(errors)} samples, fit error mean {errors.mean():.2f} mm, worst {errors.max():.2f} mm, "

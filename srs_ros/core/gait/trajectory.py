@@ -12,8 +12,9 @@ more (a smaller rolling radius, a larger serpentine wave) as in the paper. Rolli
 exactly: every shape is one constant-curvature arc, whose three lengths per module are sinusoids 120 deg
 apart, so the arc radius for A is found by a 1-D root search and the cycle is that arc, not a fit.
 Other gaits are fitted: the gait's amplitude parameters (``amplitude:`` in ``config/gaits.yaml``, e.g. a
-serpenoid's angle, a helix's radius and pitch) are scaled by the factor the fitted cycle misses A by, and
-the shape refitted, until the factor is within 1 % of 1; that last factor is then applied. Either way
+serpenoid's angle, a helix's radius and pitch) are bent (a secant step on the factor the fitted cycle misses
+A by) and the shape refitted, until the factor is within 1 % of 1; the fit nearest to 1 is then scaled by its
+factor, if that is within 5 %; a shape no bend brings there is refused. Either way
 ``fit_error_mm`` and the reported parameters describe the shape that is commanded, not a reference.
 If A needs more than ``max_extension_m`` the request is refused (it cannot be reached).
 """
@@ -331,8 +332,37 @@ def generate_cycle(gait: str, amplitude_bar: float, frequency_hz: float, samples
 
 #: Refits of a fitted gait's shape while its amplitude factor is more than this far from 1.
 AMPLITUDE_TOLERANCE = 0.01
-#: Most fits per cycle in that loop (it usually converges after two).
-MAX_SHAPE_FITS = 4
+#: Most fits per cycle in that loop (a secant step: usually two to four).
+MAX_SHAPE_FITS = 8
+#: The nearest fit is scaled by its factor if that is at most this far from 1; else the amplitude is refused.
+AMPLITUDE_LEFTOVER = 0.05
+
+
+def _secant_bend(log_bend: float, log_factor: float, last: tuple[float, float] | None) -> float:
+    """The next log bend: a secant step to log factor 0, or the factor itself first (and where the slope is odd)."""
+    step = log_factor
+    if last is not None and log_factor != last[1] and log_bend != last[0]:
+        slope = (log_factor - last[1]) / (log_bend - last[0])  # about -p: the peak grows as bend ** p
+        if -4.0 <= slope <= -0.25:
+            step = -log_factor / slope
+    return log_bend + step
+
+
+def _amplitude_factor(spec: GaitSpec, shape: dict, lengths_m: np.ndarray, amplitude_bar: float,
+                      robot: RobotDescription) -> float:
+    """The factor that scales ``lengths_m`` to peak at ``amplitude_bar``; a straight shape is named as the cause."""
+    try:
+        return pressure_amplitude_scale(lengths_m, amplitude_bar, robot)
+    except InvalidInputError:
+        if float(np.max(lengths_m)) > 0.0:
+            raise
+        raise InvalidInputError(f"{spec.name}: with {_amplitude_text(spec, shape)} the shape is straight, and no "
+                                f"amplitude bends a straight shape; give {' or '.join(spec.amplitude_parameters)} a "
+                                "value other than 0.") from None
+
+
+def _amplitude_text(spec: GaitSpec, shape: dict) -> str:
+    return ", ".join(f"{name} = {shape[name]:.4g}" for name in spec.amplitude_parameters) or "its parameters"
 
 
 def _solve_rolling(spec: GaitSpec, given: dict, phase: np.ndarray, peak_m: float, robot: RobotDescription,
@@ -348,16 +378,31 @@ def _solve_rolling(spec: GaitSpec, given: dict, phase: np.ndarray, peak_m: float
 
 def _fit_for_amplitude(spec: GaitSpec, given: dict, phase: np.ndarray, amplitude_bar: float,
                        robot: RobotDescription, settings: FitSettings):
-    """Fit, bend the shape by the amplitude factor, refit, until the factor is ~1: the commanded cycle and its error."""
-    shape, fits = dict(given), 0
+    """Fit, bend the shape by the amplitude factor, refit, until the factor is ~1: the commanded cycle and its error.
+
+    The bend is found by a secant step on log(factor) over log(bend): the peak length grows faster than the
+    bend, so bending by the factor itself overshot and oscillated, and after four fits the cycle was a fit
+    scaled by up to 28 % (serpentine at 512 samples: 23 mm errors; a helper's review). The fitter may jump
+    between near-equal solutions as the bend changes, so the factor need not reach 1: the fit nearest to it is
+    taken if it is within :data:`AMPLITUDE_LEFTOVER`, and a shape no bend brings there is refused.
+    """
+    log_bend, last, tried = 0.0, None, []  # last: (log bend, log factor) of the fit before
     while True:  # without the global retry (slow) until the shape is settled
+        shape = spec.bent(given, math.exp(log_bend)) if log_bend else dict(given)
         curves, s_m, used = shape_curves(spec.name, phase, robot, shape, settings.curve_points)
         fit = fit_shapes(curves, s_m, robot, settings, poor_fit_mm=math.inf, periodic=True)
-        fits += 1
-        factor = pressure_amplitude_scale(fit.lengths_m, amplitude_bar, robot)
-        if abs(factor - 1.0) <= AMPLITUDE_TOLERANCE or not spec.amplitude_parameters or fits >= MAX_SHAPE_FITS:
+        factor = _amplitude_factor(spec, shape, fit.lengths_m, amplitude_bar, robot)
+        tried.append((abs(math.log(factor)), len(tried), (shape, curves, s_m, used, fit, factor)))
+        if abs(factor - 1.0) <= AMPLITUDE_TOLERANCE or not spec.amplitude_parameters or len(tried) >= MAX_SHAPE_FITS:
             break
-        shape = spec.bent(shape, factor)
+        log_bend, last = _secant_bend(log_bend, math.log(factor), last), (log_bend, math.log(factor))
+    fits = len(tried)
+    shape, curves, s_m, used, fit, factor = min(tried)[2]
+    if spec.amplitude_parameters and abs(factor - 1.0) > AMPLITUDE_LEFTOVER:
+        raise InvalidInputError(
+            f"{spec.name}: no shape of its kind reaches {amplitude_bar:g} bar in {fits} fits (the nearest "
+            f"{factor:.3g} times off, at {_amplitude_text(spec, shape)}): the body cannot bend so; change "
+            f"{', '.join(spec.amplitude_parameters)} or the amplitude.")
     if np.any(fit.error_mm > given["poor_fit_mm"]):
         fit = fit_shapes(curves, s_m, robot, settings, poor_fit_mm=given["poor_fit_mm"], periodic=True)
         factor = pressure_amplitude_scale(fit.lengths_m, amplitude_bar, robot)
