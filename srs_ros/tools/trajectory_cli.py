@@ -107,6 +107,10 @@ def main(argv: list[str] | None = None) -> int:
     except OSError as exc:  # said as "cannot write output" before
         print(f"srs_trajectory: error: cannot read --robot {args.robot} ({exc})", file=sys.stderr)
         return 2
+    except MemoryError:
+        print(f"srs_trajectory: error: --samples {args.samples} needs more memory than this machine gives; use "
+              "fewer samples (the default is enough to play a cycle smoothly)", file=sys.stderr)
+        return 2
     try:
         if args.out:
             cycle.to_csv(args.out)

@@ -92,3 +92,19 @@ def test_the_frequency_help_gives_the_range_taken(capsys):
     with pytest.raises(SystemExit):
         main(["--help"])
     assert "cycle frequency: a number in [0.01, 5] (Hz)" in " ".join(capsys.readouterr().out.split())
+
+
+def test_samples_beyond_the_local_top_or_the_machines_memory_exit_2_with_what_to_do(monkeypatch, capsys):
+    """--samples 100000 (then the top) ended in a MemoryError traceback, exit 1 (a helper's review)."""
+    from srs_ros.tools import trajectory_cli
+
+    args = ["--gait", "inward_rolling", "--amplitude-bar", "4", "--frequency-hz", "1"]
+    assert main([*args, "--samples", "20000"]) == 2
+    assert "samples is 20000; expected an integer in [8, 10000]" in capsys.readouterr().err
+
+    def out_of_memory(*_args, **_kwargs):
+        raise MemoryError
+
+    monkeypatch.setattr(trajectory_cli, "generate_cycle", out_of_memory)
+    assert main([*args, "--samples", "10000"]) == 2
+    assert "--samples 10000 needs more memory than this machine gives; use fewer samples" in capsys.readouterr().err

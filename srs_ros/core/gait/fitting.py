@@ -101,12 +101,22 @@ def _project(points, start, end):
     return nearest, tangent, (t > 0.0) & (t < 1.0)
 
 
+#: Most elements (B K M) of the point-to-vertex distances computed at once: 8e6, a few 64 MB arrays. Above it the
+#: shapes go in batches: 100 000 rolling samples asked for 4.5 GiB at once and ended in a MemoryError (a review).
+CLOSEST_BATCH_ELEMENTS = 8_000_000
+
+
 def closest_points(points, curves):
     """Nearest points of polylines ``curves`` (B, M, 3) to ``points`` (B, K, 3).
 
     Returns ``(nearest (B, K, 3), unit tangent (B, K, 3), inside (B, K))``; ``inside`` is true where
     the nearest point lies strictly inside a segment (there the distance slides along the curve).
     """
+    batch, per_shape = points.shape[0], points.shape[1] * curves.shape[1]
+    if batch > 1 and batch * per_shape > CLOSEST_BATCH_ELEMENTS:
+        step = max(1, CLOSEST_BATCH_ELEMENTS // per_shape)
+        parts = [closest_points(points[i:i + step], curves[i:i + step]) for i in range(0, batch, step)]
+        return tuple(np.concatenate(part, axis=0) for part in zip(*parts))
     cross = points @ np.swapaxes(curves, -1, -2)                                 # (B, K, M)
     dist2 = np.einsum("bmi,bmi->bm", curves, curves)[:, None, :] - 2.0 * cross
     index = np.argmin(dist2, axis=-1)                                            # (B, K)

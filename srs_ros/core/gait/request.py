@@ -43,8 +43,10 @@ def gait_field(gait_names: Iterable[str]) -> Field:
 #: Longest run of a gait an experiment may ask for (s): one hour. A simulated run holds all its commands and its
 #: record in memory (1e12 s asked for petabytes); the paper's runs are 15 s.
 MAX_RUN_S = 3600.0
-#: Most samples per cycle a local caller may ask for (srs_trajectory, the library): 1e8 ended in a MemoryError.
-MAX_LOCAL_SAMPLES = 100_000
+#: Most samples per cycle a local caller may ask for (srs_trajectory, the library): 1e8 ended in a MemoryError, and
+#: so did 20 000 rolling samples with 16 GB (their dense target curves take 48 kB a sample, several times over; a
+#: review). 10 000 took 2.8 GB and 31 s.
+MAX_LOCAL_SAMPLES = 10_000
 
 
 def any_samples() -> Field:

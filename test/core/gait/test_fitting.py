@@ -90,3 +90,16 @@ def test_fit_settings_are_validated():
     with pytest.raises(ConfigurationError, match="fitting.max_iterations is -1; expected an integer >= 1"):
         FitSettings.from_config({"max_iterations": -1})
     assert FitSettings.from_config({}) == FitSettings()
+
+
+def test_closest_points_in_batches_give_what_one_pass_gives(monkeypatch):
+    """Above CLOSEST_BATCH_ELEMENTS the shapes go in batches (100 000 rolling samples asked for 4.5 GiB at once)."""
+    from srs_ros.core.gait import fitting
+
+    rng = np.random.default_rng(1)
+    points, curves = rng.normal(size=(10, 31, 3)), np.cumsum(rng.normal(size=(10, 200, 3)) * 0.01, axis=1)
+    whole = fitting.closest_points(points, curves)
+    monkeypatch.setattr(fitting, "CLOSEST_BATCH_ELEMENTS", 3 * 31 * 200)  # batches of three shapes
+    batched = fitting.closest_points(points, curves)
+    for one, other in zip(whole, batched):
+        np.testing.assert_array_equal(one, other)
