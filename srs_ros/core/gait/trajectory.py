@@ -201,7 +201,9 @@ class GaitCycle:
             if not (len(data) > 1 and data[1, 1] > data[0, 1]):
                 raise InvalidInputError(f"{path}: cannot infer the frequency (no sidecar {_sidecar(path).name}, "
                                         "time_s not increasing).")
-            frequency = 1.0 / (len(data) * (data[1, 1] - data[0, 1]))
+            frequency = FREQUENCY_FIELD.check(1.0 / (len(data) * (data[1, 1] - data[0, 1])),
+                                              f"{path} (its time_s steps)", error=InvalidInputError)
+        _check_lengths(path, lengths, robot)
         amplitude = meta["amplitude_bar"]
         if amplitude is None:
             amplitude = float(lengths_to_pressures_bar(lengths, robot).max())
@@ -211,6 +213,16 @@ class GaitCycle:
         return cls(gait=meta["gait"] or path.stem, amplitude_bar=amplitude, frequency_hz=frequency,
                    lengths_m=lengths, fit_error_mm=data[:, -1], poor_samples=tuple(poor or ()),
                    parameters=dict(meta["parameters"] or {}), joint_names=tuple(robot.joint_names), robot=robot)
+
+
+def _check_lengths(path: Path, lengths: np.ndarray, robot: RobotDescription) -> None:
+    """Refuse a length outside [0, max_extension_m], naming its row and column (a file read before anything plays)."""
+    bad = np.argwhere(~((lengths >= 0.0) & (lengths <= robot.max_extension_m)))
+    if bad.size:
+        row, column = (int(i) for i in bad[0])
+        raise InvalidInputError(f"{path}:{row + 2}: {robot.joint_names[column]} is {lengths[row, column]:g} m; "
+                                f"expected a length in [0, {robot.max_extension_m:g}] m (the muscle's extension), "
+                                f"{len(bad)} value(s) outside in all.")
 
 
 def sidecar_table(robot: RobotDescription) -> Table:

@@ -248,3 +248,24 @@ def test_a_shape_no_bend_brings_to_the_amplitude_is_refused_naming_its_parameter
     times, its error 220 mm (a helper's review)."""
     with pytest.raises(InvalidInputError, match=re.escape(refusal)):
         generate_cycle(gait, 4.0, 1.0, 64, params=params)
+
+
+def test_a_cycle_csv_with_lengths_out_of_range_or_a_frequency_past_the_top_is_refused(tmp_path, serpentine):
+    """Without a sidecar, time steps of 1e-6 s made a 62 500 Hz cycle, and lengths of 5 m and -2 m were taken
+    (gait_player refuses both from a topic; a helper's review)."""
+    path = serpentine.to_csv(tmp_path / "serp.csv")
+    (tmp_path / "serp.csv.yaml").unlink()
+    lines = path.read_text().splitlines()
+    cells = lines[3].split(",")
+    cells[4] = "5.0"  # m1_pma3 of the third sample (line 4)
+    path.write_text("\n".join([*lines[:3], ",".join(cells), *lines[4:]]) + "\n")
+    with pytest.raises(InvalidInputError, match=re.escape("serp.csv:4: m1_pma3 is 5 m; expected a length in [0, ")):
+        GaitCycle.from_csv(path)
+    fast = [lines[0]]
+    for i, line in enumerate(lines[1:]):
+        cells = line.split(",")
+        cells[1] = f"{i * 1e-6:.9f}"
+        fast.append(",".join(cells))
+    path.write_text("\n".join(fast) + "\n")
+    with pytest.raises(InvalidInputError, match=r"serp.csv \(its time_s steps\).*frequency_hz is 31250"):
+        GaitCycle.from_csv(path)
