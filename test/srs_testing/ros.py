@@ -128,10 +128,17 @@ def ros_args(params: dict[str, Any] | None = None, remaps: dict[str, str] | None
     return args
 
 
+#: Run before a node's command (it execs it, same pid): the node is killed when the test process that started it
+#: dies. The hang watchdog ends a worker without any teardown, and its nodes lived on, answering as /hardware_node
+#: in the domain the next test was given (a review of the harness). ``setpriv`` is util-linux's, in Debian's base.
+DIE_WITH_PARENT = ["setpriv", "--pdeathsig", "KILL"] if shutil.which("setpriv") else []
+
+
 class NodeProcess:
     """A node started from its console script in its own process; output goes to a log file.
 
-    ``prefix`` runs it through another command that execs it (same pid), e.g. ``ip netns exec NS``.
+    ``prefix`` runs it through another command that execs it (same pid), e.g. ``ip netns exec NS``. The node dies
+    with the process that started it (:data:`DIE_WITH_PARENT`).
     """
 
     def __init__(self, script: str, args: Iterable[str] = (), env: dict[str, str] | None = None,
@@ -140,7 +147,7 @@ class NodeProcess:
         self.log_path = Path(log_dir or tempfile.mkdtemp(prefix="srs_node_")) / f"{script}.{time.monotonic_ns()}.log"
         self._log = self.log_path.open("w")
         self.process = subprocess.Popen(
-            [*prefix, script_path(script), *args], env=env or os.environ.copy(), stdout=self._log,
+            [*DIE_WITH_PARENT, *prefix, script_path(script), *args], env=env or os.environ.copy(), stdout=self._log,
             stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL, start_new_session=True,
         )
 
