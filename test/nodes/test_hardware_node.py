@@ -291,9 +291,12 @@ def test_output_ramps_up_from_zero_at_activation_and_after_an_estop_reset(hardwa
 
 @pytest.mark.slow(seconds=3)
 def test_the_backend_is_written_at_the_command_rate_whatever_the_setpoint_rate(hardware):
-    proc, rig = hardware({"command_rate_hz": 100.0})
+    # 25 Hz, a quarter of the stream a loaded client still sends: at 100 Hz, 146 setpoints/s seen beside another
+    # test process left a margin of 2-12 % over the bound (a review of the harness).
+    proc, rig = hardware({"command_rate_hz": 25.0})
     rig.start()
     good = setpoint(LENGTHS_M)
+    received_before, written_before = rig.counted("setpoints_received"), rig.counted("backend_writes")
     end = time.monotonic() + 3.0
     while time.monotonic() < end:  # as fast as the client can: several hundred setpoints per second
         for _ in range(5):
@@ -301,14 +304,14 @@ def test_the_backend_is_written_at_the_command_rate_whatever_the_setpoint_rate(h
         rig.client.executor.spin_once(timeout_sec=0.001)
     received = float(rig.diagnostic("setpoint_rate_hz"))
     written = float(rig.diagnostic("command_rate_hz"))
-    print(f"setpoints received {received:.0f}/s, backend writes {written:.0f}/s (command rate 100 Hz)")
-    # The stream is faster than the command rate (several hundred per second on an idle machine, 146/s seen beside
-    # another test process) ...
-    assert received > 1.3 * written, (received, written)
+    print(f"setpoints received {received:.0f}/s, backend writes {written:.0f}/s (command rate 25 Hz)")
+    # The stream is faster than the command rate, over the whole three seconds ...
+    received_count = rig.counted("setpoints_received") - received_before
+    written_count = rig.counted("backend_writes") - written_before
+    assert received_count > 2 * written_count, (received_count, written_count)
     # ... and the backend gets commands at the timer's rate, not the stream's. Its lower bound only asks that it is
-    # written on: the 100/s itself is a throughput goal, and beside the suite's other workers 34/s was seen.
-    assert 20.0 < written <= 110.0, written
-    assert rig.counted("setpoints_received") > rig.counted("backend_writes")
+    # written on: the rate itself is a throughput goal (at 100 Hz, 34/s was seen beside the suite's other workers).
+    assert 5.0 < written <= 27.5, written
 
 
 def test_a_setpoint_that_arrives_old_is_held_only_for_the_rest_of_its_timeout(hardware):
