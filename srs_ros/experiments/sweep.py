@@ -379,7 +379,14 @@ class _Batch:
             record = future.result()
         except Exception as exc:  # noqa: BLE001 - anything but a lost worker is raised again
             if not _lost_with_worker(exc):
-                raise
+                if isinstance(exc, SrsError) or self.runner._given is None:
+                    raise
+                # From another machine's worker, e.g. one that joined after the check with an older srs_ros (a
+                # TypeError traceback before; a helper's review): said as the cluster's problem, exit 2.
+                raise ClusterError(f"{cell_name(self.cells[index])} failed on a worker of the cluster "
+                                   f"({error_line(exc)}); that worker may run other srs_ros code than this one: "
+                                   "install the same srs_ros on every worker (docs/cluster.md), or stop that "
+                                   "worker, then run again.") from exc
             record = self._lost(index, attempt, executor, exc, alone=future is self._alone,
                                 started=future in self._started or not self._started)
         if record is not None:

@@ -394,3 +394,23 @@ def test_a_run_that_kills_its_worker_every_time_fails_alone_and_the_runs_beside_
         records = runner.run([killer, *CELLS[1:3]], DURATION_S, config)
     assert records[0].status.startswith(f"failed: lost with its worker {sweep.MAX_RESUBMITS + 1} times"), logs
     assert records[1:] == local_records[1:3]
+
+
+def test_an_unexpected_error_from_a_clusters_worker_is_a_cluster_error_that_says_what_to_do(monkeypatch):
+    """A worker that joined after the check with an older srs_ros raised a TypeError traceback in srs_sweep, not exit 2
+    with the reason (a helper's review). Any executor stands in for a cluster's here: a thread pool."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    def older_code(*_args, **_kwargs):
+        raise TypeError("_run_task() takes 5 positional arguments but 6 were given")
+
+    monkeypatch.setattr(sweep, "run_cell", older_code)
+    config = load_sim_config()
+    with ThreadPoolExecutor(1) as pool, OfflineRunner(executor=pool) as runner:
+        with pytest.raises(ClusterError, match=r"inward_rolling 2 bar 1 Hz failed on a worker of the cluster "
+                                               r"\(TypeError: _run_task\(\) takes .*install the same srs_ros on every "
+                                               r"worker"):
+            runner.run([("inward_rolling", 2.0, 1.0)], 1.0, config)
+    monkeypatch.setattr(sweep, "run_cell", older_code)
+    with OfflineRunner(1) as runner, pytest.raises(TypeError):  # the local pool runs this code: a bug, raised as is
+        runner.run([("inward_rolling", 2.0, 1.0)], 1.0, config)
