@@ -71,8 +71,8 @@ def play_cycle(cycle: GaitCycle, duration_s: float, config: SimConfig, robot: Ro
     playback.start()
     dt = 1.0 / load_rig(robot=robot).command_rate_hz
     every = max(1, int(round(sample_every_s / dt)))
-    rows = []
-    for k in range(int(round(duration_s / dt)) + 1):
+    rows, steps = [], int(round(duration_s / dt))
+    for k in range(steps + 1):
         t = k * dt
         if reverse_at_s is not None:
             playback.set_reverse(reverse_at_s(t))
@@ -83,7 +83,7 @@ def play_cycle(cycle: GaitCycle, duration_s: float, config: SimConfig, robot: Ro
             switch_to = None
         world.advance_to(t)
         world.command_pressures(lengths_to_pressures_bar(playback.step(dt).positions_m, robot))
-        if k % every == 0:
+        if k % every == 0 or k == steps:  # the end too: at 0.75 Hz the last cycle ended between samples and was lost
             rows.append((t, *world.state(with_contacts=False).pose))
     rows = np.array(rows)
     rows[:, 3] = np.unwrap(rows[:, 3])
@@ -92,7 +92,7 @@ def play_cycle(cycle: GaitCycle, duration_s: float, config: SimConfig, robot: Ro
 
 def per_cycle(rows: np.ndarray, period_s: float, skip_cycles: int) -> tuple[np.ndarray, np.ndarray]:
     """Turn (deg) and travel (m) of every whole cycle after the first ``skip_cycles``."""
-    count = int(math.floor(rows[-1, 0] / period_s + 1e-9))
+    count = int(math.floor(rows[-1, 0] / period_s + 0.01))  # a run ends within a command step of its last cycle
     index = [int(np.argmin(np.abs(rows[:, 0] - k * period_s))) for k in range(skip_cycles, count + 1)]
     turns = np.degrees(np.diff(rows[index, 3]))
     travel = np.linalg.norm(np.diff(rows[index, 1:3], axis=0), axis=1)
@@ -157,8 +157,8 @@ def measure_pivot(turn_phase_inward_rad: float, turn_phase_outward_rad: float, a
     stroke_s = stroke_cycles / frequency_hz
     levels = {"inward_rolling": turn_phase_inward_rad, "outward_rolling": turn_phase_outward_rad}
     dt = 1.0 / load_rig(robot=robot).command_rate_hz
-    rows, last = [], None
-    for k in range(int(round((pairs + 1) * 2.0 * stroke_s / dt)) + 1):
+    rows, last, steps = [], None, int(round((pairs + 1) * 2.0 * stroke_s / dt))
+    for k in range(steps + 1):
         t = k * dt
         direction = ("inward_rolling", "outward_rolling")[int(t / stroke_s + 1e-9) % 2]
         command = GaitCommand(direction, levels[direction], amplitude_bar, frequency_hz)
@@ -167,7 +167,7 @@ def measure_pivot(turn_phase_inward_rad: float, turn_phase_outward_rad: float, a
             last = command
         world.advance_to(t)
         world.command_pressures(driver.pressures_bar(dt))
-        if k % 10 == 0:
+        if k % 10 == 0 or k == steps:
             rows.append((t, *world.state(with_contacts=False).pose))
     rows = np.array(rows)
     rows[:, 3] = np.unwrap(rows[:, 3])

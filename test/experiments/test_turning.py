@@ -27,6 +27,15 @@ def test_a_short_run_measures_turn_and_travel():
     assert run.speed_m_s == run.travel_m_per_cycle
 
 
+def test_a_run_that_does_not_end_on_a_sample_still_measures_its_last_cycle():
+    """At 0.7 Hz, 3 cycles end at 4.286 s, between two 0.05 s samples: the last cycle was lost and, with the first two
+    left out, every figure was NaN (srs_turning printed +nan rows; a helper's review)."""
+    (run,) = measure_turn_phase("inward_rolling", 4.0, 0.7, 0.35, cycles=3, skip_cycles=2, start_yaws_rad=(0.0,))
+    assert math.isfinite(run.turn_deg_per_cycle) and math.isfinite(run.travel_m_per_cycle)
+    rows = play_cycle(rolling_cycle(4.0, 0.7, 0.0), 3 / 0.7, load_sim_config(), default_robot())
+    assert rows[-1, 0] == pytest.approx(3 / 0.7, abs=0.005)  # the end is recorded
+
+
 def test_a_switch_to_another_cycle_changes_the_run_from_the_switch_on_only():
     """bench_level_change.py's change of turn level: the player cross-fades to the other cycle at the switch."""
     robot = default_robot()
