@@ -8,7 +8,8 @@ Each goal is driven to a stop, one after the other (``--path``: followed as wayp
 The pose comes from the simulator's tracked point, or with ``--camera`` from the simulated overhead camera's
 image through the camera tracker. Prints one line per goal (reached or not, time, resting error, path
 length) and writes the track as CSV (:data:`srs_ros.sim.navigation.COLUMNS`; state and direction as names).
-Exit codes: 0 every goal reached, 1 some goal not reached, 2 bad arguments or configuration.
+Exit codes: 0 every goal reached, 1 some goal not reached, 2 bad arguments or configuration, 130 Ctrl-C
+(nothing written).
 """
 
 from __future__ import annotations
@@ -34,7 +35,7 @@ from srs_ros.sim.navigation import (
     default_area,
     run_navigation,
 )
-from srs_ros.tools.output import prepare_output_file
+from srs_ros.tools.output import VideoFile, prepare_output_file
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -108,8 +109,8 @@ def plot_run(path: Path, result, tolerance_m: float, title: str) -> Path:
     return path
 
 
-class _Video:
-    """Camera frames with the goal and the navigator's state drawn on them."""
+class _Video(VideoFile):
+    """Camera frames with the goal and the navigator's state drawn on them (kept only if the run ends)."""
 
     def __init__(self, path: Path, config):
         import cv2
@@ -118,11 +119,7 @@ class _Video:
         from srs_ros.sim.navigation import CAMERA_RATE_HZ
 
         self.cv2, self.calibration = cv2, OverheadCamera(config).calibration
-        path.parent.mkdir(parents=True, exist_ok=True)
-        size = tuple(self.calibration.image_size_px or (640, 480))
-        self.writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"MJPG"), CAMERA_RATE_HZ, size)
-        if not self.writer.isOpened():
-            raise SrsError(f"cannot open an MJPG video writer for {path}; use an .avi path.")
+        super().__init__(path, CAMERA_RATE_HZ, tuple(self.calibration.image_size_px or (640, 480)))
 
     def __call__(self, state, image, controller) -> None:
         cv2, frame = self.cv2, image.copy()
@@ -133,10 +130,7 @@ class _Video:
         progress = controller.progress(state.time_s)
         text = f"{progress.state.value} {progress.direction} d={progress.distance_to_go_m:.2f} m"
         cv2.putText(frame, text, (10, 20), cv2.FONT_HERSHEY_SIMPLEX, 0.5, (255, 255, 255), 1, cv2.LINE_AA)
-        self.writer.write(frame)
-
-    def close(self) -> None:
-        self.writer.release()
+        self.write(frame)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -163,9 +157,14 @@ def main(argv: list[str] | None = None) -> int:
         result = run_navigation(args.goal, config, settings, camera=args.camera, as_path=args.path,
                                 goal_timeout_s=args.timeout_s, on_frame=video, render=video is not None,
                                 progress=lambda line: print(line, flush=True))
+        if video is not None:
+            video.keep()
     except (SrsError, ValueError) as exc:
-        print(f"srs_navigate: error: {exc}", file=sys.stderr)
+        print(f"srs_navigate: error: {exc}" + ("; no video written" if video is not None else ""), file=sys.stderr)
         return 2
+    except KeyboardInterrupt:  # a traceback and a partial video before (a helper's review)
+        print("\nsrs_navigate: interrupted; nothing written", file=sys.stderr)
+        return 130
     finally:
         if video is not None:
             video.close()

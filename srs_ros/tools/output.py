@@ -5,6 +5,7 @@ So a long run (or real air) is not lost to a path that cannot be written at the 
 
 from __future__ import annotations
 
+import os
 import tempfile
 from pathlib import Path
 
@@ -41,3 +42,34 @@ def _writable_folder(folder: Path, flag: str, given: str | Path) -> None:
     except OSError as exc:
         raise ConfigurationError(f"{flag} {given}: cannot write there ({exc.strerror or exc}); choose a writable "
                                  "folder.") from None
+
+
+class VideoFile:
+    """An MJPG video written under a temporary name and put in place by :meth:`keep` once the run succeeded.
+
+    A run that fails or is interrupted leaves no partial video, and a file already at ``path`` is not touched until
+    then (a helper's review: a typo in a gait's arguments wiped an existing video; Ctrl-C left 9-11 MB partial ones).
+    :meth:`close` releases the writer and removes a video not kept.
+    """
+
+    def __init__(self, path: str | Path, fps: float, size_px: tuple[int, int]):
+        import cv2
+
+        self.path = Path(path)
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        self.partial = self.path.with_name(f".{self.path.stem}.partial{self.path.suffix}")
+        self.writer = cv2.VideoWriter(str(self.partial), cv2.VideoWriter_fourcc(*"MJPG"), fps, tuple(size_px))
+        if not self.writer.isOpened():
+            self.partial.unlink(missing_ok=True)
+            raise ConfigurationError(f"cannot open an MJPG video writer for {path}; use an .avi path.")
+
+    def write(self, frame) -> None:
+        self.writer.write(frame)
+
+    def keep(self) -> None:
+        self.writer.release()
+        os.replace(self.partial, self.path)
+
+    def close(self) -> None:
+        self.writer.release()
+        self.partial.unlink(missing_ok=True)

@@ -12,11 +12,7 @@ from __future__ import annotations
 
 import argparse
 import math
-import os
 import sys
-from pathlib import Path
-
-import cv2
 
 from srs_ros.core.errors import SrsError
 from srs_ros.core.gait.library import list_gaits
@@ -26,7 +22,7 @@ from srs_ros.experiments.table import paper_table
 from srs_ros.sim.camera import OverheadCamera
 from srs_ros.sim.config import load_sim_config, with_friction
 from srs_ros.sim.experiment import DEFAULT_RECORD_RATE_HZ, check_record_rate, run_experiment
-from srs_ros.tools.output import prepare_output_file
+from srs_ros.tools.output import VideoFile, prepare_output_file
 from srs_ros.tools.track_cli import plot_track, write_track_csv
 
 #: Runs longer than this (simulated seconds) print their progress.
@@ -62,34 +58,15 @@ def _parser() -> argparse.ArgumentParser:
     return parser
 
 
-class _VideoSink:
-    """Renders each recorded state into an MJPG video, under a temporary name until :meth:`keep`.
-
-    A run that fails or is interrupted leaves no partial video, and the file at ``path`` is not touched until
-    the run has succeeded (a helper's review: a typo in the gait's arguments wiped an existing video).
-    """
+class _VideoSink(VideoFile):
+    """Renders each recorded state into the video (:class:`~srs_ros.tools.output.VideoFile`: kept on success only)."""
 
     def __init__(self, path: str, camera: OverheadCamera, fps: float):
-        self.path = Path(path)
-        self.path.parent.mkdir(parents=True, exist_ok=True)
-        self.partial = self.path.with_name(f".{self.path.stem}.partial{self.path.suffix}")
+        super().__init__(path, fps, camera.size_px)
         self.camera = camera
-        self.writer = cv2.VideoWriter(str(self.partial), cv2.VideoWriter_fourcc(*"MJPG"), fps, camera.size_px)
-        if not self.writer.isOpened():
-            self.partial.unlink(missing_ok=True)
-            raise SrsError(f"cannot open an MJPG video writer for {path}; use an .avi path.")
 
     def __call__(self, state) -> None:
-        self.writer.write(self.camera.render(state.nodes_m))
-
-    def keep(self) -> None:
-        self.writer.release()
-        os.replace(self.partial, self.path)
-
-    def close(self) -> None:
-        """Release the writer; a video not kept is removed."""
-        self.writer.release()
-        self.partial.unlink(missing_ok=True)
+        self.write(self.camera.render(state.nodes_m))
 
 
 def main(argv: list[str] | None = None) -> int:

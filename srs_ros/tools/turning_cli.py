@@ -12,7 +12,7 @@ Examples::
 Every run starts at rest and plays the gait through the gait player's logic, as the navigator does
 (:mod:`srs_ros.experiments.turning`); each value is run from two start headings (the spread says how
 repeatable it is). Re-run after any change of the simulated physics; the tables in docs/navigation.md
-and docs/studies/navigation.md come from here. Exit codes: 0, 2 bad arguments or configuration.
+and docs/studies/navigation.md come from here. Exit codes: 0, 2 bad arguments or configuration, 130 Ctrl-C.
 """
 
 from __future__ import annotations
@@ -24,6 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from srs_ros.core.errors import SrsError
+from srs_ros.core.files import write_atomically
 from srs_ros.core.navigation.settings import DIRECTIONS, NAVIGATION_TABLE, STOP_PHASES
 from srs_ros.experiments import turning
 from srs_ros.sim.config import load_sim_config, with_friction
@@ -145,6 +146,9 @@ def main(argv: list[str] | None = None) -> int:
     except (SrsError, ValueError) as exc:
         print(f"srs_turning: error: {exc}", file=sys.stderr)
         return 2
+    except KeyboardInterrupt:  # a traceback before (a helper's review); a map is written whole or not at all
+        print("\nsrs_turning: interrupted", file=sys.stderr)
+        return 130
     return 0
 
 
@@ -177,7 +181,7 @@ def _print_map(config, args) -> None:
     if args.write_map:
         text = turning.turning_map_yaml(rows, stops, args.amplitude_bar, args.frequency_hz,
                                         f"{Path(config.source).name}, {config.contact.describe()}")
-        args.write_map.write_text(text, encoding="utf-8")
+        write_atomically(args.write_map, text)
         print(f"wrote {args.write_map}")
 
 

@@ -60,3 +60,34 @@ def test_bad_arguments_exit_2(capsys):
     with pytest.raises(SystemExit) as exit_info:
         main(["--goal", "0", "0.5", "--out", "x.csv", "--plot", "x.jpg"])
     assert exit_info.value.code == 2 and "expected a .png path" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("stop", [KeyboardInterrupt, "diverged"])
+def test_a_run_interrupted_or_failed_leaves_no_partial_video(stop, tmp_path, monkeypatch, capsys):
+    """Ctrl-C printed a traceback and left an 11 MB partial video; a divergence left one too (a helper's review).
+    The run here stands in for run_navigation: a few frames, then the interruption."""
+    from srs_ros.core.errors import SimulationError
+    from srs_ros.tools import navigate_cli
+
+    def stopped_after_frames(goals, config, settings, on_frame=None, **_kwargs):
+        import numpy as np
+
+        for _ in range(5):
+            on_frame.write(np.zeros((480, 640, 3), np.uint8))
+        raise KeyboardInterrupt if stop is KeyboardInterrupt else SimulationError("the simulation diverged")
+
+    monkeypatch.setattr(navigate_cli, "run_navigation", stopped_after_frames)
+    video = tmp_path / "nav.avi"
+    video.write_bytes(b"an older video")
+    code = main(["--goal", "0.0", "0.6", "--out", str(tmp_path / "nav.csv"), "--video", str(video)])
+    err = capsys.readouterr().err
+    assert code == (130 if stop is KeyboardInterrupt else 2), err
+    assert ("interrupted; nothing written" if stop is KeyboardInterrupt else "no video written") in err
+    assert video.read_bytes() == b"an older video" and sorted(p.name for p in tmp_path.iterdir()) == ["nav.avi"]
+
+
+def test_a_run_that_ends_keeps_its_video(tmp_path, capsys):
+    video = tmp_path / "nav.avi"
+    assert main(["--goal", "0.0", "0.6", "--out", str(tmp_path / "nav.csv"), "--video", str(video),
+                 "--timeout-s", "1"]) == 1
+    assert video.stat().st_size > 10_000 and sorted(p.name for p in tmp_path.iterdir()) == ["nav.avi", "nav.csv"]

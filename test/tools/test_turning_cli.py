@@ -46,3 +46,15 @@ def test_too_few_cycles_to_measure_are_refused_before_any_run(cycles, capsys):
         turning_cli.main(["--cycles", cycles])
     assert refused.value.code == 2
     assert f"--cycles {cycles}: expected more than the 2 cycles each run leaves out" in capsys.readouterr().err
+
+
+def test_ctrl_c_exits_130_with_a_line_not_a_traceback(monkeypatch, capsys):
+    """A traceback ending in mujoco.mj_step before (a helper's review)."""
+    from srs_ros.experiments import turning
+
+    def interrupted(*_args, **_kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(turning, "measure_sidewinding", interrupted)
+    assert turning_cli.main(["--sidewinding"]) == 130
+    assert "srs_turning: interrupted" in capsys.readouterr().err
