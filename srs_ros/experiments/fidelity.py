@@ -142,26 +142,38 @@ def travel_side(track: np.ndarray) -> float:
 
 
 def side_count(records: Sequence[RunRecord]) -> Count:
-    """Rolling runs at 2-4 bar with a track that travelled to their gait's side (:data:`GAIT_SIDE`)."""
-    runs = [r for r in records if r.gait in GAIT_SIDE and r.amplitude_bar >= MOVING_FROM_BAR and r.track is not None]
+    """Rolling runs at 2-4 bar with a track that travelled to their gait's side (:data:`GAIT_SIDE`).
+
+    A failed run counts against it.
+    """
+    runs = [r for r in records if r.gait in GAIT_SIDE and r.amplitude_bar >= MOVING_FROM_BAR
+            and (r.track is not None or not r.ok)]
     return Count(sum(bool(r.ok and travel_side(r.track) * GAIT_SIDE[r.gait] > 0.0) for r in runs), len(runs))
 
 
 def motion_figures(records: Sequence[RunRecord]) -> tuple[float, Count]:
-    """Median |turning| per cycle (deg) of rolling runs at the top pressure; runs that stepped backwards in a cycle."""
-    rolling = [r for r in records if r.gait in ROLLING_GAITS and r.amplitude_bar >= MOVING_FROM_BAR and r.ok]
-    top = max((r.amplitude_bar for r in rolling), default=math.nan)
-    turning, reversing = [], 0
+    """Median |turning| per cycle (deg) of rolling runs at the top pressure; runs that stepped backwards in a cycle.
+
+    Of the runs with a track to tell (a run without one is not counted: "0/24" read as "none reversed" where none
+    was checked; a helper's review), and a failed run, which counts as a reversal: against the model.
+    """
+    rolling = [r for r in records if r.gait in ROLLING_GAITS and r.amplitude_bar >= MOVING_FROM_BAR]
+    top = max((r.amplitude_bar for r in rolling if r.ok), default=math.nan)
+    turning, reversing, counted = [], 0, 0
     for r in rolling:
+        if not r.ok:
+            reversing, counted = reversing + 1, counted + 1
+            continue
         steps, turns = cycle_motion(r)
         if not len(steps):
             continue
+        counted += 1
         if r.amplitude_bar == top:
             turning.extend(np.degrees(np.abs(turns)))
         net = steps.sum(axis=0)
         if np.linalg.norm(net) > 0 and np.any(steps @ net < 0.0):
             reversing += 1
-    return (float(np.median(turning)) if turning else math.nan), Count(reversing, len(rolling))
+    return (float(np.median(turning)) if turning else math.nan), Count(reversing, counted)
 
 
 def fidelity_figures(records: Sequence[RunRecord], reference: MeasuredTable) -> FidelityFigures:

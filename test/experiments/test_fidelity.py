@@ -62,6 +62,17 @@ def test_a_run_that_steps_back_in_one_cycle_counts_as_reversing():
     assert fidelity_figures(records, PAPER).reversing_runs == Count(1, 1)
 
 
+def test_reversals_count_only_runs_with_a_track_to_tell_and_a_failed_run_counts_against():
+    """Records without tracks gave reversing_runs 0/24, read as "none reversed" where none was checked; a failed run
+    was left out of it (a helper's review)."""
+    assert fidelity_figures(_paper_records(), PAPER).reversing_runs == Count(0, 0)  # the paper's cells: no tracks
+    t = np.arange(0.0, 4.0 + 1e-9, 0.01)
+    straight = _record("inward_rolling", 2.0, 1.0, 5.0, np.column_stack([t, 0.1 * t, 0.0 * t, 0.0 * t]))
+    failed = RunRecord.failed(("outward_rolling", 2.0, 1.0), "diverged")
+    figures = fidelity_figures([straight, failed], PAPER)
+    assert figures.reversing_runs == Count(1, 2) and figures.rolling_sides.total == 2
+
+
 def _track_to(dx_m, dy_m, yaw_rad=0.0):
     """Four seconds from the origin straight to (dx, dy), the body's heading fixed."""
     t = np.arange(0.0, 4.0 + 1e-9, 0.1)
