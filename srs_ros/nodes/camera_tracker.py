@@ -73,6 +73,11 @@ RENAMED_PARAMETERS = {"lost_timeout_s": "image_timeout_s (no images: ERROR camer
 
 #: Refused frames are logged at most this often (one line, the newest reason), s.
 REFUSAL_LOG_PERIOD_S = 5.0
+#: robot_path is published at most this often (s): sent whole with every new point, its 5000 poses took 48 ms of a
+#: 33 ms frame after a few minutes' travel (a helper's review). The points are still taken at every frame.
+PATH_PERIOD_S = 0.5
+#: A camera whose reads fail this many times in a row is opened again (a USB read timeout, a replugged camera).
+CAMERA_REOPEN_AFTER = 30
 #: Options of the tracker the node does not take as parameters (the default holds).
 NOT_PARAMETERS = ("max_marker_spacing_m",)
 
@@ -162,6 +167,8 @@ class CameraTrackerNode(Node):
         self.diag_pub = self.create_publisher(DiagnosticArray, DIAGNOSTICS_TOPIC, 10)
         self.path = PathMsg()
         self.path.header.frame_id = self.frame_id
+        self._path_changed = False
+        self.failed_reads = 0  # a camera source's failed reads in a row
 
         self.frames = 0
         self.tracked_frames = 0
@@ -185,6 +192,7 @@ class CameraTrackerNode(Node):
         # On the steady clock, as every node's status: with use_sim_time a ROS-clock timer stops with /clock, and
         # a simulator that stalls or dies is exactly when "camera silent" must still be said.
         steady_timer(self, float(p["diagnostics_period_s"]), self.publish_diagnostics)
+        steady_timer(self, PATH_PERIOD_S, self._publish_path)
         self.get_logger().info(
             f"tracking {self.tracker.describe_markers()} from {where}; calibration {self.calibration.source} "
             f"(reprojection rms {self.calibration.rms_error_mm:.2f} mm), frame '{self.frame_id}'"
@@ -220,16 +228,30 @@ class CameraTrackerNode(Node):
             self.source_start_s = self.last_source_stamp_s + self.source_frame_period_s
             self.tracker.velocity_filter.reset()
             ok, frame = self.capture.read()
+        if not ok and self.source_is_camera:  # a live camera goes on: one failed read stopped it for good (a review)
+            self._camera_read_failed()
+            return
         if not ok:
             self.get_logger().info(f"source {self.source!r}: no more frames; tracking stopped.")
             self.source_timer.cancel()
             return
+        self.failed_reads = 0
         if self.source_is_camera:
             stamp = self.get_clock().now().to_msg()
         else:
             self.last_source_stamp_s = self.source_start_s + self.capture.get(cv2.CAP_PROP_POS_MSEC) / 1000.0
             stamp = seconds_to_stamp(self.last_source_stamp_s)
         self.track(frame, stamp)
+
+    def _camera_read_failed(self) -> None:
+        self.failed_reads += 1
+        self.get_logger().warning(f"camera {self.source!r}: a frame could not be read ({self.failed_reads} in a row); "
+                                  "trying on", throttle_duration_sec=5.0)
+        if self.failed_reads % CAMERA_REOPEN_AFTER == 0:
+            self.capture.release()
+            self.capture = cv2.VideoCapture(int(self.source))
+            self.get_logger().warning(f"camera {self.source!r}: opened again after {self.failed_reads} failed reads"
+                                      + ("" if self.capture.isOpened() else " (it did not open; trying on)"))
 
     def on_image(self, msg: Image) -> None:
         """Track one received image; a malformed one is refused with the reason and tracking goes on."""
@@ -295,6 +317,11 @@ class CameraTrackerNode(Node):
             self.path.poses.append(pose)
             del self.path.poses[:-self.path_max_poses]
             self.path.header.stamp = stamp
+            self._path_changed = True
+
+    def _publish_path(self) -> None:
+        if self._path_changed:
+            self._path_changed = False
             self.path_pub.publish(self.path)
 
     def publish_diagnostics(self) -> None:
