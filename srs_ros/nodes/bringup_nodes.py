@@ -23,7 +23,7 @@ from rclpy.node import Node
 from sensor_msgs.msg import Image, JointState
 from std_msgs.msg import Float64MultiArray, String
 
-from srs_ros.core.errors import ConfigurationError, SrsError
+from srs_ros.core.errors import ConfigurationError, InvalidInputError, SrsError
 from srs_ros.core.gait.library import played_gait
 from srs_ros.core.gait.playback import describe_frequency
 from srs_ros.core.vision.view import ViewStatus
@@ -304,30 +304,67 @@ class SpeedMeter:
 
 
 class VideoRecorder(Node):
-    """``--video``: writes the overhead camera's images (``image_raw``) to a video file (MJPG)."""
+    """``--video``: writes the overhead camera's images (``image_raw``) to a video file (MJPG) on their own time line.
+
+    A frame goes in at ``fps`` by its stamp, repeated over the frames the camera skipped: the one-process bringup's
+    camera gives about 20 of its 30 frames a second on a busy machine, and written one for one the video ran 1.5
+    times fast (a helper's review). An image that cannot be written (an unknown encoding, another size) is counted
+    and skipped, not the end of the run.
+    """
+
+    #: Most frames one image is repeated over (s of video): a long gap in the stamps is not filled frame by frame.
+    MAX_GAP_S = 2.0
 
     def __init__(self, path: str, fps: float):
         super().__init__("srs_video_recorder")
-        self.path, self.fps, self.frames = path, fps, 0
+        self.path, self.fps = path, fps
+        self.frames = self.images = self.skipped = 0  # frames written, images taken, images skipped
         self._writer = None
+        self._size: tuple[int, int] | None = None
+        self._first_s = math.nan
         self.create_subscription(Image, IMAGE_TOPIC, self._on_image, 10)
 
     def _on_image(self, msg: Image) -> None:
-        frame = image_msg_to_array(msg)
+        try:
+            frame = image_msg_to_array(msg)
+        except InvalidInputError as exc:
+            self._skip(str(exc))
+            return
         if self._writer is None:
-            import cv2  # only with --video: OpenCV is not loaded at start otherwise
+            self._open(frame)
+        if (frame.shape[1], frame.shape[0]) != self._size:
+            self._skip(f"an image of {frame.shape[1]}x{frame.shape[0]}, the video's are {self._size[0]}x"
+                       f"{self._size[1]}")
+            return
+        stamp_s = stamp_to_seconds(msg.header.stamp)
+        if not stamp_s >= self._first_s or math.isnan(self._first_s):  # the first, or a clock that went back
+            self._first_s = stamp_s - self.frames / self.fps
+        due = int(round((stamp_s - self._first_s) * self.fps)) + 1  # frames the video should hold with this one
+        repeats = min(max(due - self.frames, 0), int(self.MAX_GAP_S * self.fps) + 1)
+        for _ in range(repeats):
+            self._writer.write(frame)
+        self.frames += repeats
+        self.images += 1
 
-            self._writer = cv2.VideoWriter(self.path, cv2.VideoWriter_fourcc(*"MJPG"), self.fps,
-                                           (frame.shape[1], frame.shape[0]))
-            if not self._writer.isOpened():
-                self._writer = None  # nothing saved: close() says nothing
-                raise ConfigurationError(f"--video {self.path}: OpenCV cannot write this file (use a .avi path in "
-                                         "a writable folder).")
-        self._writer.write(frame)
-        self.frames += 1
+    def _open(self, frame) -> None:
+        import cv2  # only with --video: OpenCV is not loaded at start otherwise
+
+        self._size = (frame.shape[1], frame.shape[0])
+        self._writer = cv2.VideoWriter(self.path, cv2.VideoWriter_fourcc(*"MJPG"), self.fps, self._size)
+        if not self._writer.isOpened():
+            self._writer = None  # nothing saved: close() says nothing
+            raise ConfigurationError(f"--video {self.path}: OpenCV cannot write this file (use a .avi path in "
+                                     "a writable folder).")
+
+    def _skip(self, reason: str) -> None:
+        self.skipped += 1
+        self.get_logger().warning(f"--video: image skipped: {reason} ({self.skipped} so far)",
+                                  throttle_duration_sec=5.0)
 
     def close(self) -> None:
         """Finish the file and say where it is."""
         if self._writer is not None:
             self._writer.release()
-            print(f"srs_bringup: saved {self.frames} camera frames to {self.path}", flush=True)
+            skipped = f"; {self.skipped} images skipped" if self.skipped else ""
+            print(f"srs_bringup: saved {self.images} camera images as {self.frames} frames at {self.fps:g} fps "
+                  f"({self.frames / self.fps:.1f} s) to {self.path}{skipped}", flush=True)

@@ -137,3 +137,37 @@ def test_an_error_in_a_worker_thread_stops_the_whole_bringup(monkeypatch, capfd)
     assert "the sim_world thread stopped: ConfigurationError: --video /proc/run.avi" in system.failure
     assert SHUTDOWN.requested == system.failure  # the main loop's spin ends on it, and main() exits 1
     assert "venting and exiting with status 1" in capfd.readouterr().err
+
+
+def test_the_video_keeps_the_cameras_time_line_and_skips_what_it_cannot_write(tmp_path, ros_domain, capsys):
+    """Written one for one, 20 images a second made a 30 fps video that ran 1.5 times fast; an image of another
+    encoding ended the main job, and one of another size was counted as saved (a helper's review)."""
+    import cv2
+    import numpy as np
+    import rclpy
+
+    from srs_ros.nodes.bringup_nodes import VideoRecorder
+    from srs_ros.ros.interfaces import array_to_image_msg, seconds_to_stamp
+
+    rclpy.init(domain_id=ros_domain)
+    try:
+        recorder = VideoRecorder(str(tmp_path / "run.avi"), 30.0)
+        try:
+            frame = np.zeros((240, 320, 3), np.uint8)
+            for k in range(61):  # 3 s at 20 images a second
+                recorder._on_image(array_to_image_msg(frame, seconds_to_stamp(100.0 + k / 20)))
+            odd = array_to_image_msg(frame[:, :, 0], seconds_to_stamp(103.1))
+            odd.encoding = "16UC1"
+            recorder._on_image(odd)
+            recorder._on_image(array_to_image_msg(np.zeros((120, 160, 3), np.uint8), seconds_to_stamp(103.2)))
+            recorder.close()
+        finally:
+            recorder.destroy_node()
+    finally:
+        rclpy.shutdown()
+    video = cv2.VideoCapture(str(tmp_path / "run.avi"))
+    frames, fps = int(video.get(cv2.CAP_PROP_FRAME_COUNT)), video.get(cv2.CAP_PROP_FPS)
+    video.release()
+    assert (frames, fps) == (91, 30.0)  # 3 s of video at 30 fps, not 61 frames (2 s)
+    assert (recorder.images, recorder.skipped) == (61, 2)
+    assert "saved 61 camera images as 91 frames at 30 fps (3.0 s)" in capsys.readouterr().out
