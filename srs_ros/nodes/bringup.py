@@ -153,9 +153,10 @@ def _params_file(args: argparse.Namespace, ros_args: list[str]) -> str:
         "hardware_node": {"autostart": True, "rig_file": args.rig, "backend": args.backend,
                           "realtime_priority": args.realtime_priority},
         "sim_world": {"sim_config_file": args.sim_config},
-        "camera_tracker": {"color_preset": rig_config.SIM_COLOR_PRESET},
+        "camera_tracker": {"color_preset": rig_config.SIM_COLOR_PRESET, "sim_config_file": args.sim_config},
         "navigator": {"calibration_preset": rig_config.SIM_COLOR_PRESET if _simulated(args) else "",
-                      "loop_path": bool(args.patrol), "amplitude_bar": args.amplitude_bar},
+                      "loop_path": bool(args.patrol), "amplitude_bar": args.amplitude_bar,
+                      "sim_config_file": args.sim_config},
     }
     params = {node: {k: v for k, v in values.items() if k not in given} for node, values in params.items()}
     with tempfile.NamedTemporaryFile("w", prefix="srs_bringup_", suffix=".yaml", delete=False) as stream:

@@ -62,7 +62,7 @@ from srs_ros.ros.interfaces import (
     seconds_to_stamp,
     stamp_to_seconds,
 )
-from srs_ros.ros.parameters import ParameterSpec, declare_parameters
+from srs_ros.ros.parameters import SIM_CONFIG_FILE, ParameterSpec, declare_parameters
 from srs_ros.ros.process import run_node, steady_timer
 
 #: The tracker's status on /diagnostics is named "<node name>: marker tracking".
@@ -95,6 +95,7 @@ PARAMETERS = (
                   "head and tail bands (config/sim.yaml), replacing detector and the HSV bounds; with no "
                   "calibration_file the simulated camera's calibration in the bands' plane", read_only=True,
                   choices=COLOR_PRESETS),
+    SIM_CONFIG_FILE,
     ParameterSpec("frame_id", "", "frame of the outputs; empty = the calibration's frame_id", read_only=True),
     ParameterSpec("path_max_poses", 5000, "longest trail kept in robot_path", 2, 1000000, read_only=True),
     ParameterSpec("path_min_step_m", 0.002, "a trail point is added after this much motion, m", 0.0, 10.0,
@@ -118,7 +119,7 @@ def tracker_config(params: dict[str, Any]) -> TrackerConfig:
     from srs_ros.sim.camera import band_tracker_config
     from srs_ros.sim.config import load_sim_config
 
-    bands = band_tracker_config(load_sim_config().camera)
+    bands = band_tracker_config(load_sim_config(params.get(SIM_CONFIG_FILE.name) or None).camera)
     return dataclasses.replace(config, detector="color", tail_color=bands.tail_color, head_color=bands.head_color)
 
 
@@ -127,15 +128,16 @@ def tracking_status(view: ViewStatus, name: str, hardware_id: str, values: dict[
     return diagnostic_status(name, hardware_id, view.level, view.message, {**values, **view.values()})
 
 
-def sim_band_calibration():
+def sim_band_calibration(sim_config_file: str | None = None):
     """The simulated camera's calibration in the plane of its bands (one skin radius above the floor).
 
     A lab calibrates with its markers' height in mind; the simulated bands ride on the body's axis.
+    ``sim_config_file``: the simulated robot's config (None: the package's).
     """
     from srs_ros.sim.camera import OverheadCamera
     from srs_ros.sim.config import load_sim_config
 
-    config = load_sim_config()
+    config = load_sim_config(sim_config_file or None)
     return OverheadCamera(config).calibration_at_height(config.body.skin_radius_m)
 
 
@@ -152,7 +154,7 @@ class CameraTrackerNode(Node):
         p = {spec.name: self.get_parameter(spec.name).value for spec in PARAMETERS}
         calibration_file = p["calibration_file"] or None
         if p["color_preset"] == SIM_COLOR_PRESET and calibration_file is None:
-            self.calibration = sim_band_calibration()
+            self.calibration = sim_band_calibration(p[SIM_CONFIG_FILE.name])
         else:
             self.calibration = load_calibration(calibration_file)
         self.tracker = Tracker(self.calibration, tracker_config(p))

@@ -82,7 +82,7 @@ from srs_ros.ros.interfaces import (
     stamp_to_seconds,
 )
 from srs_ros.ros.navigation_markers import MARKERS_PERIOD_S, Track, navigation_markers
-from srs_ros.ros.parameters import ParameterSpec, check_parameters, declare_parameters
+from srs_ros.ros.parameters import SIM_CONFIG_FILE, ParameterSpec, check_parameters, declare_parameters
 from srs_ros.ros.process import run_node, steady_timer
 
 NODE_NAME = "navigator"
@@ -113,6 +113,7 @@ NODE_PARAMETERS = (
     ParameterSpec("calibration_preset", "", "'' or 'sim_bands': with no calibration_file, the simulated camera's "
                   "calibration, as camera_tracker's color_preset sim_bands uses", read_only=True,
                   choices=("", "sim_bands")),
+    SIM_CONFIG_FILE,
     ParameterSpec("trajectory_server", "trajectory_server", "name of the trajectory server node (relative: in the "
                   "navigator's namespace)", read_only=True),
     ParameterSpec("gait_player", "gait_player", "name of the gait player node (relative: in the navigator's "
@@ -241,7 +242,7 @@ class Navigator(Node):
         if not path and preset == "sim_bands":
             from srs_ros.nodes.camera_tracker import sim_band_calibration
 
-            calibration = sim_band_calibration()
+            calibration = sim_band_calibration(self._param(SIM_CONFIG_FILE.name))
         else:
             calibration = load_calibration(path or None)
         return FloorArea.from_calibration(calibration, margin_m=self._param("view_margin_m"))

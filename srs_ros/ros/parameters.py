@@ -237,3 +237,9 @@ def guard_parameter_services(node: Node) -> None:
 REALTIME_PRIORITY = ParameterSpec(
     "realtime_priority", 0, "SCHED_FIFO priority 1-98 for every thread of this process, so CPU load cannot delay "
     "setpoints; 0 = the normal scheduler; needs an rtprio limit or CAP_SYS_NICE (README)", 0, 98, read_only=True)
+
+#: The simulated robot whose camera and bands the ``sim_bands`` preset follows (camera_tracker, navigator):
+#: srs_bringup --sim-config reached sim_world only, and a changed camera gave poses scaled 2.7 times (a review).
+SIM_CONFIG_FILE = ParameterSpec("sim_config_file", "", "with the sim_bands preset: the simulated robot's config YAML, "
+                                "whose camera and bands are used, as sim_world's; '' = the package's config/sim.yaml",
+                                read_only=True)

@@ -71,7 +71,8 @@ def test_navigating_leaves_the_gait_to_the_navigator_and_patrol_defaults_to_the_
     assert args.waypoint == [list(p) for p in bringup.SIM_PATROL_XY_M]
     params = params_of(args)
     assert params["gait_player"]["autostart"] is False
-    assert params["navigator"] == {"calibration_preset": "sim_bands", "loop_path": True, "amplitude_bar": 4.0}
+    assert params["navigator"] == {"calibration_preset": "sim_bands", "loop_path": True, "amplitude_bar": 4.0,
+                                   "sim_config_file": ""}
     # --amplitude-bar 3 with --navigate: the navigator cruised at 4 bar regardless (a helper's review)
     assert params_of(bringup._parse_arguments(["--navigate", "--amplitude-bar", "3"])[0])["navigator"][
         "amplitude_bar"] == 3.0

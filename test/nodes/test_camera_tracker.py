@@ -389,3 +389,33 @@ def test_the_trail_is_published_by_its_timer_not_with_every_frame(tmp_path, ros_
             node.destroy_node()
     finally:
         rclpy.shutdown()
+
+
+def test_the_sim_bands_preset_follows_the_sim_config_given_as_sim_world_does(tmp_path):
+    """srs_bringup --sim-config reached sim_world only: the tracker and the navigator kept config/sim.yaml's camera,
+    and a changed camera gave poses scaled 2.7 times (a helper's review)."""
+    import yaml
+
+    from srs_ros.core.robot import config_dir
+    from srs_ros.nodes import bringup
+    from srs_ros.nodes.camera_tracker import sim_band_calibration
+
+    data = yaml.safe_load((config_dir() / "sim.yaml").read_text())
+    data["sim"]["camera"]["calibration_file"] = str(config_dir() / "camera_calibration.yaml")
+    changed = tmp_path / "sim.yaml"
+    changed.write_text(yaml.safe_dump(data))
+    default, given = sim_band_calibration(), sim_band_calibration(str(changed))
+    truth = np.array([0.2, 0.1])
+    assert np.allclose(given.image_to_floor(given.floor_to_image(truth)), truth, atol=1e-6)
+    assert not np.allclose(default.floor_to_image(truth), given.floor_to_image(truth), atol=1.0)  # pixels apart
+    from pathlib import Path as FilePath
+
+    args, _ = bringup._parse_arguments(["--sim-config", str(changed)])
+    path = FilePath(bringup._params_file(args, []))
+    try:
+        params = {k.removeprefix("/**/"): v["ros__parameters"] for k, v in yaml.safe_load(path.read_text()).items()}
+    finally:
+        path.unlink()
+    assert params["camera_tracker"]["sim_config_file"] == params["navigator"]["sim_config_file"] == str(changed)
+    assert tracker_config({**{s.name: s.default for s in PARAMETERS}, "color_preset": SIM_COLOR_PRESET,
+                           "sim_config_file": str(changed)}).detector == "color"
