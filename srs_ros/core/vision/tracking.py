@@ -207,7 +207,8 @@ TRACKER_TABLE = Table("", (
     Field("head_color_hsv_high", list, [10, 255, 255], **_HSV, description="colour detector: head HSV upper bound"),
     Field("min_blob_area_px", float, 20.0, 1.0, 1e7, description="colour detector: smallest blob, px^2"),
     Field("position_ratio", float, 0.5, 0.0, 1.0, description="pose point between tail (0) and head (1)"),
-    Field("velocity_window_s", float, 0.5, 0.01, 60.0, description="velocity smoothing window, s"),
+    Field("velocity_window_s", float, 0.5, 0.01, 60.0, description="velocity smoothing window, s; it must span "
+          "at least two frame periods (three frames: 0.07 s at 30 fps), or no velocity is given (a review)"),
     Field("max_gap_s", float, 0.5, 0.01, 60.0,
           description="longest gap between tracked frames inside one velocity window, s"),
     Field("roi_margin_px", int, 40, 0, 10000,
@@ -339,7 +340,7 @@ class Tracker:
     def check_frame(self, image: np.ndarray) -> None:
         """Refuse (:class:`InvalidInputError`, with the reason) a frame this tracker cannot track.
 
-        A frame (uint8, as cameras and cv_bridge give; the dtype is not checked) must be non-empty, mono
+        A frame must be uint8 (as cameras and cv_bridge give), non-empty, mono
         ``(h, w)`` / ``(h, w, 1)`` or BGR ``(h, w, 3)`` (BGR only for the colour detector), and the size the
         calibration was made at (``image_size_px``): the homography maps that image's pixels, so a frame of
         another size would give wrong poses.
