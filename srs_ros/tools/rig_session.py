@@ -51,6 +51,14 @@ def ros_context(backend: ActuatorBackend) -> Iterator[None]:
 
 
 def _raise_keyboard_interrupt(signum, frame) -> None:
+    """The first Ctrl-C or SIGTERM: every later one is ignored from here, then ``KeyboardInterrupt`` (vent, exit).
+
+    A SIGTERM right after a Ctrl-C (a terminal's and a supervisor's stop together) ran its handler at the first
+    line of the vent, before that ignored them: a second ``KeyboardInterrupt`` left 1.5 bar held (a review).
+    :func:`interrupts_on_sigterm` restores the handlers as it leaves.
+    """
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(sig, signal.SIG_IGN)
     raise KeyboardInterrupt
 
 
@@ -62,7 +70,7 @@ def interrupts_on_sigterm() -> Iterator[None]:
     ``&`` from a script is: Python then installs no handler, and the tool would not vent on SIGINT.
     """
     previous = signal.signal(signal.SIGTERM, _raise_keyboard_interrupt)
-    previous_int = signal.signal(signal.SIGINT, signal.default_int_handler)
+    previous_int = signal.signal(signal.SIGINT, _raise_keyboard_interrupt)
     try:
         yield
     finally:
