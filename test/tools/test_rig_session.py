@@ -2,6 +2,7 @@
 
 import os
 import signal
+import threading
 import time
 
 import can
@@ -61,11 +62,17 @@ def test_a_ctrl_c_and_a_sigterm_together_still_vent_and_exit_130(tmp_path, capfd
 
     def body():
         backend.write_pressures(np.full(9, 1.5))
+        # Both held pending for this thread, then let in together: both arrive before Python runs the first
+        # handler. Sent to this thread, not the process: another thread (faulthandler's watchdog) would take a
+        # process-directed signal at once, and an interrupt raised before the unblock left this process's
+        # children with SIGINT blocked.
         both = {signal.SIGINT, signal.SIGTERM}
-        signal.pthread_sigmask(signal.SIG_BLOCK, both)  # both arrive before Python runs the first handler
-        os.kill(os.getpid(), signal.SIGINT)
-        os.kill(os.getpid(), signal.SIGTERM)
-        signal.pthread_sigmask(signal.SIG_UNBLOCK, both)
+        signal.pthread_sigmask(signal.SIG_BLOCK, both)
+        try:
+            signal.pthread_kill(threading.get_ident(), signal.SIGINT)
+            signal.pthread_kill(threading.get_ident(), signal.SIGTERM)
+        finally:
+            signal.pthread_sigmask(signal.SIG_UNBLOCK, both)
         time.sleep(1.0)  # the interrupts land here
 
     with interrupts_on_sigterm():
