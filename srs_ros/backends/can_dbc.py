@@ -70,6 +70,9 @@ class FrameLayout:
         self.limit_v = float(pressures_to_command_v(np.full(robot.joint_count, pressure_limit_bar(robot)), robot)[0])
         #: Per joint: (message, signal) of its command.
         self.command = self._command_signals()
+        #: Per joint: the highest voltage its signal carries at or below the limit (V). cantools rounds to the
+        #: nearest raw step, so a coarse factor sent 4.5 V, 4.05 bar, for the limit's 4.44 V (a helper's review).
+        self.cap_v = np.array([self._highest_step_v(signal) for _, signal in self.command])
         names = {message.name for message, _ in self.command}
         #: The messages sent on every write, in DBC order.
         self.command_messages = [message for message in database.messages if message.name in names]
@@ -84,7 +87,7 @@ class FrameLayout:
     def encode_frames(self, command_v: np.ndarray, alive: int = 0) -> list[tuple[int, bool, bytes]]:
         """(arbitration id, extended, data) of every command message for the voltages (V) of one write."""
         values: dict[str, dict[str, float]] = {}
-        for (message, signal), volts in zip(self.command, command_v):
+        for (message, signal), volts in zip(self.command, np.minimum(command_v, self.cap_v)):
             values.setdefault(message.name, {})[signal.name] = float(volts)
         return [self._encode(message, values[message.name], alive) for message in self.command_messages]
 
@@ -145,16 +148,23 @@ class FrameLayout:
                              f"up to the command at the pressure limit (found [{low}, {high}] V)")
         return [found[name] for name in names]
 
+    def _highest_step_v(self, signal) -> float:
+        """The largest value ``signal`` encodes exactly at or below :attr:`limit_v` (V)."""
+        steps = math.floor((self.limit_v - signal.offset) / signal.scale + 1e-9)
+        return min(self.limit_v, steps * signal.scale + signal.offset)
+
     def _check_encodable(self) -> None:
         """Encode 0 V and the pressure limit's voltage on every command signal, refusing one that cannot carry them.
 
         A signal with too few bits for its factor is refused here, not with an OverflowError in the middle of a run.
         """
-        for message, signal in self.command:
+        for (message, signal), cap_v in zip(self.command, self.cap_v):
             siblings = {s.name: 0.0 for m, s in self.command if m.name == message.name}
-            for volts in (0.0, self.limit_v):
+            for volts in (0.0, cap_v):
                 try:
-                    self._encode(message, {**siblings, signal.name: volts}, 0)
+                    sent = message.decode(self._encode(message, {**siblings, signal.name: volts}, 0)[2])[signal.name]
+                    if sent > self.limit_v + 1e-9:  # never more on the wire than the limit's voltage
+                        raise ValueError(f"{volts:.4g} V is sent as {sent:.4g} V, over the limit")
                 except Exception as exc:  # noqa: BLE001 - cantools raises EncodeError, OverflowError, ...
                     raise refuse("dbc_file", str(self.dbc_path), f"command signal {signal.name} in {message.name} "
                                  f"able to carry 0 V up to {self.limit_v:.4g} V, the command at the pressure limit "

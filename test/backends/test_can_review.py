@@ -123,3 +123,17 @@ def test_the_can_page_says_setpoints_are_written_only_on_command_ticks():
     text = " ".join((DOCS / "can.md").read_text().split())
     assert "written through" not in text and "faster than the command rate" not in text
     assert "Setpoints are written only on these command ticks, never per setpoint" in text
+
+
+def test_a_coarse_command_signal_never_carries_more_than_the_limits_voltage(board, channel, tmp_path):
+    """cantools rounds to the nearest raw step: with 0.5 V steps the limit's 4.444 V went out as 4.5 V, 4.05 bar
+    (a helper's review). The command is now the highest step at or below the limit: 4.0 V."""
+    coarse = dbc_file(tmp_path, SHIPPED_DBC.replace("(0.001,0) [0|10] \"V\"", "(0.5,0) [0|10] \"V\""))
+    with backend_on(channel, dbc_file=coarse) as backend:
+        receive(board, 3)  # the open's vent
+        backend.write_pressures(np.full(9, 4.0))
+        sent = {}
+        for frame in receive(board, 3):
+            sent.update(backend.layout.database.decode_message(frame.arbitration_id, frame.data))
+    commands = [sent[f"CMD_CH{i}"] for i in range(1, 10)]
+    assert max(commands) <= backend.layout.limit_v and commands == [4.0] * 9
