@@ -1,50 +1,46 @@
 """The hardware node (managed/lifecycle): setpoints in, the one clamp, regulator commands out at a fixed rate.
 
-Lifecycle: configure loads the robot and rig, opens the backend (a failure logs why, nothing sent) and starts
-the command timer (0 bar until activated); activate enables output; deactivate, cleanup and shutdown vent.
-A backend failure while commanding (any exception, e.g. ``HardwareError``) vents (best effort) and
-takes the node through ErrorProcessing to unconfigured; configure + activate recover it.
+Lifecycle: configure loads the robot and rig, opens the backend (a failure logs why, nothing sent) and starts the
+command timer (0 bar until activated); activate enables output; deactivate, cleanup and shutdown vent. A backend
+failure while commanding (any exception, e.g. ``HardwareError``) vents (best effort) and takes the node through
+ErrorProcessing to unconfigured; configure + activate recover it.
 
 Safety (see docs/safety.md):
 
-- every timer runs on the steady clock, so the watchdog and the keep-alive keep running whatever
-  ROS time does (``use_sim_time`` without ``/clock``, a system clock step);
-- a rig whose backend drives real regulators (``can``, ``daq``) commands nothing above 0 bar until an
-  operator calls ``~/arm`` (``srs_bringup --arm`` does it for you); deactivate, an e-stop or a fault
-  disarm; the simulated backends need no arm, but ``~/disarm`` holds 0 bar on every rig until ``~/arm``;
-- whenever output (re)starts (activation, arm, e-stop reset, after a vent for stale setpoints) it
-  ramps up from 0 bar over ``ramp_time_s``;
-- the backend is written at the command rate only (the newest setpoint wins); a setpoint counts from
-  its stamp (unstamped: from its arrival), so the valves vent at most ``setpoint_timeout_s`` plus one
-  command period after the last fresh setpoint was made.
+- every timer runs on the steady clock, so the watchdog and the keep-alive keep running whatever ROS time does
+  (``use_sim_time`` without ``/clock``, a system clock step);
+- a rig whose backend drives real regulators (``can``, ``daq``) commands nothing above 0 bar until an operator calls
+  ``~/arm`` (``srs_bringup --arm`` does it for you); deactivate, an e-stop or a fault disarm; the simulated backends
+  need no arm, but ``~/disarm`` holds 0 bar on every rig until ``~/arm``;
+- whenever output (re)starts (activation, arm, e-stop reset, after a vent for stale setpoints) it ramps up from 0 bar
+  over ``ramp_time_s``;
+- the backend is written at the command rate only (the newest setpoint wins); a setpoint counts from its stamp
+  (unstamped: from its arrival), so the valves vent at most ``setpoint_timeout_s`` plus one command period after the
+  last fresh setpoint was made.
 
 Interfaces (relative names, remappable):
 
 - subscribes ``joint_setpoints`` (sensor_msgs/JointState, best effort, depth 1): ``name`` = every actuator
-  (``m1_pma1`` ... ``m3_pma3``) once, in any order; ``position`` = actuator length change (m).
-  Rejected, never sent, throttled error log and counted: wrong count, names/positions mismatch,
-  unknown or duplicate names, NaN/inf, a stamp older than the timeout (stale on arrival). A stamp
-  from the future (a sender whose clock runs ahead) is aged from its arrival and reported on
-  /diagnostics as a clock offset. Finite lengths outside ``[0, max_extension_m]`` or above what the
-  pressure limit allows under the selected map (0.04 m at 4 bar with ``P = 100 l``, about 0.065 m with
-  a calibrated map) are limited by the one clamp, with a throttled warning and a counter. ``velocity``
-  (m/s, optional; gait_player sends it) feeds the lag compensation. A setpoint already queued when the
-  node is released (a fault, cleanup) is dropped quietly and counted (``setpoints_while_unconfigured``).
+  (``m1_pma1`` ... ``m3_pma3``) once, in any order; ``position`` = actuator length change (m). Rejected, never sent,
+  throttled error log and counted: wrong count, names/positions mismatch, unknown or duplicate names, NaN/inf, a stamp
+  older than the timeout (stale on arrival). A stamp from the future is aged from its arrival and reported on
+  /diagnostics as a clock offset. Finite lengths outside ``[0, max_extension_m]`` or above what the pressure limit
+  allows under the selected map are limited by the one clamp, with a throttled warning and a counter. ``velocity``
+  (m/s, optional; gait_player sends it) feeds the lag compensation. A setpoint already queued when the node is
+  released (a fault, cleanup) is dropped quietly and counted (``setpoints_while_unconfigured``).
 - lengths become pressures through ``pressure_map`` (``paper``: ``P = 100 l``; ``calibrated``: ``calibration_file``
   from ``srs_identify``), led by ``lag_compensation`` if on (live), always through the one clamp.
-- publishes ``commanded_pressure_bar`` and ``command_voltage_v`` (std_msgs/Float64MultiArray, dim 0
-  labelled with the comma-joined joint names): what the backend was sent, on each command while
-  configured (zeros when inactive, disarmed, stale or e-stopped); ``actuator_state`` (sensor_msgs/JointState)
-  at ``state_publish_rate_hz``: ``position`` = measured length (m), ``effort`` = measured pressure (bar),
-  empty where the backend cannot measure; ``/diagnostics`` (diagnostic_msgs/DiagnosticArray, 1 Hz, in
-  every state, and at once on a backend fault), with counters of setpoints received, rejected, limited and
-  written, the pressure map and ``compensation_clamped`` (setpoints whose lead the clamp cut).
-- services ``~/emergency_stop`` (std_srvs/Trigger: vents at once and latches, in any state; the latch
-  survives deactivate/cleanup/configure), ``~/reset`` (releases the latch; output resumes with the
-  next fresh setpoint, after a new ``~/arm`` on a real rig), ``~/arm`` and ``~/disarm``; the lifecycle
-  services.
-- parameters: :data:`PARAMETERS`; ``lag_compensation`` live; ``max_pressure_bar`` (only lowers the robot's limit)
-  and ``realtime_priority`` read-only; the others at the next configure.
+- publishes ``commanded_pressure_bar`` and ``command_voltage_v`` (std_msgs/Float64MultiArray, dim 0 labelled with the
+  joint names): what the backend was sent, on each command while configured (zeros when inactive, disarmed, stale or
+  e-stopped); ``actuator_state`` (sensor_msgs/JointState) at ``state_publish_rate_hz``: ``position`` = measured length
+  (m), ``effort`` = measured pressure (bar), empty where the backend cannot measure; ``/diagnostics``
+  (diagnostic_msgs/DiagnosticArray, 1 Hz, in every state, and at once on a backend fault), with counters of setpoints
+  received, rejected, limited and written, the pressure map and ``compensation_clamped``.
+- services ``~/emergency_stop`` (std_srvs/Trigger: vents at once and latches, in any state; the latch survives
+  deactivate/cleanup/configure), ``~/reset`` (releases the latch; output resumes with the next fresh setpoint, after a
+  new ``~/arm`` on a real rig), ``~/arm`` and ``~/disarm``; the lifecycle services.
+- parameters: :data:`PARAMETERS`; ``lag_compensation`` live; ``max_pressure_bar`` (only lowers the robot's limit) and
+  ``realtime_priority`` read-only; the others at the next configure.
 """
 
 from __future__ import annotations
@@ -224,26 +220,29 @@ class HardwareNode(LifecycleNode):
         return TransitionCallbackReturn.SUCCESS
 
     def _try_recovery(self) -> None:
-        """Configure (and activate, if it was active) a rig that recovers by itself; stop once done or overtaken.
+        """Configure (and activate, if it was active) a rig that recovers by itself; else leave it to the operator.
 
-        A rig chosen since the fault (``rig_file``, ``backend``) that waits for the operator is left to them.
+        A configure by hand meanwhile, or a real rig set since the fault (``rig_file``, ``backend``), is theirs.
         """
-        unconfigured = self.lifecycle_label() == "unconfigured"
-        if unconfigured and self._recovers_by_itself_now() is False:
-            self.destroy_timer(self._recovery_timer)
-            self._recovery_timer = None
-            self.get_logger().warning("automatic recovery stopped: the rig set since the fault is real hardware, "
-                                      "which waits for the operator; configure it yourself")
-        elif not unconfigured or self.trigger_configure() == TransitionCallbackReturn.SUCCESS:
+        if (state := self.lifecycle_label()) != "unconfigured":
+            self._stop_recovery(f"automatic recovery stopped: configured by hand ({state}); activate it yourself")
+        elif self._recovers_by_itself_now() is False:
+            self._stop_recovery("automatic recovery stopped: the rig set since the fault is real hardware, which "
+                                "waits for the operator; configure it yourself")
+        elif self.trigger_configure() == TransitionCallbackReturn.SUCCESS:
             self._recovered()
         # else configure said why; tried again next period
+
+    def _stop_recovery(self, message: str) -> None:
+        """End the automatic recovery: a configure by hand, even of a real rig, is never activated by it (a review)."""
+        self.destroy_timer(self._recovery_timer)
+        self._recovery_timer = None
+        self.get_logger().warning(message)
 
     def _recovered(self) -> None:
         if self.status.reactivate and self.lifecycle_label() == "inactive":
             self.trigger_activate()
-        self.destroy_timer(self._recovery_timer)
-        self._recovery_timer = None
-        self.get_logger().warning(self.status.recovered(self.lifecycle_label()))
+        self._stop_recovery(self.status.recovered(self.lifecycle_label()))
 
     def _recovers_by_itself_now(self) -> bool | None:
         """Whether the rig the parameters now name recovers by itself (None if they cannot be read: configure says)."""

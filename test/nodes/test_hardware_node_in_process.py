@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 import rclpy
 from rclpy.context import Context
+from rclpy.lifecycle import TransitionCallbackReturn
 from rclpy.parameter import Parameter
 from sensor_msgs.msg import JointState
 from srs_testing import BackendRecord, recorded_rig
@@ -175,5 +176,32 @@ def test_the_simulators_automatic_recovery_leaves_a_real_rig_set_since_the_fault
         assert node.set_parameters([Parameter("rig_file", value=str(can_rig))])[0].successful
         node._try_recovery()  # what the recovery timer does RECOVERY_PERIOD_S later
         assert node.lifecycle_label() == "unconfigured" and node.backend is None and node._recovery_timer is None
+    finally:
+        rclpy.try_shutdown()
+
+
+def test_the_simulators_automatic_recovery_never_activates_a_rig_the_operator_configured_by_hand(hardware, tmp_path,
+                                                                                                ros_domain):
+    """The operator configured a CAN rig by hand (not activated) after a sim rig's fault; the recovery timer then
+    activated it, logging 'holding 0 bar until the simulated robot answers' (a helper's review)."""
+    sim = tmp_path / "sim_fast.yaml"
+    sim.write_text("rig:\n  name: sim_fast\n  backend: sim\n  command_rate_hz: 100.0\n  setpoint_timeout_s: 0.2\n"
+                   "  backend_options:\n    startup_timeout_s: 0.3\n")
+    can_rig = tmp_path / "can_virtual.yaml"
+    can_rig.write_text("rig:\n  name: can_virtual\n  backend: can\n  command_rate_hz: 100.0\n  setpoint_timeout_s: "
+                       "0.2\n  backend_options:\n    interface: virtual\n    channel: recovery_by_hand\n"
+                       "    readback: false\n")
+    rclpy.init(domain_id=ros_domain)
+    try:
+        driven = hardware(rig_file=str(sim))
+        node = driven.node
+        driven.start()
+        time.sleep(0.4)
+        node._on_command_tick()  # no sim_world answered: a backend fault, active before it
+        assert node.lifecycle_label() == "unconfigured" and node.status.reactivate
+        assert node.set_parameters([Parameter("rig_file", value=str(can_rig))])[0].successful
+        assert node.trigger_configure() == TransitionCallbackReturn.SUCCESS  # the operator, by hand
+        node._try_recovery()
+        assert node.lifecycle_label() == "inactive" and node._recovery_timer is None
     finally:
         rclpy.try_shutdown()
