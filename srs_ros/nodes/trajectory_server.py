@@ -34,7 +34,7 @@ from typing import Any
 
 import numpy as np
 from rcl_interfaces.msg import SetParametersResult
-from rclpy.callback_groups import ReentrantCallbackGroup
+from rclpy.callback_groups import MutuallyExclusiveCallbackGroup, ReentrantCallbackGroup
 from rclpy.executors import MultiThreadedExecutor
 from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy
@@ -130,7 +130,11 @@ class TrajectoryServer(Node):
                             qos_profile=QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE))
         self._startup_timer = None
         if self.get_parameter("generate_on_start").value:
-            self._startup_timer = self.create_timer(0.0, self._on_startup, callback_group=self._group)
+            # A group of its own, mutually exclusive: in the reentrant one a second thread took the 0 s timer again
+            # before the first callback cancelled it, and rcl refused the cancelled timer: the node died at start
+            # ("failed to call timer: timer is canceled", seen once in a full suite run).
+            self._startup_timer = self.create_timer(0.0, self._on_startup,
+                                                    callback_group=MutuallyExclusiveCallbackGroup())
         self.get_logger().info(f"gaits: {sorted(self._gaits)}; call ~/regenerate after changing parameters")
 
     # ------------------------------------------------------------- parameters

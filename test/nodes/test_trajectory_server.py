@@ -114,3 +114,38 @@ def test_gait_player_streams_what_the_server_latched(launch_node, ros_client):
     shapes = np.maximum(cycle.values(np.linspace(0.0, 1.0, 2000, endpoint=False)), 0.0)
     distance_m = [np.min(np.max(np.abs(shapes - m.position), axis=1)) for m in setpoints[-20:]]
     assert max(distance_m) < 0.001  # every setpoint lies on the served cycle (ramp-in over)
+
+
+def test_the_start_up_fit_runs_once_however_late_its_callback_cancels_its_timer(ros_domain, monkeypatch):
+    """The 0 s start-up timer sat in the reentrant group of the 3-thread executor: another thread took it again
+    before the first callback cancelled it, and rcl refused the cancelled timer ("failed to call timer: timer is
+    canceled"): the node died at start, once in a full suite run. Here the callback is slow to cancel."""
+    import rclpy
+    from rclpy.context import Context
+    from rclpy.executors import MultiThreadedExecutor
+
+    from srs_ros.nodes.trajectory_server import TrajectoryServer
+
+    context = Context()
+    rclpy.init(context=context, domain_id=ros_domain)
+    calls = []
+    try:
+        server = TrajectoryServer(context=context)
+        cancel_late = server._on_startup
+
+        def slow_start() -> None:
+            calls.append(time.monotonic())
+            time.sleep(0.3)  # a stall before the cancel, as a busy machine makes one
+            cancel_late()
+
+        monkeypatch.setattr(server._startup_timer, "callback", slow_start)
+        executor = MultiThreadedExecutor(num_threads=3, context=context)
+        executor.add_node(server)
+        end = time.monotonic() + 6.0
+        while time.monotonic() < end and not server._last_good:
+            executor.spin_once(timeout_sec=0.05)  # raised the RCLError before
+        executor.shutdown(timeout_sec=5.0)
+        server.destroy_node()
+    finally:
+        rclpy.shutdown(context=context)
+    assert len(calls) == 1 and server._last_good
