@@ -22,13 +22,13 @@ from __future__ import annotations
 
 import argparse
 import os
-import resource
 import time
 from contextlib import contextmanager
 
 import dask
 import numpy as np
 from distributed import LocalCluster
+from srs_testing.cpu import descendants_cpu_s
 
 from srs_ros.experiments.calibration import calibrate
 from srs_ros.experiments.cluster import WORKER_DASK_CONFIG, runner_for
@@ -39,9 +39,9 @@ from srs_ros.tools.sweep_cli import DEFAULT_FIT_DURATION_S
 
 
 def _children_cpu_s() -> float:
-    """CPU time of the finished child processes of this one (the local pool's, a LocalCluster's workers)."""
-    usage = resource.getrusage(resource.RUSAGE_CHILDREN)
-    return usage.ru_utime + usage.ru_stime
+    """CPU time of this process's descendants: the local pool's workers (children of its forkserver, which
+    ``RUSAGE_CHILDREN`` never counted: 0 s), a LocalCluster's."""
+    return descendants_cpu_s()
 
 
 @contextmanager

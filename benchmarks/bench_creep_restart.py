@@ -56,7 +56,8 @@ def stop_and_rest(rig: Rig, first_reverse: bool, stop_phase: float) -> tuple[flo
     rig.playback.stop_at_phase(stop_phase)
     while rig.playback.state is PlaybackState.RUNNING:
         track.append(rig.step())
-    at, cycle_ago = track[-1], track[-1 - round(1.0 / (rig.playback.frequency_hz * rig.dt_s))]
+    # abs: played backward (outward first) the frequency is negative, and this took the point at 4 s (a review)
+    at, cycle_ago = track[-1], track[-1 - round(1.0 / (abs(rig.playback.frequency_hz) * rig.dt_s))]
     while rig.playback.state is not PlaybackState.IDLE:
         rig.step()
     ended = rig.playback.phase

@@ -33,12 +33,13 @@ def main() -> None:
     parser.add_argument("--friction", choices=("isotropic", "anisotropic"), default="isotropic")
     parser.add_argument("--sim-config", default=None)
     parser.add_argument("--within-m", type=float, default=0.04)
-    parser.add_argument("--set", nargs="*", default=["fine_distance_m=0"], metavar="NAME=VALUE")
+    parser.add_argument("--set", nargs="*", default=[], metavar="NAME=VALUE",
+                        help="navigation settings; fine_distance_m=0 unless given (any --set replaced it; a review)")
     args = parser.parse_args()
-    overrides = {k: yaml.safe_load(v) for k, v in (item.split("=", 1) for item in args.set)}
+    overrides = {"fine_distance_m": 0, **{k: yaml.safe_load(v) for k, v in (item.split("=", 1) for item in args.set)}}
     settings = load_navigation_settings(overrides)
     config = load_sim_config(args.sim_config).replace("contact", friction=args.friction)
-    speed = gait_speed_m_s(config)
+    speed = gait_speed_m_s(config, settings)
     ratios, reached, by_oracle, total = [], 0, 0, 0
     for seed in args.seed:
         goals = random_goals(np.random.default_rng(seed), 10, config, settings)

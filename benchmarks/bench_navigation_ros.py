@@ -166,7 +166,7 @@ def main(argv=None) -> None:
           f"{', ' + args.sim_config if args.sim_config else ''}; {os.cpu_count()} cores, load "
           f"{os.getloadavg()[0]:.1f}", flush=True)
     started = time.monotonic()
-    speed = gait_speed_m_s(config)
+    speed = gait_speed_m_s(config, settings)
     folder = Path(tempfile.mkdtemp(prefix="bench_navigation_ros_"))
     sim_file = folder / "sim.yaml"
     sim_file.write_text(yaml.safe_dump({"sim": to_dict(config)}))

@@ -6,7 +6,8 @@ waypoints, ``SIM_PATROL_XY_M``) for ``--rounds`` rounds as the navigator patrols
 machine (:class:`~srs_ros.sim.navigation.Latency`: poses 0.06 s and commands 0.03 s late, a 0.3 s stall of the
 navigator every 10 s on average, seeded), and prints per seed how the path ended (``reached``: every waypoint;
 ``pose_lost``: out of the camera's view; ``failed``: no progress for a minute; ``cancelled``: out of time, 20 s
-a waypoint) and how many waypoints were passed. The latency's seed changes the run as DDS timing does: one
+a waypoint summed over the whole patrol (400 s for 4 waypoints and 5 rounds; one waypoint may take longer; a
+review)) and how many waypoints were passed. The latency's seed changes the run as DDS timing does: one
 seed is one possible run of ``scripts/run.sh``.
 
 Run: python benchmarks/bench_patrol.py [--seed 1 2 3 4 5 6 7 8] [--rounds 5] [--friction isotropic]

@@ -12,8 +12,9 @@ from __future__ import annotations
 
 import argparse
 import os
-import resource
 import time
+
+from srs_testing.cpu import descendants_cpu_s
 
 from srs_ros.experiments.sweep import SweepGrid, default_workers, run_offline_sweep
 from srs_ros.experiments.table import paper_table
@@ -29,13 +30,15 @@ def main() -> None:
     args = parser.parse_args()
     grid = SweepGrid.of_table(paper_table(), args.duration_s)
     config = load_sim_config()
-    load = os.getloadavg()[0]
+    load, cpu_before_s, cpu_self_s = os.getloadavg()[0], descendants_cpu_s(), time.process_time()
     started = time.perf_counter()
     records = run_offline_sweep(grid, config, args.workers)
     wall_s = time.perf_counter() - started
     failed = [r for r in records if not r.ok]
     simulated_s = len(records) * grid.duration_s
-    cpu_s = sum(getattr(resource.getrusage(resource.RUSAGE_CHILDREN), f) for f in ("ru_utime", "ru_stime"))
+    cpu_s = descendants_cpu_s() - cpu_before_s  # the pool's workers are the forkserver's children
+    if args.workers == 1:  # one worker: the runs are made in this process
+        cpu_s = time.process_time() - cpu_self_s
     print(f"{len(records)} runs x {grid.duration_s:g} s on {args.workers} workers: {wall_s:.1f} s wall time "
           f"({simulated_s / wall_s:.1f} simulated s per wall s; target < {TARGET_S:g} s: "
           f"{'met' if wall_s < TARGET_S else 'NOT met'}); {len(failed)} failed")

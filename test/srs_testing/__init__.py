@@ -21,6 +21,8 @@ Modules:
 - :mod:`srs_testing.navigation`: the navigator on the simulated robot, every node a process
   (:class:`~srs_testing.navigation.NavigationSystem`); not imported here: ``from srs_testing.navigation import
   NavigationSystem``.
+- :mod:`srs_testing.cpu`: the CPU time of a benchmark's descendants, the local pool's forkserver workers included
+  (:func:`~srs_testing.cpu.descendants_cpu_s`; not imported here).
 - :mod:`srs_testing.opencv46`: the second virtual environment with OpenCV 4.6
   (:func:`~srs_testing.opencv46.ensure_venv`; scripts/test.sh makes it before pytest starts).
 - :mod:`srs_testing.stream`: one measured run of the whole setpoint stream (soak, CPU-load and multi-host
