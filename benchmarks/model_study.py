@@ -173,7 +173,8 @@ VARIANTS = [Variant(*v) for v in (
      "moment_limit with tether_rigid_slip's spin hold: the held C cannot lift itself off the floor"),
     ("tubes_twist", _tubes(0.5),
      "the supply tubes' twist alone: a 0.5 N m/rad spring on the tail's spin, anchored to the world (not measured: "
-     "the tubes' own torsion is 0.002-0.02, a tied bundle stretched helically about 0.1)"),
+     "the tubes' own torsion is 0.002-0.02, a tied bundle stretched helically about 0.03-0.04 with the rig's "
+     "4/2.5 mm tubes)"),
     ("moment_limit_tubes", {**_LIMIT, "servo.skin_bend_stiffness_nm_per_rad": 0.25, **_tubes(0.5)},
      "moment_limit (skin 0.25 N m/rad) with tubes_twist: the tubes hold the spin, the muscles cannot lift the C"),
     ("moment_limit_tubes_skin_0.3", {**_LIMIT, "servo.skin_bend_stiffness_nm_per_rad": 0.3, **_tubes(0.5)},
@@ -182,7 +183,8 @@ VARIANTS = [Variant(*v) for v in (
                                      "muscles.pressure_time_constant_s": 0.2},
      "moment_limit_tubes with line_lag's 0.2 s supply lines (less bend at high frequency)"),
     ("moment_limit_soft_tubes_line_lag", _changes_in("sim_held_spin.yaml"),
-     "moment_limit_tubes_line_lag with a 0.2 N m/rad hold (nearer the tied bundle's estimate, 0.1): "
+     "moment_limit_tubes_line_lag with a 0.2 N m/rad hold (the tied bundle's estimate: "
+     "0.03-0.04 with the rig's tubes): "
      "config/sim_held_spin.yaml, shipped as a named file since stop 50"),
 )]
 

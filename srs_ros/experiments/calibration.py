@@ -14,10 +14,9 @@ evaluations of the cost; every evaluation runs all cells in parallel. Before and
 at the table's own run time; a fit that does not lower that full-length error is not taken (the
 configuration stays as it was and the result says so), so the reported error goes down or stays.
 
-Cells whose amplitude cannot exceed the muscles' deadzone anywhere in the search space cannot move
-and are left out of the search (they are still run before and after). :func:`target_report` checks the
-goals of a calibration to the paper, and :func:`model_limits` says in numbers where the model cannot
-follow the measurements.
+Cells whose amplitude cannot exceed the muscles' deadzone anywhere in the search space cannot move and are left
+out of the search (they are still run before and after). :func:`target_report` checks the goals of a
+calibration to the paper, and :func:`model_limits` says in numbers where the model cannot follow the measurements.
 """
 
 from __future__ import annotations
@@ -76,7 +75,7 @@ FIT_PARAMETERS: dict[str, FitParameter] = {p.name: p for p in (
                  "anisotropic friction along the body"),
     FitParameter("friction_across_body", "contact", "friction_across_body", 0.05, 2.0,
                  "anisotropic friction across the body"),
-    FitParameter("skin_radius_m", "body", "skin_radius_m", 0.012, 0.05,
+    FitParameter("skin_radius_m", "body", "skin_radius_m", 0.0175, 0.05,  # from the muscles' axis 12.5 mm + 5 mm
                  "outer radius of the body: rolling distance per turn 2 pi r"),
     FitParameter("pressure_time_constant_s", "muscles", "pressure_time_constant_s", 0.02, 0.6,
                  "first-order lag of regulator and muscle"),
@@ -226,6 +225,9 @@ def _search_space(reference: MeasuredTable, config: SimConfig, parameters: Seque
         if config.contact.friction != "anisotropic" and p.name.startswith("friction_a"):
             raise InvalidInputError(f"{p.name} is fitted but the floor friction is {config.contact.friction}; "
                                     "fit friction_coefficient, or use anisotropic friction (--friction A,B).")
+        if config.contact.friction == "anisotropic" and p.name == "friction_coefficient":  # the floor ignores it
+            raise InvalidInputError("friction_coefficient is fitted but the floor friction is anisotropic: fit "
+                                    "friction_along_body and friction_across_body.")
         if p.name == "max_pressure_rate_bar_per_s" and p.value(config) <= 0.0:
             raise InvalidInputError("max_pressure_rate_bar_per_s is fitted but the configuration has no flow limit "
                                     "(0); give a starting estimate under muscles: (e.g. "
@@ -255,8 +257,9 @@ class _Search:
 
     @property
     def global_count(self) -> int:
-        """Sobol points of the coarse stage (none for one parameter: Nelder-Mead alone)."""
-        return (self.space.max_evaluations - 1) // 2 if len(self.space.parameters) > 1 else 0
+        """Sobol points first: a power of two (19 made SciPy warn), at most half the budget; none for one parameter."""
+        half = (self.space.max_evaluations - 1) // 2
+        return 1 << (half.bit_length() - 1) if half and len(self.space.parameters) > 1 else 0
 
     def cost(self, u: np.ndarray) -> float:
         """RMS error of the search's short runs at ``u``; raises _Budget when the evaluations are used."""

@@ -125,3 +125,14 @@ def test_a_fit_that_does_not_lower_the_error_is_not_taken_an_equal_one_neither()
     result = calibrate(paper_table(), config, max_evaluations=3, runner=AlikeRunner())
     assert result.error_after == result.error_before
     assert not result.accepted and result.config is config and result.fitted_values == result.initial_values
+
+
+def test_the_search_keeps_the_body_thicker_than_its_muscles_and_refuses_a_coefficient_the_floor_ignores():
+    """The skin radius was searched from 12 mm, inside the muscles' own centre line (12.5 mm); friction_coefficient
+    was fitted on an anisotropic floor, which never reads it: a flat cost, the budget spent (a helper's review)."""
+    from srs_ros.core.robot import default_robot
+    from srs_ros.experiments.calibration import FIT_PARAMETERS, _search_space
+
+    assert FIT_PARAMETERS["skin_radius_m"].low >= default_robot().actuator_radius_m + 0.005
+    with pytest.raises(InvalidInputError, match="friction_coefficient is fitted but the floor friction is anisotropic"):
+        _search_space(paper_table(), with_friction(load_sim_config(), "anisotropic"), ["friction_coefficient"], 8.0, 10)
