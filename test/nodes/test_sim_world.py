@@ -360,8 +360,11 @@ def test_a_world_that_runs_behind_real_time_says_so_and_ok_again_once_it_keeps_u
         try:
             publish_after(0.5, hold=False)
             publish_after(1.2, hold=True)
-            publish_after(1.2, hold=False)
-            publish_after(0.1, hold=False)
+            # OK again once it keeps up: waited for, as a world starved by a loaded suite still steps at 0.4x for a
+            # while after the hold (twice in stop 60's full runs); it must come back within the deadline.
+            end_s = time.monotonic() + 15.0
+            while time.monotonic() < end_s and reports[-1].level != DiagnosticStatus.OK:
+                publish_after(0.5, hold=False)
         finally:
             node.destroy_node()
     finally:
@@ -370,7 +373,7 @@ def test_a_world_that_runs_behind_real_time_says_so_and_ok_again_once_it_keeps_u
     ok, warn = DiagnosticStatus.OK, DiagnosticStatus.WARN
     assert levels[0] == (ok, "stepping in real time"), levels
     assert levels[1][0] == warn and re.match(r"behind real time: 0\.[0-7]\dx over the last 1 s", levels[1][1]), levels
-    assert levels[3] == (ok, "stepping in real time"), levels
+    assert levels[-1] == (ok, "stepping in real time"), levels
 
 
 def test_another_clock_publisher_beside_a_sim_world_on_use_sim_time_is_an_error_it_names(ros_domain, monkeypatch):
