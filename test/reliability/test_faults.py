@@ -73,8 +73,13 @@ class Backend(BackendRecord):
     def ramped_from_zero(self, start: int) -> bool:
         """After row ``start``: output restarted at 0 bar and rose gradually (no step to the gait's pressure)."""
         peaks = self.since(start).max(axis=1)
-        rising = peaks[np.argmax(peaks > 0):]
-        return bool(peaks.size and peaks[0] == 0.0 and rising.size > 10 and rising[0] < 0.5)
+        first = int(np.argmax(peaks > 0))
+        rising, times_s = peaks[first:], self.times_s[start + first:]
+        # Gradual: more than 10 rows, or, when the hardware node's ticks stalled mid-ramp (7 rows on the slow VM,
+        # stop 60), 0.2 s or more of the 0.5 s ramp before 90 % of the pressure reached.
+        top = int(np.argmax(rising >= 0.9 * rising.max())) if rising.size else 0
+        gradual = rising.size > 10 or (rising.size > 2 and times_s[top] - times_s[0] >= 0.2)
+        return bool(peaks.size and peaks[0] == 0.0 and gradual and rising[0] < 0.5)
 
     def mostly_commanding(self, start: int) -> bool:
         """After row ``start`` the gait kept playing: at most a stall's worth of vented rows (CPU load)."""
