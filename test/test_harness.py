@@ -44,3 +44,26 @@ def test_a_node_dies_with_the_test_process_that_started_it(ros_env):
     finally:
         if not _gone(pid):
             os.kill(pid, 9)
+
+
+REPO = Path(__file__).resolve().parents[1]
+
+
+def _collected(phase: str, *paths: str) -> subprocess.CompletedProcess:
+    env = dict(os.environ, SRS_TEST_PHASE=phase)
+    env.pop("SRS_TEST_HANG_DIR", None)  # this run's own: the outer one lists this test's file as a worker that died
+    return subprocess.run([sys.executable, "-m", "pytest", "--collect-only", "-q", "-p", "no:xdist", *paths], cwd=REPO,
+                          env=env, capture_output=True, text=True, timeout=120)
+
+
+def test_the_two_phases_of_the_suite_split_its_tests_by_the_quiet_mark_and_a_wrong_phase_is_refused():
+    """scripts/test.sh runs the ``quiet`` tests after the others, alone: each phase selects its own, none is lost."""
+    files = ("test/tools/test_identify.py", "test/test_harness.py")
+    quiet, parallel, every = (_collected(phase, *files) for phase in ("quiet", "parallel", ""))
+    listed = {name: {line for line in run.stdout.splitlines() if "::" in line}
+              for name, run in (("quiet", quiet), ("parallel", parallel), ("every", every))}
+    assert listed["quiet"] == {"test/tools/test_identify.py::test_the_simulated_rig_is_identified_end_to_end_over_dds"}
+    assert listed["quiet"] | listed["parallel"] == listed["every"] and not listed["quiet"] & listed["parallel"]
+    assert len(listed["every"]) > 5
+    wrong = _collected("both", *files)
+    assert wrong.returncode == 4 and "SRS_TEST_PHASE='both': expected 'parallel', 'quiet' or unset" in wrong.stderr

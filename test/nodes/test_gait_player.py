@@ -166,6 +166,7 @@ def test_start_follows_the_trajectory_at_the_rate_and_stop_ramps_to_zero(player,
     assert proc.alive(), proc.output()
 
 
+@pytest.mark.quiet
 @pytest.mark.slow(seconds=5)
 def test_live_changes_and_takeover_never_jump_and_bad_parameters_are_rejected(player, ros_client):
     proc, publisher, setpoints = player(autostart=True, blend_time_s=0.3)
@@ -224,6 +225,7 @@ def test_live_changes_and_takeover_never_jump_and_bad_parameters_are_rejected(pl
     assert proc.alive(), proc.output()
 
 
+@pytest.mark.quiet
 @pytest.mark.slow
 def test_stop_at_phase_ramps_out_as_the_phase_passes_it_and_stop_still_stops_at_once(player, ros_client):
     proc, publisher, setpoints = player(autostart=True)  # ramp_time_s 0.3

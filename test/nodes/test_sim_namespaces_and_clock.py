@@ -39,6 +39,7 @@ def settled(poses, window_s: float = 1.0, tolerance_m: float = 0.001) -> bool:
     return all(np.hypot(p.pose.position.x - b.x, p.pose.position.y - b.y) < tolerance_m for p in window)
 
 
+@pytest.mark.quiet
 @pytest.mark.slow(seconds=10)
 def test_two_namespaced_robots_move_independently_and_nothing_of_them_is_on_the_root_namespace(
         launch_node, ros_client):

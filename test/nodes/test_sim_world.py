@@ -24,6 +24,7 @@ def stamps_s(msgs):
     return np.array([stamp_to_seconds(m.header.stamp) for m in msgs])
 
 
+@pytest.mark.quiet
 @pytest.mark.slow(seconds=10)
 def test_the_gait_moves_the_simulated_robot_and_the_camera_tracks_it_by_pixels(launch_node, ros_client):
     # Fast DDS's defaults, as the launch file starts the nodes: sim_world's 0.3 MB Bayer frames go through shared
@@ -189,6 +190,7 @@ def test_on_use_sim_time_the_read_back_pose_and_image_carry_the_world_time_of_th
     assert world_s > 0.1 and [stamp_to_seconds(m.header.stamp) for m in published] == pytest.approx([world_s] * 2)
 
 
+@pytest.mark.quiet
 @pytest.mark.slow(seconds=6)
 def test_a_stall_of_sim_worlds_own_executor_is_not_taken_for_a_silent_hardware_node(ros_domain):
     """The physics thread steps on while sim_world's executor is starved (here: not spun for 1.2 s) and the
@@ -332,6 +334,7 @@ def test_its_status_names_the_robot_its_rate_after_a_reset_is_not_negative_and_u
     assert not refused.successful and "use_sim_time is read at start-up" in refused.reason
 
 
+@pytest.mark.quiet
 def test_a_world_that_runs_behind_real_time_says_so_and_ok_again_once_it_keeps_up(ros_domain, monkeypatch):
     """At 0.59x real time (a busy machine) sim_world said OK "stepping in real time" (a helper's review): the loop
     then sees a robot slower than its gait. Here the physics thread is held off the world 0.3 s in every 0.35 s."""

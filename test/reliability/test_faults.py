@@ -120,6 +120,7 @@ def start_gait(launch_node, client, folder):
     return rig, record_path, backend, (server, hardware, player), setpoints
 
 
+@pytest.mark.quiet
 @pytest.mark.slow(seconds=11)
 def test_killing_and_restarting_each_node_of_the_gait(launch_node, ros_client, tmp_path):
     client = ros_client
@@ -159,6 +160,7 @@ def test_killing_and_restarting_each_node_of_the_gait(launch_node, ros_client, t
         assert proc.alive() and "Traceback" not in proc.output(), proc.output()[-3000:]
 
 
+@pytest.mark.quiet
 @pytest.mark.slow
 def test_freezing_each_node_of_the_gait(launch_node, ros_client, tmp_path):
     client = ros_client

@@ -22,6 +22,7 @@ TIMEOUT_S = 0.2  # the mock rig's setpoint_timeout_s
 CUTS = 3
 
 
+@pytest.mark.quiet
 @pytest.mark.slow(seconds=25)
 def test_three_hosts_stream_the_gait_and_a_pulled_cable_vents_the_valves(ros_env, tmp_path):
     video, calibration = camera_video(tmp_path)

@@ -89,6 +89,7 @@ def launch_layout(launch_node) -> dict:
     }
 
 
+@pytest.mark.quiet
 @pytest.mark.busy
 @pytest.mark.slow(seconds=64)
 def test_the_launch_layout_keeps_moving_for_a_minute_beside_busy_processes_and_param_calls(

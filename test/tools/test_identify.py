@@ -177,6 +177,7 @@ WORLD_PRIORITY = 20
 LOW_DELAY_SHARE = 0.7
 
 
+@pytest.mark.quiet
 @pytest.mark.slow(seconds=24)
 def test_the_simulated_rig_is_identified_end_to_end_over_dds(launch_node, ros_env, ros_client, tmp_path):
     # The board's own timeout at 2 s, not 0.5: in one full-suite run a starved sim_world seemed to vent held steps
