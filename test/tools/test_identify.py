@@ -253,6 +253,7 @@ def test_the_simulated_rig_is_identified_end_to_end_over_dds(launch_node, ros_en
         assert calibration.extension_per_bar_m[index] == pytest.approx(gain, rel=0.2)
     delay_s, lag_s = float(np.median(delays_s)), float(np.median(lags_s))
     assert LOW_DELAY_SHARE * muscles.transport_delay_s <= delay_s <= 1.2 * muscles.transport_delay_s + HOST_LATENCY_S
-    # The lag's upper bound 1.5 x the muscles' (was 1.2 x): loosened in stop 60, not fixed, after a median of 0.192 s
-    # against 0.176 in a fresh clone's full run on the slow VM (world rates 0.93, 0.98, 0.76); 0 or 0.5 s still fail.
-    assert 0.8 * muscles.pressure_time_constant_s <= lag_s <= 1.5 * muscles.pressure_time_constant_s + HOST_LATENCY_S
+    # The lag's upper bound back at 1.2 x the muscles' (stop 60 loosened it to 1.5 x after a median of 0.192 s, and CI
+    # still failed at 0.208 s): the cause was a world starved below real time, which SCHED_FIFO and the quiet phase
+    # now prevent (stop 61: 0.078-0.085 s in every trial, alone and beside other tests).
+    assert 0.8 * muscles.pressure_time_constant_s <= lag_s <= 1.2 * muscles.pressure_time_constant_s + HOST_LATENCY_S
