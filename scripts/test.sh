@@ -28,6 +28,7 @@ fi
 set +e
 SRS_TEST_PHASE=parallel "$SRS_VENV/bin/python" -m pytest -n "$workers" --dist loadfile --no-loadscope-reorder "$@"
 parallel=$?
+case "$parallel" in 2|3|4) exit "$parallel" ;; esac  # interrupted (Ctrl-C), internal or usage error: no second phase
 echo "scripts/test.sh: the quiet phase: the tests marked quiet, alone in one worker"
 SRS_TEST_PHASE=quiet "$SRS_VENV/bin/python" -m pytest -n 1 "$@"
 quiet=$?
