@@ -14,7 +14,7 @@ import math
 
 import numpy as np
 
-from srs_ros.core.robot import default_robot
+from srs_ros.core.robot import config_dir, default_robot
 from srs_ros.experiments.turning import rest_after_stop, rolling_cycle
 from srs_ros.sim.config import load_sim_config
 
@@ -23,7 +23,8 @@ PHASES = np.arange(8) / 8.0
 
 def config_for(physics: str, robot):
     if physics == "calibrated":
-        return load_sim_config("config/sim_calibrated_paper.yaml", robot=robot).replace("contact", friction="isotropic")
+        calibrated = load_sim_config(config_dir() / "sim_calibrated_paper.yaml", robot=robot)
+        return calibrated.replace("contact", friction="isotropic")
     friction = "anisotropic" if physics == "anisotropic" else "isotropic"
     return load_sim_config(robot=robot).replace("contact", friction=friction)
 
