@@ -3,13 +3,17 @@
 A :class:`GaitPlayback` turns a sampled cycle (lengths in metres, shape ``(N, D)``, sample ``i`` at
 phase ``i / N``) into a stream of setpoints, one per :meth:`GaitPlayback.step`. Every output is
 
-    positions_m = gain * cycle(phase),   gain = envelope * amplitude_scale,   phase += frequency_hz * dt_s
+    positions_m = gain * cycle(phase),   phase += frequency_hz * dt_s
 
 so that nothing the caller changes makes a setpoint jump:
 
 - the phase is integrated, so a frequency change alters the speed, never the position on the cycle;
-- ``envelope`` (soft start and stop), ``amplitude_scale`` and ``frequency_hz`` each move to a new
-  target along a raised-cosine ramp (zero slope at both ends) of ``ramp_time_s``;
+- ``gain`` (0 when idle, ``amplitude_scale`` while playing) and ``frequency_hz`` each move to a new
+  target along a raised-cosine ramp (zero slope at both ends) of ``ramp_time_s``, from where they are:
+  one ramp for the soft start, the soft stop and every amplitude change, so a stop only ever lowers the
+  gain and a start or a change moves it straight to its new level (two ramps multiplied, a start
+  envelope and an amplitude, overshot: a stop 0.3 s after a raise first rose by half, and a start during
+  a stop after ``amplitude_scale`` 0 rose to a fifth of the gait);
 - a new cycle takes over by cross-fading from the old one over ``blend_time_s`` at the same phase.
 
 Scaling lengths toward zero scales pressures toward zero (P = k * l), so a gain of 0 is the vented
@@ -132,8 +136,8 @@ class GaitPlayback:
         self._cycle = None
         self._old_cycle = None
         self._blend = SmoothTransition(1.0)
-        self._envelope = SmoothTransition(0.0)
-        self._amplitude = SmoothTransition(1.0)
+        self._gain_ramp = SmoothTransition(0.0)
+        self._scale = 1.0  # amplitude_scale: the gain's level while playing
         self._frequency = SmoothTransition(0.0)
         self._trajectory_frequency_hz = 0.0
         self._frequency_override_hz = 0.0
@@ -201,19 +205,16 @@ class GaitPlayback:
             self._phase, self._cycles_done = phase, 0.0
             self._stop_at_phase = None
             self._retarget_frequency(0.0)
-            # A scale set while idle (or still ramping at the last stop) is where the ramp-in goes, not a ramp of its
-            # own beside it: the two multiplied overshot (scale 0 gave a quarter of the gait, 1 bar, at 0.5 s).
-            self._amplitude.finish()
         self._stop_after_cycles = self._cycles_done + cycles if cycles > 0 else None
         if self.state is not PlaybackState.RUNNING:
             self.state = PlaybackState.STARTING
-            self._envelope.set_target(1.0, self.ramp_time_s)
+            self._aim_gain()
 
     def stop(self) -> None:
         """Ramp out to zero over ``ramp_time_s`` (the cycle keeps moving meanwhile), then go idle."""
         if self.state in (PlaybackState.STARTING, PlaybackState.RUNNING):
             self.state = PlaybackState.STOPPING
-            self._envelope.set_target(0.0, self.ramp_time_s)
+            self._aim_gain()
         self._stop_after_cycles = None
         self._stop_at_phase = None
 
@@ -237,11 +238,20 @@ class GaitPlayback:
         return self._stop_at_phase
 
     def set_amplitude_scale(self, scale: float) -> None:
-        """Scale every length by ``scale`` in [0, 1], reached smoothly over ``ramp_time_s`` (at the start if idle)."""
+        """Scale every length by ``scale`` in [0, 1], reached smoothly over ``ramp_time_s``.
+
+        Idle or stopping, it is where the next start ramps to; a stop under way goes on to 0.
+        """
         scale = float(scale)
         if not (0.0 <= scale <= 1.0):
             raise InvalidInputError(f"amplitude_scale: expected a value in [0, 1], got {scale!r}.")
-        self._amplitude.set_target(scale, self.ramp_time_s)
+        self._scale = scale
+        self._aim_gain()
+
+    def _aim_gain(self) -> None:
+        """Ramp the gain from where it is to the scale while playing, to 0 otherwise."""
+        playing = self.state in (PlaybackState.STARTING, PlaybackState.RUNNING)
+        self._gain_ramp.set_target(self._scale if playing else 0.0, self.ramp_time_s)
 
     def set_frequency_override(self, frequency_hz: float) -> None:
         """Play at ``frequency_hz`` instead of the cycle's own (0 = the cycle's), reached over ``ramp_time_s``."""
@@ -309,7 +319,7 @@ class GaitPlayback:
         return values, slopes
 
     def _gain(self) -> float:
-        return self._envelope.value * self._amplitude.value
+        return self._gain_ramp.value
 
     def step(self, dt_s: float) -> Setpoint:
         """Advance the playback by ``dt_s`` seconds and return the setpoint for the new instant."""
@@ -326,8 +336,7 @@ class GaitPlayback:
         passed = self._passes_stop_phase(advance)
         self._phase = (self._phase + advance) % 1.0
         self._cycles_done += abs(advance)
-        self._amplitude.step(dt_s)
-        self._envelope.step(dt_s)
+        self._gain_ramp.step(dt_s)
         self._blend.step(dt_s)
         if self._old_cycle is not None and self._blend.settled:
             self._old_cycle = None
@@ -360,9 +369,9 @@ class GaitPlayback:
             self.stop()
         if self._stop_after_cycles is not None and self._cycles_done >= self._stop_after_cycles:
             self.stop()
-        if self.state is PlaybackState.STARTING and self._envelope.settled:
+        if self.state is PlaybackState.STARTING and self._gain_ramp.settled:
             self.state = PlaybackState.RUNNING
-        elif self.state is PlaybackState.STOPPING and self._envelope.settled:
+        elif self.state is PlaybackState.STOPPING and self._gain_ramp.settled:
             self.state = PlaybackState.IDLE
             self._old_cycle = None
             self._blend = SmoothTransition(1.0)

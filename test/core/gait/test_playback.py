@@ -215,6 +215,37 @@ def test_a_scale_set_while_idle_or_still_ramping_at_the_stop_is_never_overshot_b
     assert max(s.gain for s in run(player, 2.0)) <= scale + 1e-12
 
 
+def test_a_stop_just_after_a_raised_scale_only_lowers_the_gain():
+    """A stop 0.3 s after amplitude_scale 0.2 -> 1: the falling start-stop envelope times the still rising scale went
+    up by half (0.365 -> 0.574 of the gait, about 2.2 -> 3.4 bar) before it fell (a helper's review)."""
+    player = started(ramp_time_s=1.0)
+    player.set_amplitude_scale(0.2)
+    run(player, 3.0)
+    player.set_amplitude_scale(1.0)
+    at_stop = run(player, 0.3)[-1].gain
+    player.stop()
+    gains = [at_stop] + [s.gain for s in run(player, 1.5)]
+    assert np.all(np.diff(gains) <= 1e-12) and gains[-1] == 0.0 and player.state is PlaybackState.IDLE
+
+
+@pytest.mark.parametrize("scale", [0.0, 0.5])
+def test_a_start_during_a_stop_moves_the_gain_straight_to_the_scale_set_meanwhile(scale):
+    """A restart during the ramp-out after amplitude_scale 0 rose to 0.21 of the gait: the ramp-in envelope times the
+    scale's own ramp down from 1 (the idle-only fix did not cover a start while stopping; a helper's review)."""
+    player = started(ramp_time_s=1.0)
+    run(player, 2.0)
+    player.stop()
+    run(player, 0.9)
+    player.set_amplitude_scale(scale)
+    at_start = run(player, 0.05)[-1].gain
+    assert player.state is PlaybackState.STOPPING
+    player.start()
+    gains = [at_start] + [s.gain for s in run(player, 2.0)]
+    steps = np.diff(gains)
+    assert np.all(steps <= 1e-12) if scale < at_start else np.all(steps >= -1e-12)  # straight there, no bump
+    assert max(gains) <= max(at_start, scale) + 1e-12 and gains[-1] == pytest.approx(scale)
+
+
 def test_new_cycle_takes_over_without_a_jump():
     player = started(blend_time_s=0.3)
     trace = run(player, 1.0)
