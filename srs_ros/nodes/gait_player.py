@@ -31,7 +31,8 @@ Behaviour, as a robotics user expects it:
 - A new trajectory cross-fades from the old one over ``blend_time_s`` at the same phase.
 - The phase follows the monotonic clock, or with ``use_sim_time`` the ROS clock (the simulated world's
   ``/clock``, so a simulation that runs slower than real time still sees the gait's own frequency); after
-  a stall longer than 50 ms it advances by 50 ms only, so a late tick never makes the setpoint jump.
+  a stall longer than 50 ms (or two setpoint periods, below 40 Hz) it advances by that much only, so a late tick
+  never makes the setpoint jump.
 
 The playback logic lives in :mod:`srs_ros.core.gait.playback`; this node is the ROS wiring around it.
 """
@@ -50,12 +51,13 @@ from sensor_msgs.msg import JointState
 from std_srvs.srv import Trigger
 from trajectory_msgs.msg import JointTrajectory
 
-from srs_ros.core.errors import SrsError
+from srs_ros.core.errors import ConfigurationError, SrsError
 from srs_ros.core.gait.playback import (
     MAX_TRAJECTORY_POINTS,
     GaitPlayback,
     PlaybackState,
     cycle_from_points,
+    frequency_refusal,
 )
 from srs_ros.core.ramp import DEFAULT_RAMP_TIME_S
 from srs_ros.core.robot import CYCLE_FREQUENCY_RANGE_HZ, load_robot
@@ -89,7 +91,8 @@ PARAMETERS = (
     ParameterSpec("cycles", 0, "cycles to play after ~/start, then ramp out; 0 = forever (read at ~/start)",
                   0, 1_000_000),
     ParameterSpec("amplitude_scale", 1.0, "scale of every length, 0..1 (live, reached over ramp_time_s)", 0.0, 1.0),
-    ParameterSpec("frequency_hz", 0.0, "playback frequency in Hz, 0 = the trajectory's own (live)",
+    ParameterSpec("frequency_hz", 0.0, "playback frequency in Hz, 0 = the trajectory's own, else at least "
+                  f"{CYCLE_FREQUENCY_RANGE_HZ[0]:g} Hz (live)",
                   0.0, CYCLE_FREQUENCY_RANGE_HZ[1]),
     ParameterSpec("reverse", False, "play the cycle backward in time (live; the signed frequency ramps through 0 "
                   "over ramp_time_s): a rolling gait rolls the other way"),
@@ -114,6 +117,12 @@ class GaitPlayer(Node):
     def __init__(self, **kwargs):
         super().__init__("gait_player", **kwargs)
         self._specs = declare_parameters(self, PARAMETERS)
+        initial = self._check_parameters([self.get_parameter(name) for name in self._specs])
+        if not initial.successful:  # checked as a set would be: -p stop_at_phase:=-0.5 started and meant nothing
+            raise ConfigurationError(f"gait_player: invalid start-up parameter: {initial.reason}")
+        if self._param("stop_at_phase") >= 0.0:
+            self.get_logger().warning(f"stop_at_phase {self._param('stop_at_phase'):g} at start-up does nothing: it "
+                                      "is set while playing (after ~/start) and ramps out as the phase passes it")
         request_realtime_priority(self._param("realtime_priority"), self.get_logger())
         self._robot = load_robot(self._param("robot_description_file") or None)
         self._playback = GaitPlayback(self._param("ramp_time_s"), self._param("blend_time_s"),
@@ -133,7 +142,7 @@ class GaitPlayer(Node):
         self._publisher = self.create_publisher(JointState, SETPOINT_TOPIC, setpoint_qos())
         self._phase_publisher = self.create_publisher(JointState, GAIT_PHASE_TOPIC, setpoint_qos())
         self._phase_period_s = self._period(self._param("phase_rate_hz"))
-        self._phase_due = 0.0  # steady s of the next gait_phase message
+        self._phase_due = 0.0 if math.isfinite(self._phase_period_s) else math.inf  # steady s of the next one
         self.create_subscription(JointTrajectory, TRAJECTORY_TOPIC, self._on_trajectory, latched_qos(), raw=True)
         self.create_service(Trigger, "~/start", self._on_start)
         self.create_service(Trigger, "~/stop", self._on_stop)
@@ -153,6 +162,8 @@ class GaitPlayer(Node):
             if param.name == "stop_at_phase" and -1.0 < float(param.value) < 0.0:  # (-1, 0) meant "none" silently
                 return SetParametersResult(successful=False, reason=f"stop_at_phase {param.value:g}: expected a phase "
                                                                     "in [0, 1], or -1 for none")
+            if param.name == "frequency_hz" and 0.0 < float(param.value) < CYCLE_FREQUENCY_RANGE_HZ[0]:
+                return SetParametersResult(successful=False, reason=frequency_refusal(float(param.value)))
         return result
 
     def _apply_parameters(self, params) -> None:
@@ -170,7 +181,8 @@ class GaitPlayer(Node):
             elif param.name == "blend_time_s":
                 self._playback.set_blend_time(param.value)
             elif param.name == "phase_rate_hz":
-                self._phase_period_s, self._phase_due = self._period(param.value), 0.0
+                self._phase_period_s = self._period(param.value)
+                self._phase_due = 0.0 if math.isfinite(self._phase_period_s) else math.inf  # 0 = none: not one
             elif param.name == "rate_hz":
                 self._set_rate(float(param.value))
 
@@ -179,6 +191,9 @@ class GaitPlayer(Node):
         self._playback.stop_at_phase(phase % 1.0 if phase >= 0.0 and playing else None)
         if phase >= 0.0 and playing:
             self.get_logger().info(f"ramping out as the phase passes {phase % 1.0:g} (at most one cycle from now)")
+        elif phase >= 0.0:  # taken (the navigator sets it as it stops), but it arms nothing: say so
+            self.get_logger().warning(f"stop_at_phase {phase:g} ignored: the gait is {self._playback.state.value}; "
+                                      "set it while playing (after ~/start)")
 
     def _set_rate(self, rate_hz: float) -> None:
         """The setpoint timer at ``rate_hz``, and the largest phase step of a tick with it (:data:`MAX_STEP_S`)."""

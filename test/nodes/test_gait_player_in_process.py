@@ -4,6 +4,7 @@ Found by a helper's review (stop 59): a 10 Hz stream played every gait at half i
 trajectory was refused by the byte limit that should take it, and a stop phase in (-1, 0) was taken as "none".
 """
 
+import re
 import time
 
 import pytest
@@ -14,6 +15,7 @@ from rclpy.parameter import Parameter
 from rclpy.serialization import serialize_message
 from srs_testing import rolling_cycle, trajectory
 
+from srs_ros.core.errors import ConfigurationError, InvalidInputError
 from srs_ros.core.gait.playback import MAX_TRAJECTORY_POINTS
 from srs_ros.nodes.gait_player import MAX_TRAJECTORY_BYTES, GaitPlayer
 
@@ -89,3 +91,62 @@ def test_a_stop_phase_between_minus_1_and_0_is_refused_not_taken_for_none(player
     assert result.successful == taken, result.reason
     if not taken:
         assert "expected a phase in [0, 1], or -1 for none" in result.reason
+
+
+@pytest.mark.parametrize("params, said", [
+    ({"stop_at_phase": -0.5}, "stop_at_phase -0.5: expected a phase in [0, 1], or -1 for none"),
+    ({"frequency_hz": 0.001}, "frequency_hz 0.001: expected 0 (the trajectory's own) or a frequency in [0.01, 5] Hz"),
+])
+def test_a_start_up_value_a_set_would_refuse_stops_the_node_with_the_reason(player, params, said):
+    """``-p stop_at_phase:=-0.5`` started and meant nothing, as ``-p frequency_hz:=0.001`` froze the robot at a posture
+    held at pressure (a helper's review): both are refused as a set refuses them."""
+    make, _context = player
+    with pytest.raises(ConfigurationError, match=re.escape(said)):
+        make(**params)
+
+
+def test_a_frequency_between_0_and_the_slowest_cycle_is_refused_live_and_by_the_playback(player):
+    make, _context = player
+    node = make()
+    result = node.set_parameters([Parameter("frequency_hz", value=0.001)])[0]
+    assert not result.successful and "below 0.01 Hz a cycle holds a posture at pressure for minutes" in result.reason
+    assert node.set_parameters([Parameter("frequency_hz", value=0.01)])[0].successful
+    assert node.set_parameters([Parameter("frequency_hz", value=0.0)])[0].successful
+    with pytest.raises(InvalidInputError, match="frequency_hz 0.005"):
+        node._playback.set_frequency_override(0.005)
+
+
+def test_phase_rate_0_publishes_no_gait_phase_at_start_up_or_after_a_live_set(player):
+    """``phase_rate_hz`` 0 ("none") still sent one gait_phase message at the first tick, and one after each set."""
+    make, context = player
+    node = make(phase_rate_hz=0.0)
+    sent = []
+    node._phase_publisher.publish = sent.append
+    node._on_trajectory(serialize_message(trajectory(rolling_cycle(), 1.0)))
+    node._playback.start()
+    executor = SingleThreadedExecutor(context=context)
+    executor.add_node(node)
+
+    def spin_for(duration_s):
+        end_s = time.monotonic() + duration_s
+        while time.monotonic() < end_s:
+            executor.spin_once(timeout_sec=0.02)
+
+    spin_for(0.5)
+    assert node.set_parameters([Parameter("phase_rate_hz", value=0.0)])[0].successful
+    spin_for(0.3)
+    assert node.published_count > 10 and sent == []
+    assert node.set_parameters([Parameter("phase_rate_hz", value=50.0)])[0].successful
+    spin_for(0.3)
+    executor.shutdown()
+    assert len(sent) >= 3  # the rate back: messages again
+
+
+def test_a_stop_phase_set_while_not_playing_is_said_to_be_ignored(player):
+    make, _context = player
+    node = make()
+    warnings = []
+    node.get_logger().warning = lambda text, **kwargs: warnings.append(text)
+    assert node.set_parameters([Parameter("stop_at_phase", value=0.25)])[0].successful
+    assert node._playback.pending_stop_phase is None
+    assert warnings == ["stop_at_phase 0.25 ignored: the gait is idle; set it while playing (after ~/start)"]

@@ -255,7 +255,10 @@ class GaitPlayback:
 
     def set_frequency_override(self, frequency_hz: float) -> None:
         """Play at ``frequency_hz`` instead of the cycle's own (0 = the cycle's), reached over ``ramp_time_s``."""
-        self._frequency_override_hz = self._positive("frequency_hz", frequency_hz, allow_zero=True)
+        frequency_hz = self._positive("frequency_hz", frequency_hz, allow_zero=True)
+        if 0.0 < frequency_hz < CYCLE_FREQUENCY_RANGE_HZ[0]:
+            raise InvalidInputError(frequency_refusal(frequency_hz))
+        self._frequency_override_hz = frequency_hz
         self._retarget_frequency(self.ramp_time_s)
 
     def set_reverse(self, reverse: bool) -> None:
@@ -437,6 +440,13 @@ def cycle_from_points(joint_names, times_s, positions_m, expected_names, max_len
         raise InvalidInputError(f"time_from_start: the period is {period_s:.6g} s ({1.0 / period_s:.6g} Hz); "
                                 f"expected a cycle frequency in [{low_hz:g}, {high_hz:g}] Hz.")
     return samples, 1.0 / period_s
+
+
+def frequency_refusal(frequency_hz: float) -> str:
+    """Why a playback frequency between 0 and the slowest cycle's is refused (it would hold a posture for minutes)."""
+    low_hz, high_hz = CYCLE_FREQUENCY_RANGE_HZ
+    return (f"frequency_hz {frequency_hz:g}: expected 0 (the trajectory's own) or a frequency in [{low_hz:g}, "
+            f"{high_hz:g}] Hz; below {low_hz:g} Hz a cycle holds a posture at pressure for minutes.")
 
 
 def describe_frequency(played_hz: float, target_hz: float) -> str:
