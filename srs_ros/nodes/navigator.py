@@ -149,11 +149,22 @@ class StampClock:
     def __init__(self, window: int = 100, jump_s: float = 1.0):
         self._samples: deque[tuple[float, float]] = deque(maxlen=window)  # (stamp s, delay s)
         self._jump_s = jump_s
+        self._last_stamp_s = -math.inf
+
+    def repeats(self, stamp_s: float) -> bool:
+        """True for a stamp not newer than the last one taken, unless it went back a jump (a restarted clock).
+
+        A frozen camera driver re-sends its last frame with its stamp: re-based as a jump, each copy was dated at
+        its arrival, taken as a fresh pose and reset the lost-pose check (a helper's review: no pose_lost in 15 s
+        of one frame repeated, at pose_timeout_s 3).
+        """
+        return 0.0 < stamp_s <= self._last_stamp_s and self._last_stamp_s - stamp_s <= self._jump_s
 
     def steady_s(self, stamp_s: float, arrival_s: float) -> float:
         """The steady-clock time of a message stamped ``stamp_s`` (0 = unstamped: its arrival)."""
         if stamp_s <= 0.0:
             return arrival_s
+        self._last_stamp_s = stamp_s
         delay = arrival_s - stamp_s
         if self._samples and abs(delay - self._low_delay_s(stamp_s)) > self._jump_s:
             self._samples.clear()
@@ -346,9 +357,14 @@ class Navigator(Node):
         if msg.header.frame_id not in ("", FLOOR_FRAME):
             self._pose_ignored(f"robot_pose in frame '{msg.header.frame_id}'; expected '{FLOOR_FRAME}'")
             return
+        stamp_s = stamp_to_seconds(msg.header.stamp)
+        if self._stamps.repeats(stamp_s):
+            self._pose_ignored(f"robot_pose stamped {stamp_s:.3f} s, not newer than the last pose (a camera that "
+                               "repeats its last frame): counted as no pose")
+            return
         q = msg.pose.orientation
         pose = Pose2D(msg.pose.position.x, msg.pose.position.y, yaw_from_quaternion(q.z, q.w, q.x, q.y),
-                      self._stamps.steady_s(stamp_to_seconds(msg.header.stamp), arrival))
+                      self._stamps.steady_s(stamp_s, arrival))
         phase = self.gait_phase_at(stamp_to_seconds(msg.header.stamp))
         try:
             if phase is not None:

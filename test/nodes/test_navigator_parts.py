@@ -37,6 +37,18 @@ def test_one_stamp_from_the_future_does_not_move_the_times_of_the_poses_after_it
     assert later == pytest.approx([5000.0 + i / 30 + 0.03 for i in range(61, 120)])  # it shifted them 0.7 s back
 
 
+def test_a_repeated_stamp_is_a_repeat_not_a_fresh_pose_but_a_clock_gone_back_a_jump_is_a_restart():
+    """A frozen camera re-sends its last frame: each copy was re-based and dated at its arrival (a helper's review)."""
+    clock = StampClock()
+    for i in range(30):
+        assert not clock.repeats(100.0 + i / 30)
+        clock.steady_s(100.0 + i / 30, 5000.0 + i / 30 + 0.03)
+    last = 100.0 + 29 / 30
+    assert clock.repeats(last) and clock.repeats(last - 0.5)  # the same frame again, or one older than the last
+    assert not clock.repeats(last + 1 / 30) and not clock.repeats(0.0)  # the next frame; unstamped
+    assert not clock.repeats(1.0)  # a restarted simulation's clock: a jump back, taken (and re-based)
+
+
 @pytest.mark.parametrize("rate", [0.6, 0.3, 2.0])
 def test_stamps_on_a_simulated_clock_behind_or_ahead_of_real_time_keep_their_arrival_delay(rate):
     """A world on use_sim_time at 0.6x: its stamps gain 0.6 s a second, so the delay grows 0.4 s a second.
