@@ -222,8 +222,8 @@ class GaitDriver:
         client = self._clients[what]
         if not client.service_is_ready():
             self._failed(what, f"service {client.srv_name} is not available (is the node running?)")
-            if what == "start":
-                self._playing = False
+            if what == "start":  # a keepalive's: the player may still play the last start, so a stop is owed
+                self._playing, self._stop_owed = False, True
             return
         future = client.call_async(request)
         self._pending[what] = (future, self._clock())
@@ -274,7 +274,7 @@ class GaitDriver:
 
     def _on_start(self, response) -> None:
         if not response.success:
-            self._playing = False
+            self._playing, self._stop_owed = False, True  # it may still play an earlier start: stop it when asked
             self._failed("start", f"gait_player did not start: {response.message}")
             return
         self._playing, self.error = True, ""  # a stop owed meanwhile goes out now (pump)

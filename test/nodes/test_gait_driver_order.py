@@ -114,3 +114,42 @@ def test_the_dead_mans_cycles_outlast_a_stop_at_a_phase_set_a_quarter_keepalive_
         playback.step(dt_s)
     behind = (playback.phase - stop_phase) % 1.0  # the ramp-out begins on the step that passes the phase
     assert behind <= frequency_hz * dt_s + 1e-9, (cycles, stop_phase, playback.phase)
+
+
+class FlakyStartNode(StandInNode):
+    """Its gait_player's ``~/start`` service can be missing from the graph for a moment (a DDS hiccup)."""
+
+    def __init__(self):
+        super().__init__()
+        self.start_ready, self.errors = True, []
+
+    def create_client(self, srv_type, name: str) -> StandInClient:
+        client = StandInClient(self, srv_type, name)
+        if name.endswith("/start"):
+            client.service_is_ready = lambda: self.start_ready
+        return client
+
+    def get_logger(self):
+        return self
+
+    def error(self, text: str, **_kwargs) -> None:
+        self.errors.append(text)
+
+
+def test_a_stop_after_a_keepalive_start_that_could_not_be_sent_still_stops_the_player():
+    """The failed keepalive marked the player not playing though it still played the last start, so the stop for a
+    lost pose sent no ~/stop: the gait played on until its dead man's cycles ran out (a helper's review)."""
+    node, now = FlakyStartNode(), [0.0]
+    driver = GaitDriver(node, "trajectory_server", "gait_player", keepalive_s=2.0, clock=lambda: now[0])
+    driver.drive(CRUISE)
+    node.answer_all()
+    assert driver.playing and node.log[-1] == "start", node.log
+    now[0], node.start_ready = 0.6, False  # the keepalive's ~/start cannot go out
+    driver.drive(CRUISE)
+    assert "not available" in driver.error
+    node.start_ready, node.log[:] = True, []
+    for _ in range(5):
+        now[0] += 0.1
+        driver.drive(GaitCommand(None, 0.0, 4.0, 1.0))  # the pose lost: stop
+        node.answer_all()
+    assert node.log == ["stop"] and not driver.playing
