@@ -125,7 +125,7 @@ class CruiseStopping:
         predicted, _ = self._predicted_rest(pose, phase_index)
         self._stop = StopPlan(pose, direction, self._level, phase_index, ahead,
                               (float(predicted[0]), float(predicted[1])),
-                              period_s=1.0 / max(self.settings.cruise_frequency_hz, 1e-3))
+                              period_s=1.0 / max(self._command.frequency_hz, 1e-3))  # the frequency played
         if ahead:
             self._message = (f"stopping a cycle ahead, {self._distance(pose):.3f} m from the goal, as the gait "
                              f"passes phase {STOP_PHASES[phase_index]:g}; then waiting for the robot to rest")

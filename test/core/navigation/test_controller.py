@@ -486,3 +486,27 @@ def test_the_heading_error_that_steers_does_not_move_when_only_the_turn_level_ch
         controller._level = level
         errors.append(controller._aims(pose)[0]["inward_rolling"])
     assert max(errors) - min(errors) < 1e-9, np.degrees(errors)  # steering by the level played: -26, -69, -109 deg
+
+
+@pytest.mark.parametrize("approach_frequency_hz", [0.25, 0.5])
+def test_a_cruise_stop_at_a_slower_approach_frequency_waits_for_its_phase_at_the_frequency_played(
+        approach_frequency_hz):
+    """The wait for the stop phase a cycle ahead was timed by the cruise frequency (1 Hz): at an approach frequency of
+    0.25 Hz it gave up before the phase came, learned nothing and drove on while the gait still played (a helper's
+    review: 5 of 6 goals)."""
+    unseen = []
+    for goal in [(0.0, 0.6), (0.5, 0.5), (-0.3, -0.6)]:
+        controller, roller = NavigationController(settings(approach_frequency_hz=approach_frequency_hz), AREA), Roller()
+        controller.set_goal(*goal, now_s=0.0)
+        before, ahead = [controller.state], [False]
+
+        def each(now, controller=controller, roller=roller, before=before, ahead=ahead, goal=goal):
+            if before[0] is NavigationState.DRIVING and controller.state is NavigationState.STOPPING:
+                ahead[0] = controller.stop_plan.phase_index >= 0  # a stop a cycle ahead, not a stop to look again
+            elif before[0] is NavigationState.STOPPING and controller.state is not NavigationState.STOPPING:
+                if ahead[0] and controller.stop_plan.phase_index < 0:
+                    unseen.append((goal, round(now, 1), roller.moving_or_settling(now)))
+            before[0] = controller.state
+
+        drive(controller, roller, 120.0, each_frame=each, until_at_rest=True)
+    assert unseen == []
