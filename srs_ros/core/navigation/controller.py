@@ -495,6 +495,7 @@ class NavigationController(CruiseStopping, FineDriving, EdgeGuard):
         return NavigationProgress(self.state, goal, self._index, len(self._goals), distance,
                                   self._heading_error_rad if self.state.active else 0.0,
                                   self._command.direction or "", self._command.turn_phase_rad,
-                                  float(now_s) - self._started_s, self._message, self.sides.inward_side,
+                                  float(now_s) - self._started_s if self._goals else math.nan, self._message,
+                                  self.sides.inward_side,
                                   self.fine.amplitude_bar(self.settings),
                                   {d: [round(float(r), 2) for r in self.turns.rates[d]] for d in DIRECTIONS})

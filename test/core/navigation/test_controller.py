@@ -510,3 +510,13 @@ def test_a_cruise_stop_at_a_slower_approach_frequency_waits_for_its_phase_at_the
 
         drive(controller, roller, 120.0, each_frame=each, until_at_rest=True)
     assert unseen == []
+
+
+def test_before_any_goal_the_progress_has_no_elapsed_time_and_no_goal_count():
+    """Idle, elapsed_s was the machine's monotonic clock (its uptime) and /diagnostics said goal "1 of 0"."""
+    controller = NavigationController(settings(), AREA)
+    progress = controller.progress(12345.0)
+    assert math.isnan(progress.elapsed_s) and progress.values()["goal"] == "none"
+    controller.set_goal(0.0, 0.5, now_s=12000.0)
+    progress = controller.progress(12345.0)
+    assert progress.elapsed_s == pytest.approx(345.0) and progress.values()["goal"] == "1 of 1"
