@@ -136,7 +136,8 @@ class NavigationProgress:
     def values(self) -> dict[str, str]:
         """Key/values of a ``/diagnostics`` status (all text)."""
         goal = "none" if self.goal_xy_m is None else f"{self.goal_xy_m[0]:.3f}, {self.goal_xy_m[1]:.3f}"
-        return {"state": self.state.value, "goal_m": goal, "goal": f"{self.goal_index + 1} of {self.goal_count}" if self.goal_count else "none",
+        which = f"{self.goal_index + 1} of {self.goal_count}" if self.goal_count else "none"
+        return {"state": self.state.value, "goal_m": goal, "goal": which,
                 "distance_to_go_m": f"{self.distance_to_go_m:.3f}",
                 "heading_error_deg": f"{math.degrees(self.heading_error_rad):.1f}", "direction": self.direction,
                 "turn_phase_rad": f"{self.turn_phase_rad:.3f}", "elapsed_s": f"{self.elapsed_s:.1f}",
