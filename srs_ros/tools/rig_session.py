@@ -11,6 +11,7 @@ from __future__ import annotations
 import contextlib
 import signal
 import sys
+import time
 from collections.abc import Callable, Iterator
 
 import numpy as np
@@ -94,6 +95,21 @@ def write_whole(backend: ActuatorBackend, pressure_bar) -> np.ndarray:
             signal.signal(sig, handler)
         if held and callable(previous[held[0]]):
             previous[held[0]](held[0], None)  # e.g. KeyboardInterrupt, now that the command is whole
+
+
+def wait_until_ready(backend: ActuatorBackend, rate_hz: float, program: str) -> None:
+    """Vent at ``rate_hz`` until the open backend can follow commands (``holding_reason`` is '').
+
+    A simulated world answers first. The backend raises HardwareError once it gives up (the sim backend after
+    its ``startup_timeout_s``). Real boards are ready at once.
+    """
+    said = False
+    while reason := backend.holding_reason():
+        if not said:
+            print(f"{program}: waiting: {reason}", flush=True)
+            said = True
+        backend.vent()
+        time.sleep(1.0 / rate_hz)
 
 
 def vent_and_close(backend: ActuatorBackend) -> bool:

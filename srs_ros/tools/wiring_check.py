@@ -30,6 +30,7 @@ from srs_ros.tools.rig_session import (
     operator_go,
     ros_context,
     run_vented,
+    wait_until_ready,
     write_whole,
 )
 
@@ -72,11 +73,14 @@ def select_joints(tokens: Sequence[str] | None, joint_names: Sequence[str]) -> l
     for token in (t for item in tokens for t in item.split(",") if t):
         if token in joint_names:
             indices.append(joint_names.index(token))
-        elif token.isdigit() and 1 <= int(token) <= len(joint_names):
+        elif token.isascii() and token.isdigit() and 1 <= int(token) <= len(joint_names):
             indices.append(int(token) - 1)
         else:
             raise ValueError(f"--channels: {token!r} is neither a joint name {list(joint_names)} "
                              f"nor a number 1..{len(joint_names)}")
+    if not indices:  # "," or "": nothing pulsed, and "done" said
+        raise ValueError(f"--channels {' '.join(tokens)!r}: no joint given; expected joint names or numbers "
+                         f"1..{len(joint_names)}, or leave it out for all")
     return indices
 
 
@@ -152,6 +156,9 @@ def _open_and_run(backend: ActuatorBackend, rig: RigConfig, joints: list[int], a
     def pulses() -> None:
         print(f"wiring check on rig {rig.name!r} ({backend.name} backend, {rig.robot.regulator.name}): "
               f"{len(joints)} pulse(s) of {args.pressure_bar:g} bar", flush=True)
+        # The sim rig pulsed into nothing and said "done" with no sim_world running (its startup timeout is longer
+        # than the default run): wait for the rig to answer first (a helper's review).
+        wait_until_ready(backend, rig.command_rate_hz, "srs_wiring_check")
         run(backend, rig, joints, args.pressure_bar, args.hold_s, args.vent_s)
 
     return run_vented(backend, "srs_wiring_check", pulses, f"done: {len(joints)} regulator(s) pulsed")

@@ -208,3 +208,24 @@ def test_ctrl_c_vents_at_once_on_a_can_bus(tmp_path):
     writes = writes_from_frames([(frame_id, bytes.fromhex(data)) for frame_id, data in json.loads(record.read_text())])
     assert collapse(writes) == [pulse(0, 0), pulse(0, 1667), pulse(0, 0)]  # open, the interrupted pulse, vent
     assert writes[-1] == pulse(0, 0) and np.count_nonzero(writes[1:-1], axis=1).max() == 1
+
+
+@pytest.mark.parametrize("channels", [[","], [""], ["²"]])
+def test_channels_that_name_no_joint_are_refused_not_taken_for_none(channels):
+    """``--channels ,`` pulsed nothing and said "done"; ``²`` (a digit to str.isdigit) gave int()'s own error."""
+    with pytest.raises(ValueError, match="--channels"):
+        select_joints(channels, JOINTS)
+
+
+def test_the_sim_rig_with_no_world_answering_pulses_nothing_and_fails(ros_env, tmp_path):
+    """With no sim_world, the default run (13.5 s) ended before the sim backend's 15 s start-up timeout: nine pulses
+    printed, "done, all vented", exit 0, though nothing heard them (a helper's review). It now waits for the world."""
+    rig = tmp_path / "sim.yaml"
+    rig.write_text((config_dir() / "rigs" / "sim.yaml").read_text().replace("startup_timeout_s: 15.0",
+                                                                             "startup_timeout_s: 1.0"))
+    done = subprocess.run([script_path("srs_wiring_check"), "--rig", str(rig), "--hold-s", "0.1", "--vent-s", "0.1"],
+                          env=ros_env, capture_output=True, text=True, timeout=60, stdin=subprocess.DEVNULL)
+    output = done.stdout + done.stderr
+    assert done.returncode == 1, output
+    assert "waiting: waiting for sim_world's first read-back" in output and "no read-back from sim_world" in output
+    assert "pulse 1/" not in output
