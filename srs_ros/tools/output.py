@@ -34,6 +34,22 @@ def prepare_output_file(path: str | Path | None, flag: str) -> Path | None:
     return out
 
 
+def check_distinct_paths(paths: dict[str, str | Path | None]) -> None:
+    """Refuse two of ``paths`` ({option or role: path}, None left out) that are one file.
+
+    An output written over an input (``srs_track run.avi --out run.avi`` replaced the video with the CSV) or over
+    another output.
+    """
+    seen: dict[Path, str] = {}
+    for flag, path in paths.items():
+        if path is None:
+            continue
+        key = Path(path).resolve()
+        if key in seen:
+            raise ConfigurationError(f"{flag} {path}: the same file as {seen[key]}; expected a path of its own.")
+        seen[key] = flag
+
+
 def _writable_folder(folder: Path, flag: str, given: str | Path) -> None:
     try:
         folder.mkdir(parents=True, exist_ok=True)

@@ -21,7 +21,7 @@ from tqdm import tqdm
 from srs_ros.core.errors import ConfigurationError, InvalidInputError, SrsError
 from srs_ros.core.vision.camera_calibration import load_calibration
 from srs_ros.core.vision.tracking import DETECTORS, TRACKER_TABLE, Tracker, TrackerConfig, traveling_velocity
-from srs_ros.tools.output import prepare_output_file
+from srs_ros.tools.output import check_distinct_paths, prepare_output_file
 
 #: The tracker options srs_track takes, by flag (the camera_tracker node's parameter names).
 OPTION_FLAGS = {"--detector": "detector", "--dictionary": "aruco_dictionary", "--tail-id": "tail_marker_id",
@@ -151,8 +151,11 @@ def main(argv: list[str] | None = None) -> int:
         parser.error(f"--end-window {args.end_window}: expected seconds >= 0")
     if args.fps is not None and not (math.isfinite(args.fps) and args.fps > 0.0):
         parser.error(f"--fps {args.fps}: expected a frame rate above 0 Hz")
+    if args.plot is not None and Path(args.plot).suffix.lower() != ".png":  # Matplotlib failed after the CSV
+        parser.error(f"--plot {args.plot}: expected a .png path")
     config = tracker_config(args, parser)
     try:
+        check_distinct_paths({"the video": args.video, "--out": args.out, "--plot": args.plot})
         for path, flag in ((args.out, "--out"), (args.plot, "--plot")):
             prepare_output_file(path, flag)  # before the video is tracked, not after it
         tracker = Tracker(load_calibration(args.calibration), config)

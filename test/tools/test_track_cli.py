@@ -115,3 +115,28 @@ def test_the_frames_tracked_so_far_are_shown_on_stderr(recording, tmp_path, caps
     assert track_cli.main([str(video), "--calibration", str(calibration), "--out", str(tmp_path / "t.csv")]) == 0
     err = capsys.readouterr().err
     assert "run.avi: 100%" in err and f"{len(times)}/{len(times)}" in err and "frame" in err, err
+
+
+def test_an_output_on_the_input_video_or_on_the_other_output_is_refused_and_the_video_kept(recording, tmp_path,
+                                                                                            capsys):
+    """``--out run.avi`` replaced the recording with the CSV (a helper's review); a plot on the CSV's path, too."""
+    folder, video, calibration, _, _ = recording
+    copy = tmp_path / "victim.avi"
+    copy.write_bytes(video.read_bytes())
+    assert track_cli.main([str(copy), "--calibration", str(calibration), "--out", str(copy)]) == 2
+    assert f"--out {copy}: the same file as the video" in capsys.readouterr().err
+    assert copy.read_bytes() == video.read_bytes()
+    out = tmp_path / "t.png"
+    assert track_cli.main([str(video), "--calibration", str(calibration), "--out", str(out), "--plot", str(out)]) == 2
+    assert "--plot" in capsys.readouterr().err and not out.exists()
+
+
+@pytest.mark.parametrize("plot", ["x.jpg2", "noext"])
+def test_a_plot_that_is_not_a_png_is_refused_before_the_video_is_tracked(recording, tmp_path, capsys, plot):
+    """Matplotlib failed with a traceback after the CSV was written, or wrote ``noext.png`` and named ``noext``."""
+    _, video, calibration, _, _ = recording
+    with pytest.raises(SystemExit) as stop:
+        track_cli.main([str(video), "--calibration", str(calibration), "--out", str(tmp_path / "t.csv"),
+                        "--plot", str(tmp_path / plot)])
+    assert stop.value.code == 2 and "expected a .png path" in capsys.readouterr().err
+    assert not (tmp_path / "t.csv").exists()
