@@ -21,6 +21,7 @@ from pathlib import Path
 
 import yaml
 
+from srs_ros.core.files import write_atomically
 from srs_ros.core.robot import config_dir
 from srs_ros.ros.parameters import ParameterSpec, params_file_key
 
@@ -135,6 +136,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--check", action="store_true", help="compare only; exit 1 if a file differs")
     parser.add_argument("--config-dir", type=Path, default=None, help="folder of the files (default: the package's)")
     args = parser.parse_args(argv)
+    if args.config_dir is not None and not args.config_dir.is_dir():  # a traceback, or "every file differs"
+        parser.error(f"--config-dir {args.config_dir}: not a folder; expected the folder of the nodes' params files")
     stale = []
     for node in NODES:
         path, text = config_path(node, args.config_dir), config_text(node)
@@ -142,7 +145,12 @@ def main(argv: list[str] | None = None) -> int:
             continue
         stale.append(path)
         if not args.check:
-            path.write_text(text, encoding="utf-8")
+            try:
+                write_atomically(path, text)
+            except OSError as exc:
+                print(f"node_config: cannot write {path} ({exc.strerror or exc}); choose a writable folder",
+                      file=sys.stderr)
+                return 2
             print(f"wrote {path}")
     if args.check and stale:
         print("differ from the nodes' parameter specs (run python -m srs_ros.tools.node_config): "

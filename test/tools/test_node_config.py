@@ -77,3 +77,13 @@ def test_a_block_keyed_as_the_shipped_files_are_applies_to_the_node_in_a_namespa
     ros_client.spin_until(lambda: "/snake1/gait_player/get_parameters" in dict(
         ros_client.node.get_service_names_and_types()), 15.0, "/snake1/gait_player")
     assert ros_client.get_parameters("/snake1/gait_player", ["rate_hz"]) == {"rate_hz": 123.0}
+
+
+@pytest.mark.parametrize("check", [False, True])
+def test_a_config_dir_that_is_not_a_folder_is_refused_with_the_reason(tmp_path, capsys, check):
+    """A missing folder gave a FileNotFoundError traceback, and --check said every file differed (a helper's review)."""
+    missing = tmp_path / "missing" / "sub"
+    with pytest.raises(SystemExit) as stop:
+        main(["--config-dir", str(missing), *(["--check"] if check else [])])
+    assert stop.value.code == 2 and f"--config-dir {missing}: not a folder" in capsys.readouterr().err
+    assert not missing.exists()
