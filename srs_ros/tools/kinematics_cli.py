@@ -53,7 +53,8 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     print("q (m): " + " ".join(f"{v:.4f}" for v in q))
     for m in range(robot.module_count):
-        print(f"module {m + 1}: bend {bend[m]:.4f} rad toward {np.degrees(plane[m]):7.2f} deg, arc {arc[m]:.4f} m")
+        toward = "(straight)" if bend[m] < 1e-9 else f"toward {np.degrees(plane[m]):7.2f} deg"  # no plane when straight
+        print(f"module {m + 1}: bend {bend[m]:.4f} rad {toward}, arc {arc[m]:.4f} m")
     print("xi, x_m, y_m, z_m")
     for xi, (x, y, z) in zip(robot.backbone_xi, points):
         print(f"{xi:.1f}, {x:.6f}, {y:.6f}, {z:.6f}")
