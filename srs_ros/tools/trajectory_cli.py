@@ -21,6 +21,7 @@ from srs_ros.core.errors import SrsError
 from srs_ros.core.gait.request import FREQUENCY_FIELD, MIN_SAMPLES, SAMPLES_FIELD
 from srs_ros.core.gait.trajectory import PoorFitWarning, generate_cycle, list_gaits
 from srs_ros.core.robot import default_robot, load_robot
+from srs_ros.tools.output import check_distinct_paths, prepare_output_file
 
 #: Most cycles the joint plot shows (200 points a cycle and joint: a million asked for 14 GB after the CSV was written).
 MAX_PLOT_CYCLES = 1000
@@ -78,6 +79,17 @@ def _parse_params(items: list[str]) -> dict:
     return params
 
 
+def _check_outputs(args: argparse.Namespace) -> None:
+    """Every file the run will write, checked writable and distinct (ConfigurationError naming the option)."""
+    stem = args.plot.with_suffix("") if args.plot else None
+    outputs = {"--out": args.out, "--out's metadata": f"{args.out}.yaml" if args.out else None,
+               "--plot (shapes)": f"{stem}_shapes.png" if stem else None,
+               "--plot (joints)": f"{stem}_joints.png" if stem else None}
+    check_distinct_paths(outputs)
+    for flag, path in outputs.items():
+        prepare_output_file(path, flag)
+
+
 def main(argv: list[str] | None = None) -> int:
     """Console entry point; returns the exit code (0, 2 bad arguments, 3 poor samples with --strict)."""
     parser = _parser()
@@ -94,6 +106,7 @@ def main(argv: list[str] | None = None) -> int:
     if not 1 <= args.plot_cycles <= MAX_PLOT_CYCLES:
         parser.error(f"--plot-cycles {args.plot_cycles}: expected an integer from 1 to {MAX_PLOT_CYCLES}")
     try:
+        _check_outputs(args)  # before the fit: a plot that failed after it left a CSV beside an exit 2
         params = _parse_params(args.param)
         robot = load_robot(args.robot) if args.robot else default_robot()
         with warnings.catch_warnings(record=True) as caught:

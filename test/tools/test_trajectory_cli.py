@@ -108,3 +108,15 @@ def test_samples_beyond_the_local_top_or_the_machines_memory_exit_2_with_what_to
     monkeypatch.setattr(trajectory_cli, "generate_cycle", out_of_memory)
     assert main([*args, "--samples", "10000"]) == 2
     assert "--samples 10000 needs more memory than this machine gives; use fewer samples" in capsys.readouterr().err
+
+
+def test_outputs_that_cannot_be_written_are_refused_before_the_fit_and_nothing_is_left(tmp_path, capsys):
+    """A plot in an unwritable folder, or a metadata path that is a folder, failed after the CSV was written: exit 2
+    with a CSV left behind, once without its metadata (a helper's review)."""
+    base = ["--gait", "inward_rolling", "--amplitude-bar", "4", "--frequency-hz", "1", "--samples", "16"]
+    assert main([*base, "--out", str(tmp_path / "a.csv"), "--plot", "/proc/nodir/a.png"]) == 2
+    assert "--plot (shapes) /proc/nodir/a_shapes.png: cannot write there" in capsys.readouterr().err
+    (tmp_path / "b.csv.yaml").mkdir()
+    assert main([*base, "--out", str(tmp_path / "b.csv")]) == 2
+    assert "--out's metadata" in capsys.readouterr().err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["b.csv.yaml"]

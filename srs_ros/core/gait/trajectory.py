@@ -22,6 +22,7 @@ If A needs more than ``max_extension_m`` the request is refused (it cannot be re
 from __future__ import annotations
 
 import csv
+import io
 import math
 import warnings
 from collections.abc import Mapping
@@ -34,6 +35,7 @@ import yaml
 
 from srs_ros.core.actuation.pressure import lengths_to_pressures_bar, pressure_amplitude_scale
 from srs_ros.core.errors import ConfigurationError, InvalidInputError
+from srs_ros.core.files import write_atomically
 from srs_ros.core.gait.fitting import FitSettings, fit_error_mm, fit_shapes
 from srs_ros.core.gait.interpolation import PeriodicTrajectory
 from srs_ros.core.gait.library import (
@@ -164,16 +166,18 @@ class GaitCycle:
         poor[list(self.poor_samples)] = 1
         rows = np.column_stack([self.phase, self.time_s, self.lengths_m, self.fit_error_mm, self.pressures_bar,
                                 poor])
-        with path.open("w", newline="", encoding="utf-8") as stream:
-            writer = csv.writer(stream)
-            writer.writerow(self.csv_header())
-            for row in rows:
-                writer.writerow([repr(float(v)) for v in row[:-1]] + [int(row[-1])])
+        stream = io.StringIO(newline="")
+        writer = csv.writer(stream)
+        writer.writerow(self.csv_header())
+        for row in rows:
+            writer.writerow([repr(float(v)) for v in row[:-1]] + [int(row[-1])])
         meta = {"gait": self.gait, "amplitude_bar": float(self.amplitude_bar),
                 "frequency_hz": float(self.frequency_hz), "joint_names": list(self.joint_names),
                 "poor_samples": [int(i) for i in self.poor_samples],
                 "parameters": {k: _plain(v) for k, v in self.parameters.items()}}
-        _sidecar(path).write_text(yaml.safe_dump(meta, sort_keys=False), encoding="utf-8")
+        # Each whole or not at all, the sidecar first: a CSV is never left without the metadata it is read with.
+        write_atomically(_sidecar(path), yaml.safe_dump(meta, sort_keys=False))
+        write_atomically(path, stream.getvalue())
         return path
 
     @classmethod
