@@ -415,6 +415,14 @@ def _fit_for_amplitude(spec: GaitSpec, given: dict, phase: np.ndarray, amplitude
     fits = len(tried)
     shape, curves, s_m, used, fit, factor = min(tried)[2]
     if spec.amplitude_parameters and abs(factor - 1.0) > AMPLITUDE_LEFTOVER:
+        if factor < 1.0:  # too much even at the least bend: what the amplitude parameters do not scale asks for it
+            changed = [f"{p.name} = {shape[p.name]:g}" for p in spec.parameters if p.name not in
+                       spec.amplitude_parameters and p.name in shape and shape[p.name] != p.default] or ["its defaults"]
+            raise InvalidInputError(
+                f"{spec.name}: even its least bent shape tried ({_amplitude_text(spec, shape)}) needs "
+                f"{amplitude_bar / factor:.2f} bar, more than {amplitude_bar:g} bar: the part of the shape the "
+                f"amplitude does not scale ({', '.join(changed)}) asks for that alone; bring it nearer its default "
+                "or raise the amplitude.")
         raise InvalidInputError(
             f"{spec.name}: no shape of its kind reaches {amplitude_bar:g} bar in {fits} fits (the nearest "
             f"{factor:.3g} times off, at {_amplitude_text(spec, shape)}): the body cannot bend so; change "

@@ -250,6 +250,15 @@ def test_a_shape_no_bend_brings_to_the_amplitude_is_refused_naming_its_parameter
         generate_cycle(gait, 4.0, 1.0, 64, params=params)
 
 
+def test_a_steering_term_that_alone_needs_more_than_the_amplitude_is_named_not_the_amplitude_parameter():
+    """A serpentine's c_rad_per_unit 0.3 needs 1.2 bar at any a_rad: the refusal said to change a_rad, already driven
+    to about 0 (a helper's review)."""
+    with pytest.raises(InvalidInputError) as refused:
+        generate_cycle("serpentine", 1.0, 1.0, 16, params={"c_rad_per_unit": 0.3})
+    said = str(refused.value)
+    assert "needs 1.2" in said and "(c_rad_per_unit = 0.3) asks for that alone" in said and "change a_rad" not in said
+
+
 def test_a_cycle_csv_with_lengths_out_of_range_or_a_frequency_past_the_top_is_refused(tmp_path, serpentine):
     """Without a sidecar, time steps of 1e-6 s made a 62 500 Hz cycle, and lengths of 5 m and -2 m were taken
     (gait_player refuses both from a topic; a helper's review)."""
