@@ -125,6 +125,10 @@ def tracker_config(args: argparse.Namespace, parser: argparse.ArgumentParser) ->
         parser.error(message)
 
 
+#: The highest frame rate taken (Hz): a camera's file rarely says more; 1e300 made every frame one instant.
+MAX_FPS_HZ = 1000.0
+
+
 def main(argv: list[str] | None = None) -> int:
     """Console script ``srs_track``."""
     parser = argparse.ArgumentParser(prog="srs_track", description=__doc__.splitlines()[0])
@@ -149,8 +153,8 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     if not (math.isfinite(args.end_window) and args.end_window >= 0.0):
         parser.error(f"--end-window {args.end_window}: expected seconds >= 0")
-    if args.fps is not None and not (math.isfinite(args.fps) and args.fps > 0.0):
-        parser.error(f"--fps {args.fps}: expected a frame rate above 0 Hz")
+    if args.fps is not None and not (math.isfinite(args.fps) and 0.0 < args.fps <= MAX_FPS_HZ):
+        parser.error(f"--fps {args.fps}: expected a frame rate in (0, {MAX_FPS_HZ:g}] Hz")
     if args.plot is not None and Path(args.plot).suffix.lower() != ".png":  # Matplotlib failed after the CSV
         parser.error(f"--plot {args.plot}: expected a .png path")
     config = tracker_config(args, parser)
@@ -160,10 +164,10 @@ def main(argv: list[str] | None = None) -> int:
             prepare_output_file(path, flag)  # before the video is tracked, not after it
         tracker = Tracker(load_calibration(args.calibration), config)
         rows, frames = track_video(args.video, tracker, args.fps, progress=True)
+        velocity = traveling_velocity(rows[:, 0], rows[:, 1], rows[:, 2], args.end_window)  # refused: no CSV
         write_track_csv(args.out, rows)
         print(f"{args.video}: {frames} frames, {len(rows)} tracked, {frames - len(rows)} without a pose; "
               f"track written to {args.out}")
-        velocity = traveling_velocity(rows[:, 0], rows[:, 1], rows[:, 2], args.end_window)
     except (SrsError, InvalidInputError) as exc:
         print(f"srs_track: {exc}", file=sys.stderr)
         return 2

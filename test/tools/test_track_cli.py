@@ -68,7 +68,8 @@ def test_unreadable_video_is_an_error_not_an_empty_track(tmp_path, capsys):
 @pytest.mark.parametrize(("option", "value", "message"), [
     ("--end-window", "nan", "--end-window nan: expected seconds >= 0"),
     ("--end-window", "-1", "--end-window -1.0: expected seconds >= 0"),
-    ("--fps", "-5", "--fps -5.0: expected a frame rate above 0 Hz"),
+    ("--fps", "-5", "--fps -5.0: expected a frame rate in (0, 1000] Hz"),
+    ("--fps", "1e300", "--fps 1e+300: expected a frame rate in (0, 1000] Hz"),  # every frame one instant
 ])
 def test_a_window_or_frame_rate_that_is_not_one_is_refused(tmp_path, capsys, option, value, message):
     """`--end-window nan` printed a velocity of nan / nan cm/s with exit 0; `--fps -5` said the file had no frame
@@ -140,3 +141,12 @@ def test_a_plot_that_is_not_a_png_is_refused_before_the_video_is_tracked(recordi
                         "--plot", str(tmp_path / plot)])
     assert stop.value.code == 2 and "expected a .png path" in capsys.readouterr().err
     assert not (tmp_path / "t.csv").exists()
+
+
+def test_an_end_window_the_track_cannot_hold_leaves_no_csv(recording, tmp_path, capsys):
+    """The CSV was written, over any earlier one, before the velocity check refused the run (a helper's review)."""
+    _, video, calibration, _, _ = recording
+    out = tmp_path / "t.csv"
+    assert track_cli.main([str(video), "--calibration", str(calibration), "--out", str(out),
+                           "--end-window", "30"]) == 2
+    assert "end window" in capsys.readouterr().err and not out.exists()
