@@ -163,6 +163,10 @@ def check_flags(parser: argparse.ArgumentParser, args: argparse.Namespace) -> No
             parser.error(f"{flag} {shown}: expected {field.expected}")
     if args.image and not args.markers:
         parser.error("--image needs --markers (the floor layout YAML)")
+    for flag, given, needs in (("--markers", args.pairs and args.markers, "--image"),
+                               ("--image-size", args.image and args.image_size, "--pairs")):
+        if given:  # ignored without a word before (the image gives its own size; pairs have no markers)
+            parser.error(f"{flag} goes with {needs} only; leave it out")
 
 
 def point_pairs(args: argparse.Namespace, intrinsics: CameraIntrinsics | None
@@ -170,6 +174,14 @@ def point_pairs(args: argparse.Namespace, intrinsics: CameraIntrinsics | None
     """(image_px, floor_m, image size or None, where they came from, marker ids not found) of the flags."""
     if args.pairs:
         image_px, floor_m = read_point_pairs(args.pairs)
+        if args.image_size:  # a pair outside the image is a typo or another camera's: it was saved as given
+            width, height = args.image_size
+            outside = np.flatnonzero((image_px[:, 0] < 0) | (image_px[:, 0] > width) | (image_px[:, 1] < 0)
+                                     | (image_px[:, 1] > height))
+            if outside.size:
+                u, v = image_px[outside[0]]
+                raise ConfigurationError(f"{args.pairs}: pair {outside[0] + 1} at ({u:g}, {v:g}) px lies outside "
+                                         f"--image-size {width} {height}; expected pixels within the image.")
         return image_px, floor_m, tuple(args.image_size) if args.image_size else None, args.pairs, []
     image = cv2.imread(args.image, cv2.IMREAD_COLOR)
     if image is None:

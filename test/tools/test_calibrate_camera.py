@@ -182,3 +182,25 @@ def test_marker_centres_through_a_lens_are_taken_from_the_undistorted_corners(tm
     assert off_px.max() < 0.4, off_px  # what the detector gives for a square's centre (was 0.85 px)
     probe = np.array([[x, y] for x in np.linspace(-0.45, 0.45, 5) for y in np.linspace(-0.3, 0.3, 4)])
     assert np.abs(calib.image_to_floor(camera.floor_to_image_px(probe)) - probe).max() < 0.0012  # was 2.0 mm
+
+
+def test_pairs_outside_the_image_size_and_flags_of_the_other_source_are_refused(tmp_path, capsys):
+    """Pairs at u = 500 px with --image-size 10 10 were saved, and --markers with --pairs (--image-size with
+    --image) ignored without a word (a helper's review)."""
+    scene = SyntheticScene()
+    floor = np.array([[-0.4, -0.3], [0.4, -0.3], [0.4, 0.3], [-0.4, 0.3], [0.0, 0.1]])
+    pixels = apply_homography(scene.camera.homography_floor_to_image, floor)
+    rows = "\n".join(f"{u},{v},{x},{y}" for (u, v), (x, y) in zip(pixels, floor))
+    pairs = tmp_path / "pairs.csv"
+    pairs.write_text("u_px,v_px,x_m,y_m\n" + rows + "\n")
+    out = tmp_path / "cal.yaml"
+    assert calibrate_camera.main(["--pairs", str(pairs), "--image-size", "10", "10", "--out", str(out)]) == 2
+    assert "pair 1 at (" in capsys.readouterr().err and not out.exists()
+    size = [str(scene.camera.width_px), str(scene.camera.height_px)]
+    assert calibrate_camera.main(["--pairs", str(pairs), "--image-size", *size, "--out", str(out)]) == 0
+    with pytest.raises(SystemExit) as stop:
+        calibrate_camera.main(["--pairs", str(pairs), "--markers", "layout.yaml", "--out", str(out)])
+    assert stop.value.code == 2 and "--markers goes with --image only" in capsys.readouterr().err
+    with pytest.raises(SystemExit) as stop:
+        calibrate_camera.main(["--image", "floor.png", "--markers", "m.yaml", "--image-size", "640", "480"])
+    assert stop.value.code == 2 and "--image-size goes with --pairs only" in capsys.readouterr().err
