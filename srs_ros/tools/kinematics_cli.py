@@ -1,4 +1,4 @@
-"""``srs_kinematics``: print the SRS backbone (its 31 points, the last the tip) and each module's bend for given length changes.
+"""``srs_kinematics``: print the SRS backbone's points (the last the tip) and each module's bend for length changes.
 
 Example: ``srs_kinematics --lengths-m 0.03 0 0 0 0 0 0 0 0`` prints the 31 backbone points (m) and
 the tip's bending summary per module. ``--pressures-bar`` takes pressures instead (P = 100 l).
