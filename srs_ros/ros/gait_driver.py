@@ -157,7 +157,6 @@ class GaitDriver:
             elif (self._playing or self._stop_owed) and not {"stop", "start"} & self._pending.keys():
                 self._call("stop", Trigger.Request(), self._on_stop)  # owed until answered: a failed one again
             return
-        self._stop_owed = False
         keepalive = self.keepalive_s > 0 and now - self._started_s >= self.keepalive_s / 4
         if self._playing and not self._phase_stopped and keepalive and "start" not in self._pending:
             self._start(now)  # the dead man's handle, whatever else is pending
@@ -277,7 +276,9 @@ class GaitDriver:
             self._playing, self._stop_owed = False, True  # it may still play an earlier start: stop it when asked
             self._failed("start", f"gait_player did not start: {response.message}")
             return
-        self._playing, self.error = True, ""  # a stop owed meanwhile goes out now (pump)
+        # Playing as asked: a stop owed (a failed or refused start before, a cancel) is covered by playing now. It is
+        # not cleared by driving on: the navigator drives at every pose, and a stop owed was lost before the lost pose.
+        self._playing, self._stop_owed, self.error = True, False, ""
 
     def _on_stop(self, response) -> None:
         if not response.success:

@@ -136,18 +136,32 @@ class FlakyStartNode(StandInNode):
         self.errors.append(text)
 
 
-def test_a_stop_after_a_keepalive_start_that_could_not_be_sent_still_stops_the_player():
+@pytest.mark.parametrize("failure", ["not sent", "refused"])
+def test_a_stop_after_a_keepalive_start_that_failed_still_stops_the_player_after_driving_on(failure):
     """The failed keepalive marked the player not playing though it still played the last start, so the stop for a
-    lost pose sent no ~/stop: the gait played on until its dead man's cycles ran out (a helper's review)."""
+    lost pose sent no ~/stop: the gait played on until its dead man's cycles ran out (a helper's review). The owed
+    stop must also outlast the navigator's next drives (it drives at every pose): the first fix cleared it there."""
     node, now = FlakyStartNode(), [0.0]
     driver = GaitDriver(node, "trajectory_server", "gait_player", keepalive_s=2.0, clock=lambda: now[0])
     driver.drive(CRUISE)
     node.answer_all()
     assert driver.playing and node.log[-1] == "start", node.log
-    now[0], node.start_ready = 0.6, False  # the keepalive's ~/start cannot go out
-    driver.drive(CRUISE)
-    assert "not available" in driver.error
-    node.start_ready, node.log[:] = True, []
+    now[0] = 0.6
+    if failure == "not sent":
+        node.start_ready = False  # the keepalive's ~/start cannot go out
+        driver.drive(CRUISE)
+        assert "not available" in driver.error
+        node.start_ready = True
+    else:
+        driver.drive(CRUISE)
+        what, _request, future, _srv = node.calls.pop(0)
+        assert what == "start"
+        future.set_result(Trigger.Response(success=False, message="busy"))
+        assert "did not start" in driver.error
+    node.log[:] = []
+    now[0] += 0.05
+    driver.drive(CRUISE)  # driving on, as at the next pose: the keepalive is tried again only later
+    assert node.calls == [], node.calls
     for _ in range(5):
         now[0] += 0.1
         driver.drive(GaitCommand(None, 0.0, 4.0, 1.0))  # the pose lost: stop
