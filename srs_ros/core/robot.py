@@ -196,6 +196,10 @@ def _regulator(data: Mapping[str, Any], act: Mapping[str, Any], source: str) -> 
     return RegulatorModel(name=name, **model)
 
 
+#: The package's robot description file, in :func:`config_dir`.
+ROBOT_FILE = "robot.yaml"
+
+
 def amplitude_field(robot: RobotDescription) -> Field:
     """A cycle's pressure amplitude: above the robot's deadzone offset, at most its limit (also the default)."""
     return Field("amplitude_bar", float, robot.max_pressure_bar, robot.deadzone_offset_bar, robot.max_pressure_bar,
@@ -210,7 +214,7 @@ def config_dir() -> Path:
     here = Path(__file__).resolve()
     for parent in here.parents:
         for candidate in (parent / "config", parent / "share" / PACKAGE_NAME / "config"):
-            if (candidate / "robot.yaml").is_file():
+            if (candidate / ROBOT_FILE).is_file():
                 return candidate
     raise ConfigurationError(
         f"cannot find {PACKAGE_NAME}'s config folder (robot.yaml) above {here}; "
@@ -245,7 +249,7 @@ def read_yaml(path: str | Path) -> Any:
 
 def load_robot(path: str | Path | None = None) -> RobotDescription:
     """Load the robot description from ``path`` (default: ``config/robot.yaml`` of the package)."""
-    path = Path(path) if path else config_dir() / "robot.yaml"
+    path = Path(path) if path else config_dir() / ROBOT_FILE
     return _load_robot_cached(str(path.resolve()), path.stat().st_mtime_ns if path.exists() else 0)
 
 

@@ -19,7 +19,8 @@ import numpy as np
 from tqdm import tqdm
 
 from srs_ros.core.errors import ConfigurationError, InvalidInputError, SrsError
-from srs_ros.core.vision.camera_calibration import load_calibration
+from srs_ros.core.robot import config_dir
+from srs_ros.core.vision.camera_calibration import DEFAULT_CALIBRATION_FILE, load_calibration
 from srs_ros.core.vision.tracking import DETECTORS, TRACKER_TABLE, Tracker, TrackerConfig, traveling_velocity
 from srs_ros.tools.output import check_distinct_paths, prepare_output_file
 
@@ -159,7 +160,9 @@ def main(argv: list[str] | None = None) -> int:
         parser.error(f"--plot {args.plot}: expected a .png path")
     config = tracker_config(args, parser)
     try:
-        check_distinct_paths({"the video": args.video, "--out": args.out, "--plot": args.plot})
+        calibration = args.calibration or config_dir() / DEFAULT_CALIBRATION_FILE  # an input too, the default's
+        check_distinct_paths({"the video": args.video, "--calibration": calibration, "--out": args.out,
+                              "--plot": args.plot})
         for path, flag in ((args.out, "--out"), (args.plot, "--plot")):
             prepare_output_file(path, flag)  # before the video is tracked, not after it
         tracker = Tracker(load_calibration(args.calibration), config)

@@ -20,7 +20,7 @@ from pathlib import Path
 from srs_ros.core.errors import SrsError
 from srs_ros.core.gait.request import FREQUENCY_FIELD, MIN_SAMPLES, SAMPLES_FIELD
 from srs_ros.core.gait.trajectory import PoorFitWarning, generate_cycle, list_gaits
-from srs_ros.core.robot import default_robot, load_robot
+from srs_ros.core.robot import ROBOT_FILE, config_dir, default_robot, load_robot
 from srs_ros.tools.output import check_distinct_paths, prepare_output_file
 
 #: Most cycles the joint plot shows (200 points a cycle and joint: a million asked for 14 GB after the CSV was written).
@@ -85,7 +85,7 @@ def _check_outputs(args: argparse.Namespace) -> None:
     outputs = {"--out": args.out, "--out's metadata": f"{args.out}.yaml" if args.out else None,
                "--plot (shapes)": f"{stem}_shapes.png" if stem else None,
                "--plot (joints)": f"{stem}_joints.png" if stem else None}
-    check_distinct_paths(outputs)
+    check_distinct_paths({"--robot": args.robot or config_dir() / ROBOT_FILE, **outputs})  # the input too
     for flag, path in outputs.items():
         prepare_output_file(path, flag)
 

@@ -150,3 +150,13 @@ def test_an_end_window_the_track_cannot_hold_leaves_no_csv(recording, tmp_path, 
     assert track_cli.main([str(video), "--calibration", str(calibration), "--out", str(out),
                            "--end-window", "30"]) == 2
     assert "end window" in capsys.readouterr().err and not out.exists()
+
+
+def test_an_output_on_the_calibration_it_reads_is_refused(recording, tmp_path, capsys):
+    """``--out cal.yaml`` replaced the calibration with the CSV, exit 0 (a review of the day's changes)."""
+    _, video, calibration, _, _ = recording
+    copy = tmp_path / "cal.yaml"
+    copy.write_text(calibration.read_text())
+    assert track_cli.main([str(video), "--calibration", str(copy), "--out", str(copy)]) == 2
+    assert f"--out {copy}: the same file as --calibration" in capsys.readouterr().err
+    assert copy.read_text() == calibration.read_text()

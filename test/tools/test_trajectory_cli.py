@@ -120,3 +120,15 @@ def test_outputs_that_cannot_be_written_are_refused_before_the_fit_and_nothing_i
     assert main([*base, "--out", str(tmp_path / "b.csv")]) == 2
     assert "--out's metadata" in capsys.readouterr().err
     assert sorted(p.name for p in tmp_path.iterdir()) == ["b.csv.yaml"]
+
+
+def test_an_output_on_the_robot_file_it_reads_is_refused(tmp_path, capsys):
+    """``--robot r.yaml --out r.yaml`` replaced the robot description with the CSV (a review of the day's changes)."""
+    from srs_ros.core.robot import config_dir
+
+    robot = tmp_path / "r.yaml"
+    robot.write_text((config_dir() / "robot.yaml").read_text())
+    before = robot.read_text()
+    assert main(["--gait", "inward_rolling", "--amplitude-bar", "3", "--frequency-hz", "1", "--samples", "16",
+                 "--robot", str(robot), "--out", str(robot)]) == 2
+    assert f"--out {robot}: the same file as --robot" in capsys.readouterr().err and robot.read_text() == before

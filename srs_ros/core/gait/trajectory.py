@@ -175,7 +175,9 @@ class GaitCycle:
                 "frequency_hz": float(self.frequency_hz), "joint_names": list(self.joint_names),
                 "poor_samples": [int(i) for i in self.poor_samples],
                 "parameters": {k: _plain(v) for k, v in self.parameters.items()}}
-        # Each whole or not at all, the sidecar first: a CSV is never left without the metadata it is read with.
+        # Each whole or not at all, the sidecar first: a CSV is never left without the metadata it is read with,
+        # nor an older CSV beside new metadata (it read back with another cycle's frequency and amplitude).
+        path.unlink(missing_ok=True)
         write_atomically(_sidecar(path), yaml.safe_dump(meta, sort_keys=False))
         write_atomically(path, stream.getvalue())
         return path

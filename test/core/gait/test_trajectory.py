@@ -1,5 +1,6 @@
 """Gait cycles: validation, amplitude and frequency, periodic playback, poor-fit reporting, CSV round trip."""
 
+import dataclasses
 import re
 import warnings
 
@@ -278,3 +279,25 @@ def test_a_cycle_csv_with_lengths_out_of_range_or_a_frequency_past_the_top_is_re
     path.write_text("\n".join(fast) + "\n")
     with pytest.raises(InvalidInputError, match=r"serp.csv \(its time_s steps\).*frequency_hz is 31250"):
         GaitCycle.from_csv(path)
+
+
+def test_a_csv_write_that_fails_leaves_no_older_csv_beside_the_new_metadata(tmp_path, serpentine, monkeypatch):
+    """The sidecar went first and the CSV failed (a full disk): the older CSV read back with the new cycle's
+    frequency and amplitude, without an error (a review of the day's changes)."""
+    import srs_ros.core.gait.trajectory as trajectory
+
+    path = serpentine.to_csv(tmp_path / "serp.csv")
+    slower = dataclasses.replace(serpentine, frequency_hz=0.25)
+    writes = []
+
+    def failing_second(target, text):
+        writes.append(target)
+        if len(writes) == 2:
+            raise OSError(28, "No space left on device")
+        return real(target, text)
+
+    real = trajectory.write_atomically
+    monkeypatch.setattr(trajectory, "write_atomically", failing_second)
+    with pytest.raises(OSError):
+        slower.to_csv(path)
+    assert not path.exists()  # no CSV to read with the wrong metadata
