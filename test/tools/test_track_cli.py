@@ -118,15 +118,22 @@ def test_the_frames_tracked_so_far_are_shown_on_stderr(recording, tmp_path, caps
     assert "run.avi: 100%" in err and f"{len(times)}/{len(times)}" in err and "frame" in err, err
 
 
-def test_an_output_on_the_input_video_or_on_the_other_output_is_refused_and_the_video_kept(recording, tmp_path,
-                                                                                            capsys):
-    """``--out run.avi`` replaced the recording with the CSV (a helper's review); a plot on the CSV's path, too."""
-    folder, video, calibration, _, _ = recording
-    copy = tmp_path / "victim.avi"
-    copy.write_bytes(video.read_bytes())
-    assert track_cli.main([str(copy), "--calibration", str(calibration), "--out", str(copy)]) == 2
-    assert f"--out {copy}: the same file as the video" in capsys.readouterr().err
-    assert copy.read_bytes() == video.read_bytes()
+@pytest.mark.parametrize("victim", ["the video", "--calibration"])
+def test_an_output_on_an_input_is_refused_and_the_input_kept(recording, tmp_path, capsys, victim):
+    """``--out run.avi`` replaced the recording with the CSV (a helper's review), ``--out cal.yaml`` the calibration
+    (a review of the day's changes)."""
+    _, video, calibration, _, _ = recording
+    source = video if victim == "the video" else calibration
+    copy = tmp_path / f"victim{source.suffix}"
+    copy.write_bytes(source.read_bytes())
+    video_in, calibration_in = (copy, calibration) if victim == "the video" else (video, copy)
+    assert track_cli.main([str(video_in), "--calibration", str(calibration_in), "--out", str(copy)]) == 2
+    assert f"--out {copy}: the same file as {victim}" in capsys.readouterr().err
+    assert copy.read_bytes() == source.read_bytes()
+
+
+def test_a_plot_on_the_csvs_path_is_refused(recording, tmp_path, capsys):
+    _, video, calibration, _, _ = recording
     out = tmp_path / "t.png"
     assert track_cli.main([str(video), "--calibration", str(calibration), "--out", str(out), "--plot", str(out)]) == 2
     assert "--plot" in capsys.readouterr().err and not out.exists()
@@ -150,13 +157,3 @@ def test_an_end_window_the_track_cannot_hold_leaves_no_csv(recording, tmp_path, 
     assert track_cli.main([str(video), "--calibration", str(calibration), "--out", str(out),
                            "--end-window", "30"]) == 2
     assert "end window" in capsys.readouterr().err and not out.exists()
-
-
-def test_an_output_on_the_calibration_it_reads_is_refused(recording, tmp_path, capsys):
-    """``--out cal.yaml`` replaced the calibration with the CSV, exit 0 (a review of the day's changes)."""
-    _, video, calibration, _, _ = recording
-    copy = tmp_path / "cal.yaml"
-    copy.write_text(calibration.read_text())
-    assert track_cli.main([str(video), "--calibration", str(copy), "--out", str(copy)]) == 2
-    assert f"--out {copy}: the same file as --calibration" in capsys.readouterr().err
-    assert copy.read_text() == calibration.read_text()
