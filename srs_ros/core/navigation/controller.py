@@ -105,7 +105,7 @@ class NavigationController(CruiseStopping, FineDriving, EdgeGuard):
         self._phase: float | None = None
         self._phase_seen: float | None = None
         self._direction_since_s = self._sides_measured_s = 0.0
-        self._clock_s = 0.0
+        self._clock_s = self._ended_s = 0.0  # the latest time seen (a pose's, a tick's); when the last goal ended
         self._fresh_goal = False
         self._best = (math.inf, 0.0)
         self._edge_until_s = -math.inf
@@ -203,6 +203,7 @@ class NavigationController(CruiseStopping, FineDriving, EdgeGuard):
     def cancel(self, now_s: float, reason: str = "cancelled") -> GaitCommand:
         """Stop; state CANCELLED (a new goal starts again)."""
         if self.state.active:
+            self._clock_s = max(self._clock_s, float(now_s))
             self._finish(NavigationState.CANCELLED, reason)
         return self._command
 
@@ -213,7 +214,7 @@ class NavigationController(CruiseStopping, FineDriving, EdgeGuard):
             pose = replace(pose, yaw_rad=pose.yaw_rad + self.sides.yaw_offset_rad)
         if not self.history.add(pose):
             return self._command
-        self._last_pose_s = self._clock_s = pose.time_s
+        self._last_pose_s, self._clock_s = pose.time_s, max(self._clock_s, pose.time_s)
         self._pose_ignored = ("", -math.inf)
         if self.state is NavigationState.DRIVING:
             self._drive(pose)
@@ -223,7 +224,7 @@ class NavigationController(CruiseStopping, FineDriving, EdgeGuard):
 
     def tick(self, now_s: float) -> GaitCommand:
         """Call from a timer: no pose for more than ``pose_timeout_s`` while active stops the robot."""
-        silent_s = float(now_s) - self._last_pose_s
+        silent_s, self._clock_s = float(now_s) - self._last_pose_s, max(self._clock_s, float(now_s))
         if self.state.active and silent_s > self.settings.pose_timeout_s:
             last = self.history.window(0.0)
             where = f" (last seen at {last[-1, 1]:.3f}, {last[-1, 2]:.3f} m)" if len(last) else ""
@@ -474,7 +475,7 @@ class NavigationController(CruiseStopping, FineDriving, EdgeGuard):
                          f"heading, {ends}; {self._driving_message()}")
 
     def _finish(self, state: NavigationState, message: str) -> None:
-        self.state, self._message = state, message
+        self.state, self._message, self._ended_s = state, message, self._clock_s
         self.fine.leave()
         self.shuffle.forget_move()
         self._command = self._stop_command(message)
@@ -495,7 +496,8 @@ class NavigationController(CruiseStopping, FineDriving, EdgeGuard):
         return NavigationProgress(self.state, goal, self._index, len(self._goals), distance,
                                   self._heading_error_rad if self.state.active else 0.0,
                                   self._command.direction or "", self._command.turn_phase_rad,
-                                  float(now_s) - self._started_s if self._goals else math.nan, self._message,
+                                  ((float(now_s) if self.state.active else self._ended_s) - self._started_s
+                                   if self._goals else math.nan), self._message,
                                   self.sides.inward_side,
                                   self.fine.amplitude_bar(self.settings),
                                   {d: [round(float(r), 2) for r in self.turns.rates[d]] for d in DIRECTIONS})

@@ -513,10 +513,13 @@ def test_a_cruise_stop_at_a_slower_approach_frequency_waits_for_its_phase_at_the
 
 
 def test_before_any_goal_the_progress_has_no_elapsed_time_and_no_goal_count():
-    """Idle, elapsed_s was the machine's monotonic clock (its uptime) and /diagnostics said goal "1 of 0"."""
+    """Idle, elapsed_s was the machine's monotonic clock (its uptime) and /diagnostics said goal "1 of 0"; after a
+    goal ended it went on counting."""
     controller = NavigationController(settings(), AREA)
     progress = controller.progress(12345.0)
     assert math.isnan(progress.elapsed_s) and progress.values()["goal"] == "none"
     controller.set_goal(0.0, 0.5, now_s=12000.0)
     progress = controller.progress(12345.0)
     assert progress.elapsed_s == pytest.approx(345.0) and progress.values()["goal"] == "1 of 1"
+    controller.cancel(12350.0)  # ended: the time it took stays (it went on counting, 120 s for a goal of 23.8 s)
+    assert controller.progress(13000.0).elapsed_s == pytest.approx(350.0)
