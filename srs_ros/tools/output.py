@@ -60,6 +60,12 @@ def _writable_folder(folder: Path, flag: str, given: str | Path) -> None:
                                  "folder.") from None
 
 
+def partial_path(path: str | Path) -> Path:
+    """Where an output is written until the run succeeds: a hidden sibling, put in place by ``os.replace``."""
+    path = Path(path)
+    return path.with_name(f".{path.stem}.partial{path.suffix}")
+
+
 class VideoFile:
     """An MJPG video written under a temporary name and put in place by :meth:`keep` once the run succeeded.
 
@@ -73,7 +79,7 @@ class VideoFile:
 
         self.path = Path(path)
         self.path.parent.mkdir(parents=True, exist_ok=True)
-        self.partial = self.path.with_name(f".{self.path.stem}.partial{self.path.suffix}")
+        self.partial = partial_path(self.path)
         self.writer = cv2.VideoWriter(str(self.partial), cv2.VideoWriter_fourcc(*"MJPG"), fps, tuple(size_px))
         if not self.writer.isOpened():
             self.partial.unlink(missing_ok=True)

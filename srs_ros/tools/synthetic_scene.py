@@ -9,11 +9,10 @@ import argparse
 import math
 import os
 import sys
-from pathlib import Path
 
 from srs_ros.core.errors import SrsError
 from srs_ros.sim.scene import SyntheticScene, constant_velocity_poses, write_video
-from srs_ros.tools.output import check_distinct_paths, prepare_output_file
+from srs_ros.tools.output import check_distinct_paths, partial_path, prepare_output_file
 
 #: The largest frame rate (Hz), run length (s) and floor speed (m/s) taken: beyond them a "demo" is a mistake.
 MAX_FPS_HZ, MAX_DURATION_S, MAX_SPEED_M_S = 1000.0, 3600.0, 1.0
@@ -42,12 +41,12 @@ def main(argv: list[str] | None = None) -> int:
                                                                                            "--calibration-out")
         scene = SyntheticScene()
         _, poses = constant_velocity_poses(args.duration, args.fps, (-0.1, -0.05, 0.3), (args.vx, args.vy))
-        partial = video.with_name(f".{video.stem}.partial{video.suffix}")
+        partial = partial_path(video)
         try:
             write_video(partial, scene, poses, args.fps)
             os.replace(partial, video)
         finally:
-            Path(partial).unlink(missing_ok=True)
+            partial.unlink(missing_ok=True)
         print(f"wrote {len(poses)} frames to {video}")
         if calibration is not None:
             from srs_ros.core.vision.camera_calibration import save_calibration
